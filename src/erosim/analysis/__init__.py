@@ -1,0 +1,1 @@
+"""erosim.analysis"""

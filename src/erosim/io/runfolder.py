@@ -1,0 +1,103 @@
+"""The run folder every run leaves behind (DESIGN.md, "Run folder").
+
+::
+
+    <out>/scenario.toml   resolved configuration (re-runnable as is)
+    <out>/report.json     erosim version, seed, wall time, steps, metrics, warnings
+    <out>/maps/ particles/ figures/ checkpoint/   gauges.csv  front.csv ...
+
+All writes go through :mod:`erosim.io.atomic`, so no partial file is ever left.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import time
+from pathlib import Path
+from typing import Any
+
+from erosim import __version__
+from erosim.core.errors import ConfigError
+from erosim.io import atomic
+
+
+def default_out(name: str, root: str | os.PathLike = "runs") -> Path:
+    """``runs/<name>``, or ``runs/<name>-2``, ``-3`` … when that exists: earlier runs are never overwritten."""
+    base = Path(root) / name
+    if not base.exists():
+        return base
+    i = 2
+    while (Path(root) / f"{name}-{i}").exists():
+        i += 1
+    return Path(root) / f"{name}-{i}"
+
+
+class RunFolder:
+    """A run's output folder; ``resume=True`` opens an existing one to continue it."""
+
+    def __init__(self, path: str | os.PathLike, *, resume: bool = False, overwrite: bool = False):
+        self.path = Path(path)
+        if resume:
+            if not (self.path / "checkpoint").is_dir():
+                raise ConfigError(
+                    f"Cannot resume '{self.path}': it holds no checkpoint/ folder; "
+                    "pass the folder of a run that was interrupted or wrote checkpoints."
+                )
+        elif self.path.exists() and any(self.path.iterdir()) and not overwrite:
+            raise ConfigError(
+                f"Output folder '{self.path}' already exists and is not empty; "
+                "choose another --out, add --overwrite, or continue it with --resume."
+            )
+        self.path.mkdir(parents=True, exist_ok=True)
+        self.started = time.perf_counter()
+        self.warnings: list[str] = []
+
+    # paths ------------------------------------------------------------------------------------
+    def sub(self, name: str) -> Path:
+        """A sub-folder (``maps``, ``particles``, ``figures``, ``checkpoint``), created on demand."""
+        p = self.path / name
+        p.mkdir(parents=True, exist_ok=True)
+        return p
+
+    @property
+    def maps(self) -> Path:
+        return self.sub("maps")
+
+    @property
+    def figures(self) -> Path:
+        return self.sub("figures")
+
+    @property
+    def particles(self) -> Path:
+        return self.sub("particles")
+
+    @property
+    def checkpoint(self) -> Path:
+        return self.sub("checkpoint")
+
+    # writes -----------------------------------------------------------------------------------
+    def write_text(self, rel: str, text: str) -> Path:
+        return atomic.write_text(self.path / rel, text)
+
+    def write_json(self, rel: str, obj: Any) -> Path:
+        return atomic.write_json(self.path / rel, obj)
+
+    def atomic(self, rel: str):
+        """Context manager yielding a temporary path that becomes ``<out>/rel`` on success."""
+        return atomic.atomic_path(self.path / rel)
+
+    def warn(self, message: str) -> None:
+        """Record a warning for ``report.json``."""
+        self.warnings.append(message)
+
+    def write_report(self, report: dict[str, Any], *, seed: int | None = None) -> Path:
+        """Write ``report.json`` with the common header (version, seed, wall time, warnings) first."""
+        head = {
+            "erosim_version": __version__,
+            "python": platform.python_version(),
+            "seed": seed,
+            "wall_time_s": round(time.perf_counter() - self.started, 3),
+            "warnings": list(self.warnings),
+        }
+        return self.write_json("report.json", {**head, **report})
