@@ -1,0 +1,304 @@
+"""Command line: ``erosim run | demo | list | describe | validate | bench | convert | info``.
+
+Thin by design: parse, load the scenario, call a runner / benchmark / validation, print. Errors meant
+for the user (:class:`~erosim.core.errors.ErosimError`) are printed as one sentence with a non-zero
+exit; ``--debug`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+import click
+
+from erosim import __version__
+from erosim.core.errors import ErosimError, Interrupted
+
+
+class _Context:
+    debug = False
+    quiet = False
+
+
+STATE = _Context()
+
+
+def _fail(exc: BaseException) -> None:
+    if STATE.debug:
+        raise exc
+    code = getattr(exc, "exit_code", 2) if isinstance(exc, ErosimError) else 1
+    click.echo(f"erosim: error: {exc}", err=True)
+    sys.exit(code)
+
+
+def _guard(fn, *args, **kwargs):
+    try:
+        return fn(*args, **kwargs)
+    except ErosimError as exc:
+        _fail(exc)
+    except FileNotFoundError as exc:
+        _fail(ErosimError(f"File not found: '{exc.filename}'; check the path."))
+    except KeyboardInterrupt:
+        _fail(Interrupted("Interrupted."))
+
+
+def _print_result(result: dict, as_json: bool) -> None:
+    if as_json:
+        from erosim.io.atomic import to_json
+
+        click.echo(to_json(result))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(show_header=False, box=None)
+    for key, value in result.items():
+        if isinstance(value, float):
+            value = f"{value:,.6g}"
+        elif isinstance(value, (list, dict)):
+            value = json.dumps(value, default=str)
+        table.add_row(f"[bold]{key}[/bold]", str(value))
+    Console().print(table)
+
+
+def _set_threads(threads: int | None) -> None:
+    if threads is None:
+        return
+    if threads < 1:
+        _fail(ErosimError(f"--threads {threads} is not valid; give a whole number of at least 1."))
+    os.environ["NUMBA_NUM_THREADS"] = str(threads)
+    import numba
+
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="erosim")
+@click.option("--threads", type=int, default=None, help="CPU threads for Numba kernels (default: all cores).")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option("--debug", is_flag=True, help="Show tracebacks instead of one-line errors.")
+def cli(threads: int | None, quiet: bool, debug: bool) -> None:
+    """erosim: particle-based terrain erosion and flood simulation.
+
+    \b
+    Quick start:
+      erosim demo                          rivers, lakes and vegetation on a generated terrain
+      erosim list                          the scenario library
+      erosim run dam-break-2d              run a scenario (results in runs/<name>/)
+      erosim validate martin-moyce         compare with the Martin & Moyce (1952) experiment
+    """
+    STATE.debug = debug
+    STATE.quiet = quiet
+    _set_threads(threads)
+
+
+# --------------------------------------------------------------------------------------------- run
+def _run(scenario_ref, overrides, preset, out, resume, overwrite):
+    from erosim.io.runfolder import RunFolder, default_out
+    from erosim.scenarios import kinds, loader
+
+    if resume:
+        folder = Path(resume)
+        if scenario_ref is not None:
+            raise ErosimError("Give either a scenario or --resume DIR, not both; --resume reads DIR/scenario.toml.")
+        if not (folder / "scenario.toml").is_file():
+            raise ErosimError(f"Cannot resume '{folder}': no scenario.toml there; pass a run folder erosim wrote.")
+        scenario = loader.load(folder / "scenario.toml", overrides)
+        run_folder = RunFolder(folder, resume=True)
+    else:
+        if scenario_ref is None:
+            raise ErosimError("Name a scenario (see `erosim list`) or a TOML file, or pass --resume DIR.")
+        scenario = loader.load(scenario_ref, overrides, preset)
+        run_folder = RunFolder(Path(out) if out else default_out(scenario.name), overwrite=overwrite)
+    runner = kinds.resolve(kinds.get(scenario.kind).runner)
+    try:
+        summary = runner(scenario, run_folder, resume=bool(resume), progress=not STATE.quiet)
+    except Interrupted as exc:
+        raise Interrupted(str(exc).replace("<run folder>", str(run_folder.path))) from None
+    return run_folder, summary
+
+
+@cli.command()
+@click.argument("scenario", required=False)
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="Override a setting, e.g. --set run.t_end=1.5 (repeatable).")
+@click.option("--preset", default=None, help="Apply a named preset of the scenario (see `erosim describe`).")
+@click.option("--out", type=click.Path(file_okay=False), default=None, help="Run folder (default runs/<name>, never overwriting).")
+@click.option("--resume", type=click.Path(file_okay=False), default=None, help="Continue an interrupted run from its folder.")
+@click.option("--overwrite", is_flag=True, help="Allow writing into an existing, non-empty --out folder.")
+def run(scenario, overrides, preset, out, resume, overwrite):
+    """Run SCENARIO (a library name or a TOML file) and write a run folder."""
+    run_folder, summary = _guard(_run, scenario, list(overrides), preset, out, resume, overwrite)
+    if summary:
+        _print_result(summary, as_json=False)
+    click.echo(f"Results in {run_folder.path}/ (report.json, maps/, figures/ ...)")
+
+
+# -------------------------------------------------------------------------------------------- demo
+@cli.command()
+@click.option("--out", type=click.Path(file_okay=False), default="runs/demo", show_default=True, help="Where to write (replaced on each demo run).")
+def demo(out):
+    """The main job: rivers, lakes and vegetation carved into a generated 512² mountain terrain."""
+    from erosim.scenarios.kinds import resolve
+
+    fn = _guard(resolve, "erosim.simulation.hydrology_run:demo")
+    summary = _guard(fn, Path(out), not STATE.quiet)
+    if summary:
+        _print_result(summary, as_json=False)
+
+
+# ------------------------------------------------------------------------------- list / describe
+@cli.command(name="list")
+def list_():
+    """List the scenario library."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from erosim.scenarios import loader
+
+    table = Table("scenario", "kind", "presets", "what it is")
+    for name in loader.library_names():
+        data = loader.read_toml(loader.LIBRARY / f"{name}.toml")
+        first = str(data.get("description", "")).strip().split("\n")[0]
+        presets = ", ".join(sorted(data.get("presets", {}) or {}))
+        table.add_row(name, str(data.get("kind", "?")), presets, first)
+    Console().print(table)
+
+
+@cli.command()
+@click.argument("scenario")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="Show the scenario with overrides applied.")
+@click.option("--preset", default=None, help="Show the scenario with a preset applied.")
+def describe(scenario, overrides, preset):
+    """Explain SCENARIO: what it models, its presets and every setting with its unit."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from erosim.scenarios import loader
+
+    sc = _guard(loader.load, scenario, list(overrides), preset)
+    console = Console()
+    console.print(f"[bold]{sc.name}[/bold]  (kind: {sc.kind}{', preset: ' + sc.preset if sc.preset else ''})")
+    if sc.description:
+        console.print(sc.description)
+    if sc.presets:
+        console.print("Presets: " + ", ".join(sorted(sc.presets)) + "  (use --preset NAME)")
+    table = Table("setting", "value", "unit", "meaning")
+    for row in sc.describe():
+        table.add_row(*row)
+    console.print(table)
+
+
+# --------------------------------------------------------------------------------------- validate
+VALIDATION_CASES = {
+    "martin-moyce": "erosim.validation.martin_moyce:run",
+    "hydrostatic": "erosim.validation.hydrostatic:run",
+}
+
+
+@cli.command()
+@click.argument("case", type=click.Choice(sorted(VALIDATION_CASES)))
+@click.option("--resolution", type=click.Choice(["coarse", "default", "fine"]), default="default", show_default=True)
+@click.option("--out", type=click.Path(file_okay=False), default=None, help="Run folder (default runs/validate-<case>).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def validate(case, resolution, out, as_json):
+    """Run a validation CASE against published experimental or analytic data."""
+    from erosim.scenarios.kinds import resolve
+
+    fn = _guard(resolve, VALIDATION_CASES[case])
+    result = _guard(fn, resolution, Path(out) if out else None, not (STATE.quiet or as_json))
+    _print_result(result, as_json)
+    if not result.get("passed", False):
+        sys.exit(1)
+
+
+# ------------------------------------------------------------------------------------------ bench
+@cli.group()
+def bench():
+    """Throughput benchmarks (see `make bench`)."""
+
+
+@bench.command(name="sph")
+@click.option("--particles", type=int, default=100_000, show_default=True, help="Fluid particles (about).")
+@click.option("--steps", type=int, default=None, help="Timed steps (default: enough for a few seconds).")
+@click.option("--dim", type=click.Choice(["2", "3"]), default="3", show_default=True)
+@click.option("--json", "as_json", is_flag=True)
+def bench_sph(particles, steps, dim, as_json):
+    """SPH solver on a 3-D dam break: particle-steps/s and neighbour-pair interactions/s."""
+    from erosim.scenarios.kinds import resolve
+
+    fn = _guard(resolve, "erosim.bench.sph:run")
+    _print_result(_guard(fn, particles, steps, int(dim)), as_json)
+
+
+@bench.command(name="hydrology")
+@click.option("--size", type=int, default=256, show_default=True, help="Map size in cells (square).")
+@click.option("--droplets", type=int, default=None, help="Droplets to time (default: enough for a few seconds).")
+@click.option("--json", "as_json", is_flag=True)
+def bench_hydrology(size, droplets, as_json):
+    """Hydrology (simplehydrology-2020 preset, lakes on): droplets/s and the share spent filling lakes."""
+    from erosim.scenarios.kinds import resolve
+
+    fn = _guard(resolve, "erosim.bench.hydrology:run")
+    _print_result(_guard(fn, size, droplets), as_json)
+
+
+@bench.command(name="stream")
+@click.option("--particles", type=int, multiple=True, help="Particle counts (repeatable; default 1e4, 1e5, 1e6).")
+@click.option("--json", "as_json", is_flag=True)
+def bench_stream(particles, as_json):
+    """Particle-stream erosion: particles per second at several counts (shows O(n))."""
+    from erosim.scenarios.kinds import resolve
+
+    fn = _guard(resolve, "erosim.bench.stream:run")
+    counts = list(particles) or [10_000, 100_000, 1_000_000]
+    _print_result(_guard(fn, counts), as_json)
+
+
+# ---------------------------------------------------------------------------------------- convert
+@cli.command()
+@click.argument("src", type=click.Path())
+@click.argument("dst", type=click.Path())
+@click.option("--cell-size", type=float, default=None, help="Cell size in metres (for formats that do not store it).")
+def convert(src, dst, cell_size):
+    """Convert a heightmap between GeoTIFF, 16-bit PNG, RAW16, ESRI ASCII grid and NPY."""
+    from erosim.scenarios.kinds import resolve
+
+    fn = _guard(resolve, "erosim.io.heightmaps:convert")
+    info = _guard(fn, src, dst, cell_size=cell_size)
+    if info:
+        _print_result(info, as_json=False)
+    click.echo(f"Wrote {dst}")
+
+
+# ------------------------------------------------------------------------------------------- info
+@cli.command()
+def info():
+    """Versions, threads and where things are."""
+    import numba
+    import numpy
+
+    from erosim.scenarios import loader
+
+    _print_result(
+        {
+            "erosim": __version__,
+            "python": sys.version.split()[0],
+            "numpy": numpy.__version__,
+            "numba": numba.__version__,
+            "threads": numba.get_num_threads(),
+            "cpu_cores": os.cpu_count(),
+            "scenarios": ", ".join(loader.library_names()),
+        },
+        as_json=False,
+    )
+
+
+def main() -> None:
+    cli(prog_name="erosim")
+
+
+if __name__ == "__main__":
+    main()
