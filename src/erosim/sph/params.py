@@ -1,0 +1,126 @@
+"""Settings of the weakly compressible SPH solver (SPEC SPH-1 … SPH-13), one :class:`SPHParams`.
+
+Every variant is chosen by name (``kernel = "wendland"``, ``eos = "tait"``, …); the solver picks the
+matching Numba functions once, when it is built. Defaults are physically valid for water on the
+metre scale and below (they pass the Martin & Moyce and hydrostatic validations); the seeds'
+variants stay selectable:
+
+* ``kernel``: ``"wendland"`` (Wendland C2 for everything, Dehnen & Aly 2012) or ``"muller"``
+  (Müller et al. 2003: poly6 for density, spiky gradient for pressure, viscosity Laplacian, SPH-2).
+* ``density``: ``"continuity"`` (dρ/dt = Σ m_j v_ij·∇W, with δ-SPH density diffusion, Molteni &
+  Colagrossi 2009, and the hydrostatic correction of Fourtakas et al. 2019) or ``"summation"``
+  (ρ = Σ m_j W, SPH-3, the seeds' way).
+* ``eos``: ``"tait"`` p = B((ρ/ρ₀)^γ − 1), B = ρ₀c²/γ (SPH-4b) or ``"linear"`` p = k(ρ − ρ₀) (SPH-4a).
+* ``pressure_form``: ``"wcsph"`` −Σ m_j (p_i/ρ_i² + p_j/ρ_j²)∇W (SPH-5b) or ``"symmetric"``
+  −Σ m_j (p_i + p_j)/(2ρ_iρ_j) ∇W (SPH-5a).
+* ``viscosity``: ``"artificial"`` Monaghan Π_ij (SPH-6b) or ``"laminar"`` μ Σ m_j v_ji/(ρ_iρ_j) ∇²W (SPH-6a).
+* ``integrator``: ``"leapfrog"`` (kick-drift-kick, SPH-10) or ``"symplectic-euler"`` (seed 001).
+
+Lengths: ``spacing`` is the initial particle spacing Δx; the kernel's support radius (the distance
+beyond which it is zero, the seeds' h) is ``h_factor · spacing``. Particle mass is ρ₀Δx^d.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import model_validator
+
+from erosim.core.config import Section, param
+
+
+class SPHParams(Section):
+    """Every setting of :class:`erosim.sph.solver.SPHSolver`; see the module docstring."""
+
+    dim: Literal[2, 3] = param(3, unit="1", doc="space dimension: 2 or 3")
+    spacing: float = param(0.01, gt=0, unit="m", doc="initial particle spacing Δx (mass = ρ₀Δx^dim)")
+    h_factor: float = param(
+        2.0, ge=1.2, le=4.0, unit="1",
+        doc="kernel support radius h = h_factor·spacing (2.0 gives about 33 neighbours in 3-D, 12 in 2-D)",
+    )
+    rho0: float = param(1000.0, gt=0, unit="kg/m^3", doc="rest density ρ₀")
+    kernel: Literal["wendland", "muller"] = param(
+        "wendland", doc="'wendland' (C2, all terms) or 'muller' (poly6/spiky/viscosity, SPH-2)"
+    )
+    density: Literal["continuity", "summation"] = param(
+        "continuity", doc="'continuity' (dρ/dt, with δ-SPH diffusion) or 'summation' (ρ = Σ m W, SPH-3)"
+    )
+    density_diffusion: float = param(
+        0.1, ge=0, le=1, unit="1",
+        doc="δ of the δ-SPH density diffusion (Molteni & Colagrossi 2009) in 'continuity' mode; 0 = off",
+    )
+    eos: Literal["tait", "linear"] = param("tait", doc="equation of state: 'tait' (SPH-4b) or 'linear' (SPH-4a)")
+    sound_speed: float = param(
+        0.0, ge=0, unit="m/s",
+        doc="numerical sound speed c; 0 = auto: 10·sqrt(2·|g|·H) with H the fluid's initial height (≥ 10·u_max)",
+    )
+    gamma: float = param(7.0, ge=1, le=10, unit="1", doc="Tait exponent γ")
+    stiffness: float = param(
+        0.0, ge=0, unit="m^2/s^2", doc="k of the linear EOS p = k(ρ−ρ₀); 0 = c² (same sound speed as Tait)"
+    )
+    pressure_form: Literal["wcsph", "symmetric"] = param(
+        "wcsph", doc="'wcsph' (SPH-5b, momentum conserving) or 'symmetric' ((p_i+p_j)/2, SPH-5a)"
+    )
+    pressure_floor: Literal["auto", "zero", "none"] = param(
+        "auto",
+        doc="clamp negative pressure: 'zero' clamps p ≥ 0, 'none' keeps it; 'auto' = zero for summation, none for continuity",
+    )
+    viscosity: Literal["artificial", "laminar"] = param(
+        "artificial", doc="'artificial' (Monaghan Π, SPH-6b) or 'laminar' (μ∇²v, SPH-6a)"
+    )
+    alpha: float = param(0.02, ge=0, le=1, unit="1", doc="artificial viscosity coefficient α (SPH-6b)")
+    mu: float = param(1.0e-3, ge=0, unit="Pa*s", doc="dynamic viscosity μ for 'laminar' (water: 1e-3)")
+    gravity: tuple[float, ...] | None = param(
+        None, unit="m/s^2", doc="gravity vector; default (0, −9.81) in 2-D, (0, 0, −9.81) in 3-D (last axis up)"
+    )
+    integrator: Literal["leapfrog", "symplectic-euler"] = param(
+        "leapfrog", doc="'leapfrog' (kick-drift-kick, SPH-10) or 'symplectic-euler' (seed 001)"
+    )
+    dt: float = param(0.0, ge=0, unit="s", doc="fixed time step; 0 = adaptive from the CFL, force and viscous limits")
+    cfl: float = param(0.2, gt=0, le=1, unit="1", doc="Courant number of the adaptive step (and of the fixed-step check)")
+    precision: Literal["float32", "float64"] = param(
+        "float64", doc="floating point type of the particle fields"
+    )
+    walls: Literal["particles", "reflect"] = param(
+        "particles",
+        doc="domain walls: 'particles' lays fixed boundary particles on every face but the top "
+        "(and on obstacles) plus reflection; 'reflect' only reflects velocity (SPH-11)",
+    )
+    wall_layers: int = param(3, ge=1, le=6, unit="1", doc="layers of boundary particles laid by walls='particles'")
+    skin: float = param(
+        0.15, ge=0, le=1, unit="1",
+        doc="Verlet skin of the neighbour list as a fraction of h (lists rebuilt when a particle moved skin/2)",
+    )
+    reorder_every: int = param(
+        1, ge=1, unit="1", doc="re-sort particles by cell every this many neighbour-list rebuilds (memory locality)"
+    )
+    max_mach: float = param(
+        1.0, gt=0, unit="1", doc="stop as unstable when a fluid particle is faster than max_mach·c"
+    )
+
+    @model_validator(mode="after")
+    def _check_gravity(self) -> SPHParams:
+        if self.gravity is not None and len(self.gravity) != self.dim:
+            from erosim.core.errors import ConfigError
+
+            raise ConfigError(
+                f"Setting 'gravity' has {len(self.gravity)} components but dim = {self.dim}; "
+                f"give {self.dim} numbers, e.g. gravity = {[0.0] * (self.dim - 1) + [-9.81]}."
+            )
+        return self
+
+    def gravity_vector(self) -> tuple[float, ...]:
+        """Gravity as a ``dim``-tuple (the default points down the last axis)."""
+        if self.gravity is not None:
+            return tuple(float(g) for g in self.gravity)
+        return tuple([0.0] * (self.dim - 1) + [-9.81])
+
+    def support(self) -> float:
+        """Kernel support radius h = h_factor · spacing (m)."""
+        return self.h_factor * self.spacing
+
+    def floor_is_zero(self) -> bool:
+        """Whether negative pressure is clamped to zero (resolves ``pressure_floor = 'auto'``)."""
+        if self.pressure_floor == "auto":
+            return self.density == "summation"
+        return self.pressure_floor == "zero"
