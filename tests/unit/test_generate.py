@@ -1,0 +1,69 @@
+"""Procedural terrain generation: determinism, presets, physical units, bad input."""
+
+import numpy as np
+import pytest
+
+from erosim.core.errors import ConfigError
+from erosim.terrain.generate import PRESETS, generate, resolve
+
+
+def test_same_seed_same_terrain_other_seed_differs():
+    a = generate("mountains", 64, 10.0, seed=3)
+    b = generate("mountains", 64, 10.0, seed=3)
+    c = generate("mountains", 64, 10.0, seed=4)
+    assert np.array_equal(a.z, b.z)
+    assert not np.allclose(a.z, c.z)
+
+
+@pytest.mark.parametrize("preset", sorted(PRESETS))
+def test_presets_make_finite_terrain_in_their_relief(preset):
+    hm = generate(preset, (48, 80), 10.0, seed=1)
+    assert hm.shape == (48, 80)
+    assert hm.cell_size == 10.0
+    assert np.isfinite(hm.z).all()
+    relief = resolve(preset).relief
+    # u is scaled so its 1st..99th percentile spans 0..1 (module docs): allow 40 % overshoot.
+    assert hm.z.min() >= -0.01 and hm.z.max() <= 1.4 * relief
+    assert hm.z.std() > 0
+
+
+def test_presets_differ():
+    maps = {p: generate(p, 64, 10.0, seed=2).z for p in PRESETS}
+    names = sorted(maps)
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            za, zb = maps[a], maps[b]
+            corr = np.corrcoef(za.ravel(), zb.ravel())[0, 1]
+            assert not np.allclose(za, zb) and corr < 0.95, (a, b, corr)
+
+
+def test_resolution_independent_at_large_scale():
+    # Same physical extent (512 x 10 m = 256 x 20 m): the fine map, block-averaged 2x2, must match
+    # the coarse one at large scale. Differences are only the octaves finer than 40 m (a few % of
+    # the variance), so 0.98 is a conservative floor.
+    coarse = generate("mountains", 256, 20.0, seed=11).z
+    fine = generate("mountains", 512, 10.0, seed=11).z
+    down = fine.reshape(256, 2, 256, 2).mean(axis=(1, 3))
+    corr = np.corrcoef(coarse.ravel(), down.ravel())[0, 1]
+    assert corr > 0.98, corr
+
+
+def test_fixed_octaves_give_identical_values_at_shared_points():
+    # With a fixed octave count the noise is a pure function of the physical position: a map with
+    # an offset origin reproduces the overlapping part of a larger map exactly.
+    big = generate("hills", 64, 5.0, seed=9, octaves=6)
+    part = generate("hills", 32, 5.0, seed=9, octaves=6, offset_x=80.0, offset_y=40.0)
+    np.testing.assert_allclose(part.z, big.z[8:40, 16:48], rtol=0, atol=1e-9)
+
+
+def test_bad_inputs_give_clear_errors():
+    with pytest.raises(ConfigError, match="Unknown terrain preset 'mountain'.*mountains"):
+        generate("mountain", 32, 1.0, 0)
+    with pytest.raises(ConfigError, match="positive number of metres"):
+        generate("hills", 32, -1.0, 0)
+    with pytest.raises(ConfigError, match="at least 2 cells"):
+        generate("hills", 1, 1.0, 0)
+    with pytest.raises(ConfigError, match="wavelength"):
+        generate("hills", 32, 1.0, 0, wavelength=-5)
+    with pytest.raises(ConfigError, match="did you mean 'relief'"):
+        generate("hills", 32, 1.0, 0, releif=10)
