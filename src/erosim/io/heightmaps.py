@@ -1,0 +1,487 @@
+"""Heightmap files in and out: GeoTIFF, 16-bit PNG, RAW16, ESRI ASCII grid, NPY/NPZ.
+
+The format follows the file's extension:
+
+| extension       | format                                   | heights                         |
+|-----------------|------------------------------------------|---------------------------------|
+| ``.tif .tiff``  | GeoTIFF via rasterio, float32, deflate   | metres; CRS, transform, nodata  |
+| ``.png``        | 16-bit grayscale PNG (Pillow)            | 0..65535 over a height range    |
+| ``.raw .r16``   | headerless little-endian uint16 (games)  | 0..65535 over a height range    |
+| ``.asc``        | ESRI ASCII grid (17 significant digits)  | metres, exact; corner + cellsize|
+| ``.npy``        | NumPy array, float64                     | metres, exact                   |
+| ``.npz``        | NumPy archive: z, cell_size, crs, transform | metres, exact, georeference  |
+
+16-bit formats store q = round((z − lo)/(hi − lo)·65535); reading gives z = lo + q·(hi − lo)/65535,
+so a round trip is within half a step (hi − lo)/65535. :func:`write` returns the range used
+(``height_range``) so the run report can re-scale; erosim's PNGs also carry it in a text chunk
+(``erosim:height_range``) and read it back. Without a range, 16-bit values are read as metres.
+
+``sample:jacksboro`` is the 3-arc-second DEM of the Jacksboro fault (Tennessee) shipped with
+matplotlib. Its cells are 74.5 m (E–W) × 92.4 m (N–S); erosim uses the square cell of equal area,
+83 m, and keeps the geographic CRS and transform. All writes are atomic
+(:func:`erosim.io.atomic.atomic_path`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from erosim.core.errors import InputError
+from erosim.io.atomic import atomic_path
+from erosim.terrain.heightmap import Heightmap
+
+Q16 = 65535
+FORMATS = {
+    ".tif": "geotiff",
+    ".tiff": "geotiff",
+    ".png": "png16",
+    ".raw": "raw16",
+    ".r16": "raw16",
+    ".asc": "asc",
+    ".npy": "npy",
+    ".npz": "npz",
+}
+SAMPLES = {"sample:jacksboro": "jacksboro_fault_dem.npz"}
+JACKSBORO_CELL = 83.0  # m: sqrt(74.5 m × 92.4 m), the equal-area square of the 3" cell at 36.6° N
+_NODATA = -9999.0
+_PNG_RANGE_KEY = "erosim:height_range"
+_PNG_CELL_KEY = "erosim:cell_size"
+
+
+# ----------------------------------------------------------------------------------------- helpers
+def _format(path: str | os.PathLike, verb: str) -> str:
+    ext = Path(path).suffix.lower()
+    if ext not in FORMATS:
+        raise InputError(
+            f"Cannot {verb} '{path}': unknown extension '{ext or '(none)'}'; use one of "
+            + ", ".join(sorted(FORMATS))
+            + "."
+        )
+    return FORMATS[ext]
+
+
+def _check_cell_size(cell_size) -> float | None:
+    if cell_size is None:
+        return None
+    try:
+        cs = float(cell_size)
+    except (TypeError, ValueError):
+        cs = float("nan")
+    if not math.isfinite(cs) or cs <= 0:
+        raise InputError(f"Cell size {cell_size!r} m is not valid; it must be a positive number of metres.")
+    return cs
+
+
+def _check_range(height_range) -> tuple[float, float] | None:
+    if height_range is None:
+        return None
+    try:
+        lo, hi = (float(v) for v in height_range)
+    except (TypeError, ValueError):
+        raise InputError(
+            f"Height range {height_range!r} is not valid; give two numbers [low, high] in metres."
+        ) from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise InputError(
+            f"Height range {height_range!r} is not valid; it needs low < high, both finite, in metres."
+        )
+    return lo, hi
+
+
+def _quantise(z: np.ndarray, height_range) -> tuple[np.ndarray, tuple[float, float]]:
+    rng = _check_range(height_range)
+    if rng is None:
+        lo, hi = float(np.min(z)), float(np.max(z))
+        if hi <= lo:
+            hi = lo + 1.0
+        rng = (lo, hi)
+    lo, hi = rng
+    q = np.rint((np.asarray(z, dtype=np.float64) - lo) * (Q16 / (hi - lo)))
+    return np.clip(q, 0, Q16).astype(np.uint16), rng
+
+
+def _dequantise(q: np.ndarray, height_range, full: int = Q16) -> np.ndarray:
+    """z = lo + q·(hi − lo)/full; without a range the stored integers themselves."""
+    if height_range is None:
+        return q.astype(np.float64)
+    lo, hi = height_range
+    return lo + q.astype(np.float64) * ((hi - lo) / full)
+
+
+def _as_heightmap(hm_or_array, like: Heightmap | None) -> Heightmap:
+    if isinstance(hm_or_array, Heightmap):
+        return hm_or_array
+    z = np.asarray(hm_or_array)
+    if like is not None:
+        if z.shape != like.shape:
+            raise InputError(f"Array shape {z.shape} does not match the reference map's {like.shape}.")
+        return Heightmap(z=z, cell_size=like.cell_size, crs=like.crs, transform=like.transform)
+    return Heightmap(z=z, cell_size=1.0)
+
+
+def default_transform(ny: int, nx: int, cell_size: float) -> tuple:
+    """Affine (a, b, c, d, e, f) of an ungeoreferenced map: west edge x = 0, south edge y = 0."""
+    return (cell_size, 0.0, 0.0, 0.0, -cell_size, ny * cell_size)
+
+
+def _metres_per_degree(lat_deg: float) -> tuple[float, float]:
+    """(m per degree of longitude, m per degree of latitude) on the WGS84 ellipsoid (series form)."""
+    p = math.radians(lat_deg)
+    lat = 111132.954 - 559.822 * math.cos(2 * p) + 1.175 * math.cos(4 * p)
+    lon = 111412.84 * math.cos(p) - 93.5 * math.cos(3 * p) + 0.118 * math.cos(5 * p)
+    return lon, lat
+
+
+# ------------------------------------------------------------------------------------------- read
+def read(
+    path: str | os.PathLike,
+    *,
+    cell_size: float | None = None,
+    raw_shape: tuple[int, int] | None = None,
+    height_range: tuple[float, float] | None = None,
+) -> Heightmap:
+    """Read a heightmap; ``cell_size`` (m) overrides the file's, ``height_range`` scales 16-bit data.
+
+    ``raw_shape`` = (rows, cols) for RAW16 files that are not square.
+    """
+    cs = _check_cell_size(cell_size)
+    rng = _check_range(height_range)
+    key = str(path)
+    if key.lower() in SAMPLES:
+        return _read_sample(key.lower(), cs)
+    if key.startswith("sample:"):
+        raise InputError(f"Unknown sample DEM '{key}'; the one available is " + ", ".join(SAMPLES) + ".")
+    fmt = _format(path, "read")
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"Heightmap file '{p}' does not exist; check the path.")
+    try:
+        if fmt == "geotiff":
+            return _read_geotiff(p, cs)
+        if fmt == "png16":
+            return _read_png(p, cs, rng)
+        if fmt == "raw16":
+            return _read_raw(p, cs, rng, raw_shape)
+        if fmt == "asc":
+            return _read_asc(p, cs)
+        if fmt == "npy":
+            return Heightmap(z=np.load(p, allow_pickle=False), cell_size=cs or 1.0)
+        return _read_npz(p, cs)
+    except InputError:
+        raise
+    except Exception as exc:  # library errors on a corrupt file: one sentence, not a traceback
+        raise InputError(f"Cannot read heightmap '{p}' ({type(exc).__name__}: {exc}); is it a valid {fmt} file?") from exc
+
+
+def _read_sample(key: str, cs: float | None) -> Heightmap:
+    from matplotlib import cbook
+
+    with cbook.get_sample_data(SAMPLES[key]) as data:
+        z = np.asarray(data["elevation"], dtype=np.float64)
+        dx, dy = float(data["dx"]), float(data["dy"])
+        x0 = float(data["xmin"])
+        y_top = max(float(data["ymin"]), float(data["ymax"]))
+    from rasterio.crs import CRS
+
+    return Heightmap(
+        z=z,
+        cell_size=cs or JACKSBORO_CELL,
+        crs=CRS.from_epsg(4326).to_wkt(),
+        transform=(dx, 0.0, x0, 0.0, -dy, y_top),
+    )
+
+
+def _read_geotiff(p: Path, cs: float | None) -> Heightmap:
+    import rasterio
+    from rasterio.errors import NotGeoreferencedWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NotGeoreferencedWarning)
+        with rasterio.open(p) as ds:
+            band = ds.read(1, masked=True)
+            t = ds.transform
+            crs = ds.crs
+            tag = ds.tags().get("cell_size_m")
+    if cs is None and tag:
+        cs = _check_cell_size(tag)
+    z = np.ma.getdata(band).astype(np.float64)
+    mask = np.ma.getmaskarray(band) | ~np.isfinite(z)
+    georef = not t.is_identity
+    transform = tuple(t)[:6] if georef else None
+    if cs is None:
+        if not georef:
+            cs = 1.0
+        elif crs is not None and crs.is_geographic:
+            ny = z.shape[0]
+            lat = t.f + t.e * ny / 2.0
+            mlon, mlat = _metres_per_degree(lat)
+            cs = math.sqrt(abs(t.a) * mlon * abs(t.e) * mlat)
+        else:
+            factor = 1.0
+            if crs is not None:
+                try:
+                    factor = float(crs.linear_units_factor[1])
+                except Exception:  # CRS without linear units: take the numbers as metres
+                    factor = 1.0
+            cs = math.sqrt(abs(t.a * t.e - t.b * t.d)) * factor
+    return Heightmap(
+        z=z,
+        cell_size=cs,
+        crs=crs.to_wkt() if crs is not None else None,
+        transform=transform,
+        nodata=mask if mask.any() else None,
+    )
+
+
+def _read_png(p: Path, cs: float | None, rng) -> Heightmap:
+    from PIL import Image
+
+    with Image.open(p) as img:
+        info = dict(img.info)
+        mode = img.mode
+        a = np.asarray(img)
+    if a.ndim == 3:  # RGB(A) picture: average the colour channels, drop alpha
+        a = a[..., :3].mean(axis=2)
+    full = 255 if mode in ("L", "P", "RGB", "RGBA", "LA", "1") else Q16  # 8-bit pictures
+    if rng is None and _PNG_RANGE_KEY in info:
+        rng = _check_range(str(info[_PNG_RANGE_KEY]).split())
+    if cs is None and _PNG_CELL_KEY in info:
+        cs = _check_cell_size(info[_PNG_CELL_KEY])
+    return Heightmap(z=_dequantise(np.asarray(a, dtype=np.float64), rng, full), cell_size=cs or 1.0)
+
+
+def _read_raw(p: Path, cs: float | None, rng, raw_shape) -> Heightmap:
+    nbytes = p.stat().st_size
+    if nbytes % 2:
+        raise InputError(f"RAW16 file '{p}' has an odd size ({nbytes} bytes); it is not 16-bit data.")
+    n = nbytes // 2
+    if raw_shape is not None:
+        ny, nx = (int(v) for v in raw_shape)
+        if ny * nx != n:
+            raise InputError(
+                f"RAW16 file '{p}' holds {n} values but raw_shape {ny}x{nx} needs {ny * nx}; "
+                "give the right raw_shape (rows, cols)."
+            )
+    else:
+        side = math.isqrt(n)
+        if side * side != n:
+            raise InputError(
+                f"RAW16 file '{p}' holds {n} values, not a square map; give raw_shape = [rows, cols]."
+            )
+        ny = nx = side
+    q = np.fromfile(p, dtype="<u2").reshape(ny, nx)
+    return Heightmap(z=_dequantise(q, rng), cell_size=cs or 1.0)
+
+
+def _read_asc(p: Path, cs: float | None) -> Heightmap:
+    header: dict[str, float] = {}
+    with open(p, encoding="ascii", errors="replace") as fh:
+        while True:
+            pos = fh.tell()
+            line = fh.readline()
+            parts = line.split()
+            if len(parts) == 2 and parts[0][:1].isalpha():
+                header[parts[0].lower()] = float(parts[1])
+            else:
+                fh.seek(pos)
+                break
+        need = ("ncols", "nrows", "cellsize")
+        missing = [k for k in need if k not in header]
+        if missing:
+            raise InputError(f"ASCII grid '{p}' lacks header line(s) {', '.join(missing)}; is it an ESRI .asc file?")
+        ny, nx = int(header["nrows"]), int(header["ncols"])
+        values = np.loadtxt(fh, dtype=np.float64, ndmin=1).ravel()
+    if values.size != ny * nx:
+        raise InputError(f"ASCII grid '{p}' has {values.size} values but its header says {ny}x{nx}.")
+    z = values.reshape(ny, nx)
+    step = header["cellsize"]
+    x0 = header["xllcorner"] if "xllcorner" in header else header.get("xllcenter", 0.5 * step) - 0.5 * step
+    y0 = header["yllcorner"] if "yllcorner" in header else header.get("yllcenter", 0.5 * step) - 0.5 * step
+    mask = None
+    if "nodata_value" in header:
+        mask = z == header["nodata_value"]
+    return Heightmap(
+        z=z,
+        cell_size=cs or step,
+        transform=(step, 0.0, x0, 0.0, -step, y0 + ny * step),
+        nodata=mask if mask is not None and mask.any() else None,
+    )
+
+
+def _read_npz(p: Path, cs: float | None) -> Heightmap:
+    with np.load(p, allow_pickle=False) as data:
+        keys = list(data.keys())
+        zkey = next((k for k in ("z", "elevation", "height") if k in keys), None)
+        if zkey is None:
+            arrays = [k for k in keys if data[k].ndim == 2]
+            if not arrays:
+                raise InputError(f"NPZ file '{p}' holds no 2-D array; store the heights under the key 'z'.")
+            zkey = arrays[0]
+        z = data[zkey]
+        file_cs = float(data["cell_size"]) if "cell_size" in keys else None
+        crs = str(data["crs"]) if "crs" in keys and str(data["crs"]) else None
+        transform = tuple(float(v) for v in data["transform"]) if "transform" in keys and data["transform"].size == 6 else None
+        mask = data["nodata"].astype(bool) if "nodata" in keys and data["nodata"].shape == z.shape else None
+    return Heightmap(z=z, cell_size=cs or file_cs or 1.0, crs=crs, transform=transform, nodata=mask)
+
+
+# ------------------------------------------------------------------------------------------ write
+def write(
+    path: str | os.PathLike,
+    hm_or_array: Heightmap | np.ndarray,
+    *,
+    like: Heightmap | None = None,
+    height_range: tuple[float, float] | None = None,
+) -> dict:
+    """Write a heightmap (or a bare array georeferenced ``like`` another map) atomically.
+
+    Returns ``{"path", "format", "shape", "cell_size"}`` plus ``height_range`` [lo, hi] (m) for the
+    16-bit formats, so a report can say how to re-scale them.
+    """
+    fmt = _format(path, "write")
+    hm = _as_heightmap(hm_or_array, like)
+    p = Path(path)
+    info = {"path": str(p), "format": fmt, "shape": list(hm.shape), "cell_size": hm.cell_size}
+    with atomic_path(p) as tmp:
+        if fmt == "geotiff":
+            _write_geotiff(tmp, hm)
+        elif fmt == "png16":
+            info["height_range"] = list(_write_png(tmp, hm, height_range))
+        elif fmt == "raw16":
+            q, rng = _quantise(hm.z, height_range)
+            with open(tmp, "wb") as fh:
+                fh.write(q.astype("<u2").tobytes())
+            info["height_range"] = list(rng)
+        elif fmt == "asc":
+            _write_asc(tmp, hm)
+        elif fmt == "npy":
+            with open(tmp, "wb") as fh:
+                np.save(fh, _with_nan(hm))
+        else:
+            with open(tmp, "wb") as fh:
+                np.savez_compressed(
+                    fh,
+                    z=hm.z,
+                    cell_size=np.float64(hm.cell_size),
+                    crs=np.str_(hm.crs or ""),
+                    transform=np.asarray(hm.transform if hm.transform else (), dtype=np.float64),
+                    nodata=hm.nodata if hm.nodata is not None else np.zeros((0, 0), bool),
+                )
+    return info
+
+
+def _with_nan(hm: Heightmap) -> np.ndarray:
+    if hm.nodata is None:
+        return hm.z
+    return np.where(hm.nodata, np.nan, hm.z)
+
+
+def _write_geotiff(tmp: Path, hm: Heightmap) -> None:
+    import rasterio
+    from rasterio.transform import Affine
+
+    ny, nx = hm.shape
+    t = hm.transform or default_transform(ny, nx, hm.cell_size)
+    z = hm.z.astype(np.float32)
+    if hm.nodata is not None:
+        z = np.where(hm.nodata, np.float32(_NODATA), z)
+    profile = dict(
+        driver="GTiff", height=ny, width=nx, count=1, dtype="float32", transform=Affine(*t),
+        crs=hm.crs, nodata=_NODATA if hm.nodata is not None else None, compress="deflate",
+        predictor=3, tiled=nx >= 256 and ny >= 256,
+    )
+    if profile["tiled"]:
+        profile.update(blockxsize=256, blockysize=256)
+    with rasterio.open(tmp, "w", **profile) as ds:
+        ds.write(z, 1)
+        ds.update_tags(cell_size_m=repr(hm.cell_size))
+
+
+def _write_png(tmp: Path, hm: Heightmap, height_range) -> tuple[float, float]:
+    from PIL import Image, PngImagePlugin
+
+    q, rng = _quantise(hm.z, height_range)
+    meta = PngImagePlugin.PngInfo()
+    meta.add_text(_PNG_RANGE_KEY, f"{rng[0]!r} {rng[1]!r}")
+    meta.add_text(_PNG_CELL_KEY, repr(hm.cell_size))
+    Image.fromarray(q).save(tmp, format="PNG", pnginfo=meta)
+    return rng
+
+
+def _write_asc(tmp: Path, hm: Heightmap) -> None:
+    ny, nx = hm.shape
+    t = hm.transform
+    square = t is not None and t[1] == 0 and t[3] == 0 and abs(abs(t[0]) - abs(t[4])) <= 1e-12 * abs(t[0])
+    if square:
+        step, x0, y0 = abs(t[0]), t[2], t[5] + t[4] * ny
+    else:
+        step, x0, y0 = hm.cell_size, 0.0, 0.0
+    lines = [
+        f"ncols {nx}",
+        f"nrows {ny}",
+        f"xllcorner {x0!r}",
+        f"yllcorner {y0!r}",
+        f"cellsize {step!r}",
+        f"NODATA_value {_NODATA!r}",
+    ]
+    z = hm.z if hm.nodata is None else np.where(hm.nodata, _NODATA, hm.z)
+    with open(tmp, "w", encoding="ascii") as fh:
+        fh.write("\n".join(lines) + "\n")
+        np.savetxt(fh, z, fmt="%.17g")
+
+
+def write_png16(path: str | os.PathLike, array: np.ndarray, height_range=None) -> dict:
+    """16-bit PNG of any 2-D array over ``height_range`` (default its min..max); returns the range."""
+    return write(path, np.asarray(array, dtype=np.float64), height_range=height_range)
+
+
+def write_mask_png16(path: str | os.PathLike, array: np.ndarray, vmax: float | None = None) -> dict:
+    """A texture mask: 0..``vmax`` → 0..65535 (clipped; ``vmax`` defaults to the array's maximum).
+
+    Returns ``{"path", "format", "shape", "vmax"}``; pixel q stands for q·vmax/65535.
+    """
+    a = np.nan_to_num(np.asarray(array, dtype=np.float64), nan=0.0)
+    if vmax is None:
+        vmax = float(a.max()) if a.size and a.max() > 0 else 1.0
+    if not (math.isfinite(vmax) and vmax > 0):
+        raise InputError(f"Mask scale vmax={vmax!r} is not valid; it must be a positive number.")
+    from PIL import Image, PngImagePlugin
+
+    q = np.clip(np.rint(a * (Q16 / vmax)), 0, Q16).astype(np.uint16)
+    meta = PngImagePlugin.PngInfo()
+    meta.add_text(_PNG_RANGE_KEY, f"0.0 {float(vmax)!r}")
+    with atomic_path(path) as tmp:
+        Image.fromarray(q).save(tmp, format="PNG", pnginfo=meta)
+    return {"path": str(path), "format": "png16", "shape": list(a.shape), "vmax": float(vmax)}
+
+
+def convert(
+    src: str | os.PathLike,
+    dst: str | os.PathLike,
+    cell_size: float | None = None,
+    *,
+    raw_shape: tuple[int, int] | None = None,
+    height_range: tuple[float, float] | None = None,
+) -> dict:
+    """Read ``src`` and write ``dst`` (formats from the extensions); returns what was written.
+
+    ``cell_size`` overrides the source's cell size; ``raw_shape``/``height_range`` help read
+    RAW16/PNG16 sources. The result adds ``src``, the heights' min/max and whether nodata was present.
+    """
+    _format(dst, "write")  # fail before reading a large file
+    hm = read(src, cell_size=cell_size, raw_shape=raw_shape, height_range=height_range)
+    info = write(dst, hm)
+    info.update(
+        src=str(src),
+        dst=str(dst),
+        z_min=float(hm.z.min()),
+        z_max=float(hm.z.max()),
+        nodata_cells=int(hm.nodata.sum()) if hm.nodata is not None else 0,
+        georeferenced=hm.crs is not None,
+    )
+    return info
