@@ -67,3 +67,30 @@ def test_bad_inputs_give_clear_errors():
         generate("hills", 32, 1.0, 0, wavelength=-5)
     with pytest.raises(ConfigError, match="did you mean 'relief'"):
         generate("hills", 32, 1.0, 0, releif=10)
+
+
+def test_terrain_section_generates_or_reads(tmp_path):
+    from erosim.core.config import validate_section
+    from erosim.io.heightmaps import write
+    from erosim.scenarios.schema_common import TerrainSection, build_terrain
+
+    sec = validate_section(TerrainSection, {"preset": "hills", "size": 32, "cell_size": 4.0, "relief": 50.0}, "terrain")
+    hm = build_terrain(sec, seed=5)
+    assert np.array_equal(hm.z, generate("hills", 32, 4.0, 5, relief=50.0).z)
+    write(tmp_path / "dem.npy", hm)
+    # Setting only terrain.file switches the source (what `--set terrain.file=PATH` does).
+    sec = validate_section(TerrainSection, {"preset": "hills", "file": str(tmp_path / "dem.npy"), "cell_size": 4.0}, "terrain")
+    assert sec.uses_file
+    assert np.array_equal(build_terrain(sec, seed=0).z, hm.z)
+
+
+def test_terrain_section_errors_name_the_key():
+    from erosim.core.config import validate_section
+    from erosim.scenarios.schema_common import TerrainSection
+
+    with pytest.raises(ConfigError, match="Unknown terrain preset 'peaks'"):
+        validate_section(TerrainSection, {"preset": "peaks"}, "terrain")
+    with pytest.raises(ConfigError, match="terrain.cell_size"):
+        validate_section(TerrainSection, {"cell_size": -2.0}, "terrain")
+    with pytest.raises(ConfigError, match="terrain.file is not set"):
+        validate_section(TerrainSection, {"source": "file"}, "terrain")

@@ -1,0 +1,116 @@
+"""Scenario tables shared by several kinds: ``[terrain]`` (generated or loaded heightmap).
+
+::
+
+    [terrain]
+    source = "auto"          # auto | generate | file   (auto: file when `file` is set)
+    preset = "mountains"     # hills | mountains | plateau | fbm | ridged | warped
+    size = 256               # cells per side (generate)
+    cell_size = 10.0         # m; for files it overrides the file's own cell size
+    file = "dem.tif"         # GeoTIFF, PNG16, RAW16, ASC, NPY/NPZ, or "sample:jacksboro"
+    raw_shape = [rows, cols] # RAW16 files that are not square
+    height_range = [lo, hi]  # m, to scale 16-bit files
+    wavelength = 3000.0      # any erosim.terrain.generate.NoiseParams field overrides the preset
+
+``--set terrain.file=PATH`` alone switches a scenario to that DEM.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import model_validator
+
+from erosim.core.config import Section, param
+from erosim.core.errors import ConfigError
+from erosim.terrain.heightmap import Heightmap
+
+#: Cell size of generated terrains when the scenario gives none (m): 512 cells span 5.12 km.
+DEFAULT_CELL_SIZE = 10.0
+
+
+class TerrainSection(Section):
+    """Where the heightmap comes from: generated noise or a DEM file."""
+
+    source: Literal["auto", "generate", "file"] = param(
+        "auto", doc="auto (file when `file` is set, else generate) | generate | file"
+    )
+    preset: str = param("mountains", doc="generated terrain: hills | mountains | plateau | fbm | ridged | warped")
+    size: int = param(256, ge=2, le=16384, unit="cells", doc="generated terrain: cells per side")
+    cell_size: float | None = param(
+        None, gt=0, unit="m",
+        doc=f"cell size; generated default {DEFAULT_CELL_SIZE:g} m, files default to their own",
+    )
+    file: str | None = param(
+        None, doc='DEM file (.tif .png .raw .r16 .asc .npy .npz) or "sample:jacksboro"'
+    )
+    raw_shape: list[int] | None = param(None, doc="[rows, cols] of a RAW16 file that is not square")
+    height_range: list[float] | None = param(None, unit="m", doc="[low, high] heights of a 16-bit file's 0 and 65535")
+    # Noise overrides (None: the preset's value); ranges are checked against NoiseParams.
+    wavelength: float | None = param(None, unit="m", doc="wavelength of the largest features")
+    relief: float | None = param(None, unit="m", doc="height scale")
+    base: float | None = param(None, unit="m", doc="height of the lowest ground")
+    octaves: int | None = param(None, unit="1", doc="noise octaves (0: down to two cells)")
+    lacunarity: float | None = param(None, unit="1", doc="wavelength ratio between octaves")
+    gain: float | None = param(None, unit="1", doc="amplitude ratio between octaves")
+    exponent: float | None = param(None, unit="1", doc="height redistribution exponent")
+    warp_strength: float | None = param(None, unit="m", doc="domain-warp displacement")
+    warp_wavelength: float | None = param(None, unit="m", doc="domain-warp wavelength")
+    plateau_level: float | None = param(None, unit="1", doc="mesa step level (0 = off)")
+    plateau_sharpness: float | None = param(None, unit="1", doc="mesa escarpment steepness")
+    plateau_detail: float | None = param(None, unit="1", doc="raw noise kept on mesas")
+    offset_x: float | None = param(None, unit="m", doc="map's west edge in the noise world")
+    offset_y: float | None = param(None, unit="m", doc="map's north edge in the noise world")
+
+    @property
+    def uses_file(self) -> bool:
+        return self.source == "file" or (self.source == "auto" and self.file is not None)
+
+    def noise_overrides(self) -> dict:
+        from erosim.terrain.generate import NOISE_KEYS
+
+        return {k: getattr(self, k) for k in NOISE_KEYS if k != "kind" and getattr(self, k) is not None}
+
+    @model_validator(mode="after")
+    def _check(self) -> TerrainSection:
+        if self.source == "file" and not self.file:
+            raise ConfigError(
+                "terrain.source is 'file' but terrain.file is not set; give --set terrain.file=PATH."
+            )
+        if self.raw_shape is not None and (len(self.raw_shape) != 2 or min(self.raw_shape) < 2):
+            raise ConfigError(
+                f"terrain.raw_shape = {self.raw_shape} is not valid; give [rows, cols], each at least 2."
+            )
+        if self.height_range is not None and (
+            len(self.height_range) != 2 or not self.height_range[0] < self.height_range[1]
+        ):
+            raise ConfigError(
+                f"terrain.height_range = {self.height_range} is not valid; give [low, high] with low < high."
+            )
+        if not self.uses_file:
+            from erosim.terrain.generate import resolve
+
+            resolve(self.preset, self.noise_overrides(), where="terrain")  # unknown preset / bad value
+        return self
+
+
+def build_terrain(section: TerrainSection, seed: int) -> Heightmap:
+    """The scenario's heightmap: read ``section.file`` or generate ``section.preset`` with ``seed``."""
+    if section.uses_file:
+        from erosim.io.heightmaps import read
+
+        return read(
+            section.file,
+            cell_size=section.cell_size,
+            raw_shape=tuple(section.raw_shape) if section.raw_shape else None,
+            height_range=tuple(section.height_range) if section.height_range else None,
+        )
+    from erosim.terrain.generate import generate
+
+    return generate(
+        section.preset,
+        section.size,
+        section.cell_size or DEFAULT_CELL_SIZE,
+        seed,
+        **section.noise_overrides(),
+    )
