@@ -42,9 +42,9 @@ KINDS = ("fbm", "ridged", "warped")
 
 #: Named presets: partial parameter sets on top of :class:`NoiseParams`' defaults.
 PRESETS: dict[str, dict] = {
-    "hills": dict(kind="fbm", wavelength=2000.0, relief=150.0, gain=0.5, exponent=1.4),
+    "hills": dict(kind="fbm", wavelength=2000.0, relief=150.0, gain=0.42, exponent=1.4),
     "mountains": dict(
-        kind="ridged", wavelength=3000.0, relief=900.0, gain=0.5, exponent=1.3,
+        kind="ridged", wavelength=3000.0, relief=900.0, gain=0.5, exponent=1.1,
         warp_strength=250.0, warp_wavelength=2500.0,
     ),
     "plateau": dict(

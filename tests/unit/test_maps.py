@@ -1,0 +1,76 @@
+"""Map pictures: hillshade physics, the hydrology map's colours, PNG and GIF files."""
+
+import math
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from erosim.core.errors import InputError
+from erosim.terrain.generate import generate
+from erosim.viz import maps
+from erosim.viz.animate import save_animation
+
+
+def test_hillshade_in_range_and_flat_ground_is_sin_altitude():
+    hm = generate("mountains", 64, 10.0, seed=1)
+    hs = maps.hillshade(hm.z, hm.cell_size)
+    assert hs.shape == hm.shape and hs.min() >= 0.0 and hs.max() <= 1.0 and hs.std() > 0
+    flat = maps.hillshade(np.zeros((8, 8)), 1.0, altitude=30.0)
+    np.testing.assert_allclose(flat, math.sin(math.radians(30.0)), atol=1e-12)
+
+
+def test_hillshade_lights_the_slope_facing_the_sun():
+    # A plane rising to the east (z = x): its normal leans west, so light from the west (270°)
+    # is brighter than light from the east (90°); n·L = (sin h + cos h)/√2 for a 45° slope.
+    iy, ix = np.mgrid[0:8, 0:8].astype(float)
+    z = ix * 1.0
+    west = maps.hillshade(z, 1.0, azimuth=270.0, altitude=45.0)
+    east = maps.hillshade(z, 1.0, azimuth=90.0, altitude=45.0)
+    h = math.radians(45.0)
+    np.testing.assert_allclose(west, (math.sin(h) + math.cos(h)) / math.sqrt(2), atol=1e-12)
+    np.testing.assert_allclose(east, (math.sin(h) - math.cos(h)) / math.sqrt(2), atol=1e-12)
+    # Rows run southward: z rising with the row index faces north, lit from the north (0°).
+    north = maps.hillshade(iy * 1.0, 1.0, azimuth=0.0, altitude=45.0)
+    assert north.mean() > maps.hillshade(iy * 1.0, 1.0, azimuth=180.0, altitude=45.0).mean()
+
+
+def test_hydrology_map_colours_streams_and_lakes():
+    z = np.zeros((40, 40))
+    stream = np.zeros_like(z)
+    stream[5:8, :] = 1.0
+    lake = np.zeros_like(z)
+    lake[20:30, 20:30] = 2.0
+    rgb = maps.hydrology_map(z, 1.0, stream, lake)
+    assert rgb.shape == (40, 40, 3) and rgb.min() >= 0 and rgb.max() <= 1
+    ground, river, pool = rgb[35, 5], rgb[6, 5], rgb[25, 25]
+    assert river[2] > river[0] and river[2] > ground[2]  # light blue: blue dominates, brighter
+    assert pool[2] > pool[0] and pool.sum() < river.sum()  # dark blue: darker than the streams
+
+
+def test_ease_out_keeps_order_and_range():
+    x = np.linspace(-0.5, 1.5, 41)
+    y = maps.ease_out(x)
+    assert y.min() == 0 and y.max() == 1 and np.all(np.diff(y) >= 0)
+    assert maps.ease_out(np.array([0.25]))[0] > 0.25  # weak flows are lifted
+
+
+def test_png_and_colormap_files(tmp_path):
+    hm = generate("hills", 32, 10.0, seed=2)
+    maps.save_png(tmp_path / "hs.png", maps.hillshade(hm.z, hm.cell_size))
+    maps.colormap_png(tmp_path / "c.png", hm.z - hm.z.mean(), "RdBu", symmetric=True)
+    maps.save_png(tmp_path / "r.png", maps.shaded_relief(hm.z, hm.cell_size))
+    for name, mode in [("hs.png", "L"), ("c.png", "RGB"), ("r.png", "RGB")]:
+        with Image.open(tmp_path / name) as img:
+            assert img.size == (32, 32) and img.mode == mode
+
+
+def test_gif_animation(tmp_path):
+    frames = [np.full((16, 20), v) for v in (0.0, 0.5, 1.0)]
+    save_animation(tmp_path / "a.gif", frames, fps=5)
+    with Image.open(tmp_path / "a.gif") as img:
+        assert img.n_frames == 3 and img.size == (20, 16)
+    with pytest.raises(InputError, match="no frames"):
+        save_animation(tmp_path / "b.gif", [], fps=5)
+    with pytest.raises(InputError, match=".gif or .mp4"):
+        save_animation(tmp_path / "b.avi", frames, fps=5)
