@@ -19,7 +19,9 @@ def hm():
 
 @pytest.fixture
 def geo_hm(hm):
-    return Heightmap(z=hm.z, cell_size=5.0, crs=UTM33, transform=(5.0, 0.0, 440000.0, 0.0, -5.0, 5100000.0))
+    return Heightmap(
+        z=hm.z, cell_size=5.0, crs=UTM33, transform=(5.0, 0.0, 440000.0, 0.0, -5.0, 5100000.0)
+    )
 
 
 def test_geotiff_keeps_crs_transform_and_float32_heights(tmp_path, geo_hm):
@@ -32,13 +34,15 @@ def test_geotiff_keeps_crs_transform_and_float32_heights(tmp_path, geo_hm):
     assert CRS.from_wkt(back.crs) == CRS.from_epsg(32633)
     assert back.cell_size == 5.0
     # Stored as float32: relative rounding 2^-24 of heights ~200 m.
-    np.testing.assert_allclose(back.z, geo_hm.z, rtol=2 ** -23, atol=0)
+    np.testing.assert_allclose(back.z, geo_hm.z, rtol=2**-23, atol=0)
 
 
 def test_geotiff_nodata_becomes_mask_and_is_filled(tmp_path, geo_hm):
     z = geo_hm.z.copy()
     z[:3, :4] = np.nan
-    io.write(tmp_path / "n.tif", Heightmap(z=z, cell_size=5.0, crs=UTM33, transform=geo_hm.transform))
+    io.write(
+        tmp_path / "n.tif", Heightmap(z=z, cell_size=5.0, crs=UTM33, transform=geo_hm.transform)
+    )
     back = io.read(tmp_path / "n.tif")
     assert back.nodata is not None and back.nodata.sum() == 12 and back.nodata[:3, :4].all()
     assert np.isfinite(back.z).all()
@@ -51,7 +55,7 @@ def test_plain_geotiff_round_trips_cell_size(tmp_path, hm):
     io.write(tmp_path / "p.tiff", hm)
     back = io.read(tmp_path / "p.tiff")
     assert back.cell_size == hm.cell_size and back.crs is None
-    np.testing.assert_allclose(back.z, hm.z, rtol=2 ** -23)
+    np.testing.assert_allclose(back.z, hm.z, rtol=2**-23)
 
 
 @pytest.mark.parametrize("ext", [".png", ".raw", ".r16"])
@@ -59,7 +63,9 @@ def test_16bit_formats_within_one_quantisation_step(tmp_path, hm, ext):
     info = io.write(tmp_path / f"h{ext}", hm)
     lo, hi = info["height_range"]
     assert lo == hm.z.min() and hi == hm.z.max()
-    back = io.read(tmp_path / f"h{ext}", height_range=(lo, hi), raw_shape=hm.shape if ext != ".png" else None)
+    back = io.read(
+        tmp_path / f"h{ext}", height_range=(lo, hi), raw_shape=hm.shape if ext != ".png" else None
+    )
     step = (hi - lo) / 65535
     assert np.abs(back.z - hm.z).max() <= 0.5 * step + 1e-12  # rounding to the nearest level
 
@@ -112,7 +118,7 @@ def test_convert_between_formats(tmp_path, geo_hm):
     info = io.convert(tmp_path / "src.tif", tmp_path / "dst.asc", cell_size=None)
     assert info["georeferenced"] and info["shape"] == [23, 31]
     back = io.read(tmp_path / "dst.asc")
-    np.testing.assert_allclose(back.z, geo_hm.z, rtol=2 ** -23)
+    np.testing.assert_allclose(back.z, geo_hm.z, rtol=2**-23)
     info = io.convert(tmp_path / "dst.asc", tmp_path / "dst.png")
     assert info["height_range"] == [pytest.approx(back.z.min()), pytest.approx(back.z.max())]
 

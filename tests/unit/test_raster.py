@@ -69,7 +69,9 @@ def test_scatter_conserves_total_and_stays_on_map():
     field = np.zeros((10, 12))
     rng = np.random.default_rng(5)
     total = 0.0
-    for x, y, v in zip(rng.uniform(-3, 15, 500), rng.uniform(-3, 13, 500), rng.normal(size=500)):
+    for x, y, v in zip(
+        rng.uniform(-3, 15, 500), rng.uniform(-3, 13, 500), rng.normal(size=500), strict=True
+    ):
         raster.scatter_bilinear(field, x, y, v)
         total += v
     assert field.sum() == pytest.approx(total, abs=1e-10)
@@ -99,5 +101,5 @@ def test_bilinear_points_matches_scalar():
     xs = np.array([0.0, 1.5, 4.9, 5.0])
     ys = np.array([0.2, 3.3, 0.0, 5.0])
     got = raster.bilinear_points(z, xs, ys)
-    want = [raster.bilinear(z, x, y) for x, y in zip(xs, ys)]
+    want = [raster.bilinear(z, x, y) for x, y in zip(xs, ys, strict=True)]
     np.testing.assert_allclose(got, want, atol=EPS)

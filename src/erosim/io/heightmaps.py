@@ -73,7 +73,9 @@ def _check_cell_size(cell_size) -> float | None:
     except (TypeError, ValueError):
         cs = float("nan")
     if not math.isfinite(cs) or cs <= 0:
-        raise InputError(f"Cell size {cell_size!r} m is not valid; it must be a positive number of metres.")
+        raise InputError(
+            f"Cell size {cell_size!r} m is not valid; it must be a positive number of metres."
+        )
     return cs
 
 
@@ -88,7 +90,8 @@ def _check_range(height_range) -> tuple[float, float] | None:
         ) from None
     if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
         raise InputError(
-            f"Height range {height_range!r} is not valid; it needs low < high, both finite, in metres."
+            f"Height range {height_range!r} is not valid; it needs low < high, both finite, in "
+            "metres."
         )
     return lo, hi
 
@@ -119,7 +122,9 @@ def _as_heightmap(hm_or_array, like: Heightmap | None) -> Heightmap:
     z = np.asarray(hm_or_array)
     if like is not None:
         if z.shape != like.shape:
-            raise InputError(f"Array shape {z.shape} does not match the reference map's {like.shape}.")
+            raise InputError(
+                f"Array shape {z.shape} does not match the reference map's {like.shape}."
+            )
         return Heightmap(z=z, cell_size=like.cell_size, crs=like.crs, transform=like.transform)
     return Heightmap(z=z, cell_size=1.0)
 
@@ -130,7 +135,7 @@ def default_transform(ny: int, nx: int, cell_size: float) -> tuple:
 
 
 def _metres_per_degree(lat_deg: float) -> tuple[float, float]:
-    """(m per degree of longitude, m per degree of latitude) on the WGS84 ellipsoid (series form)."""
+    """(m per degree of longitude, m per degree of latitude) on the WGS84 ellipsoid."""
     p = math.radians(lat_deg)
     lat = 111132.954 - 559.822 * math.cos(2 * p) + 1.175 * math.cos(4 * p)
     lon = 111412.84 * math.cos(p) - 93.5 * math.cos(3 * p) + 0.118 * math.cos(5 * p)
@@ -145,7 +150,8 @@ def read(
     raw_shape: tuple[int, int] | None = None,
     height_range: tuple[float, float] | None = None,
 ) -> Heightmap:
-    """Read a heightmap; ``cell_size`` (m) overrides the file's, ``height_range`` scales 16-bit data.
+    """Read a heightmap; ``cell_size`` (m) overrides the file's; ``height_range`` scales 16-bit
+    data.
 
     ``raw_shape`` = (rows, cols) for RAW16 files that are not square.
     """
@@ -155,7 +161,9 @@ def read(
     if key.lower() in SAMPLES:
         return _read_sample(key.lower(), cs)
     if key.startswith("sample:"):
-        raise InputError(f"Unknown sample DEM '{key}'; the one available is " + ", ".join(SAMPLES) + ".")
+        raise InputError(
+            f"Unknown sample DEM '{key}'; the one available is " + ", ".join(SAMPLES) + "."
+        )
     fmt = _format(path, "read")
     p = Path(path)
     if not p.is_file():
@@ -175,7 +183,9 @@ def read(
     except InputError:
         raise
     except Exception as exc:  # library errors on a corrupt file: one sentence, not a traceback
-        raise InputError(f"Cannot read heightmap '{p}' ({type(exc).__name__}: {exc}); is it a valid {fmt} file?") from exc
+        raise InputError(
+            f"Cannot read heightmap '{p}' ({type(exc).__name__}: {exc}); is it a valid {fmt} file?"
+        ) from exc
 
 
 def _read_sample(key: str, cs: float | None) -> Heightmap:
@@ -258,7 +268,9 @@ def _read_png(p: Path, cs: float | None, rng) -> Heightmap:
 def _read_raw(p: Path, cs: float | None, rng, raw_shape) -> Heightmap:
     nbytes = p.stat().st_size
     if nbytes % 2:
-        raise InputError(f"RAW16 file '{p}' has an odd size ({nbytes} bytes); it is not 16-bit data.")
+        raise InputError(
+            f"RAW16 file '{p}' has an odd size ({nbytes} bytes); it is not 16-bit data."
+        )
     n = nbytes // 2
     if raw_shape is not None:
         ny, nx = (int(v) for v in raw_shape)
@@ -271,7 +283,8 @@ def _read_raw(p: Path, cs: float | None, rng, raw_shape) -> Heightmap:
         side = math.isqrt(n)
         if side * side != n:
             raise InputError(
-                f"RAW16 file '{p}' holds {n} values, not a square map; give raw_shape = [rows, cols]."
+                f"RAW16 file '{p}' holds {n} values, not a square map; give raw_shape = [rows, "
+                "cols]."
             )
         ny = nx = side
     q = np.fromfile(p, dtype="<u2").reshape(ny, nx)
@@ -293,15 +306,28 @@ def _read_asc(p: Path, cs: float | None) -> Heightmap:
         need = ("ncols", "nrows", "cellsize")
         missing = [k for k in need if k not in header]
         if missing:
-            raise InputError(f"ASCII grid '{p}' lacks header line(s) {', '.join(missing)}; is it an ESRI .asc file?")
+            raise InputError(
+                f"ASCII grid '{p}' lacks header line(s) {', '.join(missing)}; is it an ESRI .asc "
+                "file?"
+            )
         ny, nx = int(header["nrows"]), int(header["ncols"])
         values = np.loadtxt(fh, dtype=np.float64, ndmin=1).ravel()
     if values.size != ny * nx:
-        raise InputError(f"ASCII grid '{p}' has {values.size} values but its header says {ny}x{nx}.")
+        raise InputError(
+            f"ASCII grid '{p}' has {values.size} values but its header says {ny}x{nx}."
+        )
     z = values.reshape(ny, nx)
     step = header["cellsize"]
-    x0 = header["xllcorner"] if "xllcorner" in header else header.get("xllcenter", 0.5 * step) - 0.5 * step
-    y0 = header["yllcorner"] if "yllcorner" in header else header.get("yllcenter", 0.5 * step) - 0.5 * step
+    x0 = (
+        header["xllcorner"]
+        if "xllcorner" in header
+        else header.get("xllcenter", 0.5 * step) - 0.5 * step
+    )
+    y0 = (
+        header["yllcorner"]
+        if "yllcorner" in header
+        else header.get("yllcenter", 0.5 * step) - 0.5 * step
+    )
     mask = None
     if "nodata_value" in header:
         mask = z == header["nodata_value"]
@@ -320,13 +346,23 @@ def _read_npz(p: Path, cs: float | None) -> Heightmap:
         if zkey is None:
             arrays = [k for k in keys if data[k].ndim == 2]
             if not arrays:
-                raise InputError(f"NPZ file '{p}' holds no 2-D array; store the heights under the key 'z'.")
+                raise InputError(
+                    f"NPZ file '{p}' holds no 2-D array; store the heights under the key 'z'."
+                )
             zkey = arrays[0]
         z = data[zkey]
         file_cs = float(data["cell_size"]) if "cell_size" in keys else None
         crs = str(data["crs"]) if "crs" in keys and str(data["crs"]) else None
-        transform = tuple(float(v) for v in data["transform"]) if "transform" in keys and data["transform"].size == 6 else None
-        mask = data["nodata"].astype(bool) if "nodata" in keys and data["nodata"].shape == z.shape else None
+        transform = (
+            tuple(float(v) for v in data["transform"])
+            if "transform" in keys and data["transform"].size == 6
+            else None
+        )
+        mask = (
+            data["nodata"].astype(bool)
+            if "nodata" in keys and data["nodata"].shape == z.shape
+            else None
+        )
     return Heightmap(z=z, cell_size=cs or file_cs or 1.0, crs=crs, transform=transform, nodata=mask)
 
 
@@ -391,9 +427,17 @@ def _write_geotiff(tmp: Path, hm: Heightmap) -> None:
     if hm.nodata is not None:
         z = np.where(hm.nodata, np.float32(_NODATA), z)
     profile = dict(
-        driver="GTiff", height=ny, width=nx, count=1, dtype="float32", transform=Affine(*t),
-        crs=hm.crs, nodata=_NODATA if hm.nodata is not None else None, compress="deflate",
-        predictor=3, tiled=nx >= 256 and ny >= 256,
+        driver="GTiff",
+        height=ny,
+        width=nx,
+        count=1,
+        dtype="float32",
+        transform=Affine(*t),
+        crs=hm.crs,
+        nodata=_NODATA if hm.nodata is not None else None,
+        compress="deflate",
+        predictor=3,
+        tiled=nx >= 256 and ny >= 256,
     )
     if profile["tiled"]:
         profile.update(blockxsize=256, blockysize=256)
@@ -416,7 +460,12 @@ def _write_png(tmp: Path, hm: Heightmap, height_range) -> tuple[float, float]:
 def _write_asc(tmp: Path, hm: Heightmap) -> None:
     ny, nx = hm.shape
     t = hm.transform
-    square = t is not None and t[1] == 0 and t[3] == 0 and abs(abs(t[0]) - abs(t[4])) <= 1e-12 * abs(t[0])
+    square = (
+        t is not None
+        and t[1] == 0
+        and t[3] == 0
+        and abs(abs(t[0]) - abs(t[4])) <= 1e-12 * abs(t[0])
+    )
     if square:
         step, x0, y0 = abs(t[0]), t[2], t[5] + t[4] * ny
     else:
@@ -436,7 +485,7 @@ def _write_asc(tmp: Path, hm: Heightmap) -> None:
 
 
 def write_png16(path: str | os.PathLike, array: np.ndarray, height_range=None) -> dict:
-    """16-bit PNG of any 2-D array over ``height_range`` (default its min..max); returns the range."""
+    """16-bit PNG of a 2-D array over ``height_range`` (default its min..max); returns the range."""
     return write(path, np.asarray(array, dtype=np.float64), height_range=height_range)
 
 
@@ -471,7 +520,7 @@ def convert(
     """Read ``src`` and write ``dst`` (formats from the extensions); returns what was written.
 
     ``cell_size`` overrides the source's cell size; ``raw_shape``/``height_range`` help read
-    RAW16/PNG16 sources. The result adds ``src``, the heights' min/max and whether nodata was present.
+    RAW16/PNG16 sources. The result adds ``src``, the heights' min/max and the nodata count.
     """
     _format(dst, "write")  # fail before reading a large file
     hm = read(src, cell_size=cell_size, raw_shape=raw_shape, height_range=height_range)

@@ -66,7 +66,7 @@ def _locate(n, x):
 
 @njit(cache=True, inline="always")
 def _nodes(nx, ny, i0, j0):
-    """Column/row indices of the cell's upper nodes, collapsed onto the lower ones on 1-node axes."""
+    """Indices of the cell's upper nodes (collapsed onto the lower ones on 1-node axes)."""
     i1 = i0 + 1 if nx > 1 else i0
     j1 = j0 + 1 if ny > 1 else j0
     return i1, j1

@@ -11,7 +11,8 @@ normalisation does not depend on the octave count (FastNoise Lite's own fractal 
 finite sum Σ gᵏ, which would rescale the large features when finer octaves are added):
 
 * fBm (Musgrave 2003): n(p) = (1 − g) Σ_{k<K} gᵏ N_k(λᵏ p / L), with gain g, lacunarity λ,
-  wavelength L; |n| ≲ 1. Height fraction u = ½ + ½·n/σ with σ = 0.65 (the 99th percentile of |n|, so u spans ≈ 0..1).
+  wavelength L; |n| ≲ 1. Height fraction u = ½ + ½·n/σ with σ = 0.65 (the 99th percentile
+  of |n|, so u spans ≈ 0..1).
 * ridged multifractal (Musgrave 2003): s_k = (1 − |N_k|)²·w_k, w₀ = 1, w_{k+1} = clamp(2 s_k, 0, 1);
   r = (1 − g) Σ gᵏ s_k; u = r/0.75 (its 99th percentile) — sharp crests, smooth valleys.
 * domain warp (Quílez 2002): p' = p + A·(n_a(p/L_w), n_b(p/L_w)) with two independent fBm fields
@@ -44,12 +45,24 @@ KINDS = ("fbm", "ridged", "warped")
 PRESETS: dict[str, dict] = {
     "hills": dict(kind="fbm", wavelength=2000.0, relief=150.0, gain=0.42, exponent=1.4),
     "mountains": dict(
-        kind="ridged", wavelength=3000.0, relief=900.0, gain=0.5, exponent=1.1,
-        warp_strength=250.0, warp_wavelength=2500.0,
+        kind="ridged",
+        wavelength=3000.0,
+        relief=900.0,
+        gain=0.5,
+        exponent=1.1,
+        warp_strength=250.0,
+        warp_wavelength=2500.0,
     ),
     "plateau": dict(
-        kind="warped", wavelength=2500.0, relief=300.0, gain=0.45, exponent=1.0,
-        warp_strength=300.0, warp_wavelength=2000.0, plateau_level=0.5, plateau_sharpness=14.0,
+        kind="warped",
+        wavelength=2500.0,
+        relief=300.0,
+        gain=0.45,
+        exponent=1.0,
+        warp_strength=300.0,
+        warp_wavelength=2000.0,
+        plateau_level=0.5,
+        plateau_sharpness=14.0,
         plateau_detail=0.12,
     ),
 }
@@ -66,17 +79,27 @@ class NoiseParams(Section):
 
     kind: Literal["fbm", "ridged", "warped"] = param("fbm", doc="noise kind: fbm | ridged | warped")
     wavelength: float = param(2000.0, gt=0, unit="m", doc="wavelength of the largest features")
-    relief: float = param(200.0, ge=0, unit="m", doc="height scale: heights span about base..base+relief")
+    relief: float = param(
+        200.0, ge=0, unit="m", doc="height scale: heights span about base..base+relief"
+    )
     base: float = param(0.0, unit="m", doc="height of the lowest ground")
-    octaves: int = param(0, ge=0, le=24, unit="1", doc="octaves; 0 = until the finest wavelength is 2 cells")
+    octaves: int = param(
+        0, ge=0, le=24, unit="1", doc="octaves; 0 = until the finest wavelength is 2 cells"
+    )
     lacunarity: float = param(2.0, gt=1, le=4, unit="1", doc="wavelength ratio between octaves")
     gain: float = param(0.5, gt=0, lt=1, unit="1", doc="amplitude ratio between octaves")
     exponent: float = param(1.0, gt=0, le=8, unit="1", doc="height redistribution u**exponent")
     warp_strength: float = param(0.0, ge=0, unit="m", doc="domain-warp displacement amplitude")
     warp_wavelength: float = param(2000.0, gt=0, unit="m", doc="wavelength of the warp field")
-    plateau_level: float = param(0.0, ge=0, le=1, unit="1", doc="mesa step height fraction (0 = off)")
-    plateau_sharpness: float = param(12.0, gt=0, le=100, unit="1", doc="steepness of the mesa escarpments")
-    plateau_detail: float = param(0.1, ge=0, le=1, unit="1", doc="share of the raw noise kept on mesas")
+    plateau_level: float = param(
+        0.0, ge=0, le=1, unit="1", doc="mesa step height fraction (0 = off)"
+    )
+    plateau_sharpness: float = param(
+        12.0, gt=0, le=100, unit="1", doc="steepness of the mesa escarpments"
+    )
+    plateau_detail: float = param(
+        0.1, ge=0, le=1, unit="1", doc="share of the raw noise kept on mesas"
+    )
     offset_x: float = param(0.0, unit="m", doc="x of the map's west edge in the noise world")
     offset_y: float = param(0.0, unit="m", doc="y of the map's north edge in the noise world")
 
@@ -141,7 +164,9 @@ def auto_octaves(p: NoiseParams, cell_size: float) -> int:
     return int(min(16, 1 + math.floor(math.log(ratio) / math.log(p.lacunarity))))
 
 
-def height_fraction(p: NoiseParams, seed: int, x: np.ndarray, y: np.ndarray, octaves: int) -> np.ndarray:
+def height_fraction(
+    p: NoiseParams, seed: int, x: np.ndarray, y: np.ndarray, octaves: int
+) -> np.ndarray:
     """Shaped height fraction u (≈ 0..1) at physical points x, y (m), before scaling by relief."""
     s_base, s_wx, s_wy = _seeds(seed, 3)
     if p.warp_strength > 0:
@@ -164,7 +189,9 @@ def height_fraction(p: NoiseParams, seed: int, x: np.ndarray, y: np.ndarray, oct
     return u
 
 
-def resolve(preset_or_kind: str, overrides: dict | None = None, where: str = "terrain") -> NoiseParams:
+def resolve(
+    preset_or_kind: str, overrides: dict | None = None, where: str = "terrain"
+) -> NoiseParams:
     """Validated parameters: a preset (or bare kind) with ``overrides`` on top."""
     name = str(preset_or_kind).strip().lower()
     if name in PRESETS:
@@ -198,10 +225,14 @@ def generate(
     """
     ny, nx = (size, size) if np.isscalar(size) else tuple(size)
     if int(ny) < 2 or int(nx) < 2 or int(ny) != ny or int(nx) != nx:
-        raise ConfigError(f"Terrain size {size!r} is not valid; give at least 2 cells per side, e.g. 256.")
+        raise ConfigError(
+            f"Terrain size {size!r} is not valid; give at least 2 cells per side, e.g. 256."
+        )
     ny, nx = int(ny), int(nx)
     if not (isinstance(cell_size, (int, float)) and math.isfinite(cell_size) and cell_size > 0):
-        raise ConfigError(f"Cell size {cell_size!r} m is not valid; it must be a positive number of metres.")
+        raise ConfigError(
+            f"Cell size {cell_size!r} m is not valid; it must be a positive number of metres."
+        )
     p = resolve(preset_or_kind, overrides)
     octaves = auto_octaves(p, float(cell_size))
     xs = p.offset_x + (np.arange(nx) + 0.5) * cell_size

@@ -46,11 +46,13 @@ class Heightmap:
             cs = float(self.cell_size)
         except (TypeError, ValueError):
             raise InputError(
-                f"Cell size {self.cell_size!r} is not a number; give the cell size in metres, e.g. 2.0."
+                f"Cell size {self.cell_size!r} is not a number; give the cell size in metres, "
+                "e.g. 2.0."
             ) from None
         if not math.isfinite(cs) or cs <= 0:
             raise InputError(
-                f"Cell size {self.cell_size!r} m is not valid; it must be a positive number of metres."
+                f"Cell size {self.cell_size!r} m is not valid; it must be a positive number of "
+                "metres."
             )
         self.cell_size = cs
         z = np.asarray(self.z)
@@ -60,13 +62,16 @@ class Heightmap:
                 "check the input file."
             )
         if not np.issubdtype(z.dtype, np.number) or np.iscomplexobj(z):
-            raise InputError(f"Heights must be real numbers, got dtype {z.dtype}; check the input file.")
+            raise InputError(
+                f"Heights must be real numbers, got dtype {z.dtype}; check the input file."
+            )
         z = np.ascontiguousarray(z, dtype=np.float64)
         bad = ~np.isfinite(z)
         mask = bad if self.nodata is None else (np.asarray(self.nodata, dtype=bool) | bad)
         if mask.shape != z.shape:
             raise InputError(
-                f"The nodata mask has shape {mask.shape} but the heights have {z.shape}; they must match."
+                f"The nodata mask has shape {mask.shape} but the heights have {z.shape}; they "
+                "must match."
             )
         if mask.all():
             raise InputError(
@@ -82,7 +87,9 @@ class Heightmap:
         if self.transform is not None:
             t = tuple(float(v) for v in tuple(self.transform)[:6])
             if len(t) != 6:
-                raise InputError("A geotransform needs six numbers (a, b, c, d, e, f); check the input file.")
+                raise InputError(
+                    "A geotransform needs six numbers (a, b, c, d, e, f); check the input file."
+                )
             self.transform = t
 
     @property
@@ -122,6 +129,8 @@ class Heightmap:
     def __repr__(self) -> str:
         ny, nx = self.shape
         return (
-            f"Heightmap({ny}x{nx}, cell {self.cell_size:g} m, z {self.z.min():.3g}..{self.z.max():.3g} m"
-            f"{', georeferenced' if self.crs else ''}{', with nodata' if self.nodata is not None else ''})"
+            f"Heightmap({ny}x{nx}, cell {self.cell_size:g} m, z "
+            f"{self.z.min():.3g}..{self.z.max():.3g} m"
+            f"{', georeferenced' if self.crs else ''}"
+            f"{', with nodata' if self.nodata is not None else ''})"
         )
