@@ -100,3 +100,12 @@ def test_terrain_section_errors_name_the_key():
         validate_section(TerrainSection, {"cell_size": -2.0}, "terrain")
     with pytest.raises(ConfigError, match="terrain.file is not set"):
         validate_section(TerrainSection, {"source": "file"}, "terrain")
+
+
+def test_large_maps_are_built_in_blocks_without_seams(monkeypatch):
+    import erosim.terrain.generate as gen
+
+    whole = generate("plateau", (40, 30), 25.0, seed=4)
+    monkeypatch.setattr(gen, "_CHUNK", 7 * 30)  # 7 rows per block: the last block is partial
+    blocks = generate("plateau", (40, 30), 25.0, seed=4)
+    assert np.array_equal(whole.z, blocks.z)

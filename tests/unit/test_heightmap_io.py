@@ -169,3 +169,33 @@ def test_writes_leave_no_temporary_files(tmp_path, hm):
     for ext in io.FORMATS:
         io.write(tmp_path / f"x{ext}", hm)
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(f"x{ext}" for ext in io.FORMATS)
+
+
+def test_heightmap_validation_and_helpers():
+    with pytest.raises(InputError, match="positive number of metres"):
+        Heightmap(z=np.zeros((3, 3)), cell_size=-1.0)
+    with pytest.raises(InputError, match="positive number of metres"):
+        Heightmap(z=np.zeros((3, 3)), cell_size=float("nan"))
+    with pytest.raises(InputError, match="2-D array of at least 2x2"):
+        Heightmap(z=np.zeros(5), cell_size=1.0)
+    with pytest.raises(InputError, match="no valid height"):
+        Heightmap(z=np.full((3, 3), np.nan), cell_size=1.0)
+    with pytest.raises(InputError, match="nodata mask has shape"):
+        Heightmap(z=np.zeros((3, 3)), nodata=np.zeros((2, 2), bool))
+    z = np.arange(16.0).reshape(4, 4)
+    z[0, 0] = np.nan
+    hm = Heightmap(z=z, cell_size=2.0)
+    assert hm.nodata[0, 0] and hm.nodata.sum() == 1 and hm.z[0, 0] in (1.0, 4.0)  # nearest cell
+    assert hm.z.dtype == np.float64 and hm.z.flags.c_contiguous
+    assert hm.extent == (0.0, 8.0, 0.0, 8.0) and hm.shape == (4, 4)
+    c = hm.copy()
+    c.z[1, 1] = -1.0
+    assert hm.z[1, 1] == 5.0  # copies do not share memory
+
+
+def test_eight_bit_png_is_scaled_by_its_own_range(tmp_path):
+    from PIL import Image
+
+    Image.fromarray(np.array([[0, 255], [51, 102]], dtype=np.uint8)).save(tmp_path / "g.png")
+    back = io.read(tmp_path / "g.png", height_range=(0.0, 100.0))
+    np.testing.assert_allclose(back.z, [[0.0, 100.0], [20.0, 40.0]], atol=1e-12)

@@ -67,12 +67,12 @@ class Heightmap:
             )
         z = np.ascontiguousarray(z, dtype=np.float64)
         bad = ~np.isfinite(z)
-        mask = bad if self.nodata is None else (np.asarray(self.nodata, dtype=bool) | bad)
-        if mask.shape != z.shape:
+        if self.nodata is not None and np.shape(self.nodata) != z.shape:
             raise InputError(
-                f"The nodata mask has shape {mask.shape} but the heights have {z.shape}; they "
-                "must match."
+                f"The nodata mask has shape {np.shape(self.nodata)} but the heights have {z.shape}; "
+                "they must match."
             )
+        mask = bad if self.nodata is None else (np.asarray(self.nodata, dtype=bool) | bad)
         if mask.all():
             raise InputError(
                 "The heightmap holds no valid height (all cells are NaN or nodata); "
