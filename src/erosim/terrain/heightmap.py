@@ -69,8 +69,8 @@ class Heightmap:
         bad = ~np.isfinite(z)
         if self.nodata is not None and np.shape(self.nodata) != z.shape:
             raise InputError(
-                f"The nodata mask has shape {np.shape(self.nodata)} but the heights have {z.shape}; "
-                "they must match."
+                f"The nodata mask has shape {np.shape(self.nodata)} but the heights have "
+                f"{z.shape}; they must match."
             )
         mask = bad if self.nodata is None else (np.asarray(self.nodata, dtype=bool) | bad)
         if mask.all():
