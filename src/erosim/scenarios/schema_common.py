@@ -60,6 +60,7 @@ class TerrainSection(Section):
     lacunarity: float | None = param(None, unit="1", doc="wavelength ratio between octaves")
     gain: float | None = param(None, unit="1", doc="amplitude ratio between octaves")
     exponent: float | None = param(None, unit="1", doc="height redistribution exponent")
+    ridge_mix: float | None = param(None, unit="1", doc="ridged kind: share of ridged noise")
     warp_strength: float | None = param(None, unit="m", doc="domain-warp displacement")
     warp_wavelength: float | None = param(None, unit="m", doc="domain-warp wavelength")
     plateau_level: float | None = param(None, unit="1", doc="mesa step level (0 = off)")

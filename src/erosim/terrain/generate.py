@@ -14,7 +14,8 @@ finite sum Σ gᵏ, which would rescale the large features when finer octaves ar
   wavelength L; |n| ≲ 1. Height fraction u = ½ + ½·n/σ with σ = 0.65 (the 99th percentile
   of |n|, so u spans ≈ 0..1).
 * ridged multifractal (Musgrave 2003): s_k = (1 − |N_k|)²·w_k, w₀ = 1, w_{k+1} = clamp(2 s_k, 0, 1);
-  r = (1 − g) Σ gᵏ s_k; u = r/0.75 (its 99th percentile) — sharp crests, smooth valleys.
+  r = (1 − g) Σ gᵏ s_k; u = r/0.75 (its 99th percentile) — sharp crests, smooth valleys;
+  ``ridge_mix`` m < 1 blends u ← m·u + (1 − m)·u_fBm with an independent fBm (massifs and crests).
 * domain warp (Quílez 2002): p' = p + A·(n_a(p/L_w), n_b(p/L_w)) with two independent fBm fields
   and amplitude A in metres, then the base noise at p'.
 
@@ -50,6 +51,7 @@ PRESETS: dict[str, dict] = {
         relief=900.0,
         gain=0.5,
         exponent=1.1,
+        ridge_mix=0.5,
         warp_strength=250.0,
         warp_wavelength=2500.0,
     ),
@@ -89,6 +91,13 @@ class NoiseParams(Section):
     lacunarity: float = param(2.0, gt=1, le=4, unit="1", doc="wavelength ratio between octaves")
     gain: float = param(0.5, gt=0, lt=1, unit="1", doc="amplitude ratio between octaves")
     exponent: float = param(1.0, gt=0, le=8, unit="1", doc="height redistribution u**exponent")
+    ridge_mix: float = param(
+        1.0,
+        ge=0,
+        le=1,
+        unit="1",
+        doc="ridged kind: share of ridged noise, the rest independent fBm",
+    )
     warp_strength: float = param(0.0, ge=0, unit="m", doc="domain-warp displacement amplitude")
     warp_wavelength: float = param(2000.0, gt=0, unit="m", doc="wavelength of the warp field")
     plateau_level: float = param(
@@ -178,6 +187,9 @@ def height_fraction(
     px, py = x / p.wavelength, y / p.wavelength
     if p.kind == "ridged":
         u = _ridged(s_base, px, py, octaves, p.lacunarity, p.gain) / _SPREAD_RIDGED
+        if p.ridge_mix < 1.0:  # blend with an independent fBm: massifs as well as crests
+            fb = _fbm(s_base + 1000, px, py, octaves, p.lacunarity, p.gain) / _SPREAD_FBM
+            u = p.ridge_mix * u + (1.0 - p.ridge_mix) * (0.5 + 0.5 * fb)
     else:
         u = 0.5 + 0.5 * _fbm(s_base, px, py, octaves, p.lacunarity, p.gain) / _SPREAD_FBM
     u = np.maximum(u, 0.0) ** p.exponent

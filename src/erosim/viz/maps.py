@@ -66,14 +66,14 @@ def shaded_relief(
     vmax=None,
     ambient: float = 0.35,
 ) -> np.ndarray:
-    """Hypsometric tint (matplotlib ``cmap`` over vmin..vmax) times a softened hillshade."""
+    """Hypsometric tint (``cmap`` from 0.3 to 0.95 over vmin..vmax) times a softened hillshade."""
     import matplotlib
 
     z = np.asarray(z, dtype=np.float64)
     lo = float(np.min(z)) if vmin is None else vmin
     hi = float(np.max(z)) if vmax is None else vmax
     t = (z - lo) / (hi - lo) if hi > lo else np.zeros_like(z)
-    tint = matplotlib.colormaps[cmap](np.clip(0.15 + 0.8 * t, 0, 1))[..., :3]
+    tint = matplotlib.colormaps[cmap](np.clip(0.3 + 0.65 * t, 0, 1))[..., :3]
     shade = ambient + (1.0 - ambient) * hillshade(z, cell_size)
     return np.clip(tint * shade[..., None], 0.0, 1.0)
 
