@@ -199,3 +199,24 @@ def test_eight_bit_png_is_scaled_by_its_own_range(tmp_path):
     Image.fromarray(np.array([[0, 255], [51, 102]], dtype=np.uint8)).save(tmp_path / "g.png")
     back = io.read(tmp_path / "g.png", height_range=(0.0, 100.0))
     np.testing.assert_allclose(back.z, [[0.0, 100.0], [20.0, 40.0]], atol=1e-12)
+
+
+def test_foreign_geographic_geotiff_gets_a_metric_cell_size(tmp_path):
+    # A GeoTIFF written by another tool: lon/lat grid of 3 arc-seconds at 36.6° N, NaN as nodata.
+    import rasterio
+    from rasterio.transform import Affine
+
+    z = np.full((20, 30), 500.0, dtype=np.float32)
+    z[0, :5] = np.nan
+    step = 3.0 / 3600.0
+    profile = dict(
+        driver="GTiff", height=20, width=30, count=1, dtype="float32", crs="EPSG:4326",
+        transform=Affine(step, 0, -84.4, 0, -step, 36.6 + 10 * step), nodata=float("nan"),
+    )  # fmt: skip
+    with rasterio.open(tmp_path / "geo.tif", "w", **profile) as ds:
+        ds.write(z, 1)
+    hm = io.read(tmp_path / "geo.tif")
+    # 3" is 74.5 m E-W and 92.5 m N-S there; the equal-area square cell is ~83 m (±0.5 %).
+    assert hm.cell_size == pytest.approx(83.0, rel=0.005)
+    assert hm.nodata is not None and hm.nodata.sum() == 5
+    assert np.all(hm.z == 500.0)
