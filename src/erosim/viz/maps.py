@@ -96,12 +96,15 @@ def hydrology_map(
 ) -> np.ndarray:
     """Combined hydrology picture (HY-9): hillshaded ground, streams light blue, lakes dark blue.
 
+    The relief is shaded on the water surface z + lake_depth, so lakes show flat.
+
     Streams: α_s = ease_out(gain·stream) (set to 0 below ``stream_threshold`` when given); lakes:
     α_l = 0.55 + 0.45·min(1, depth/depth_ref) where depth > 0 (depth_ref defaults to the 95th
     percentile of lake depth); ``vegetation`` density in [0, 1] tints the ground forest green.
     """
     z = np.asarray(z, dtype=np.float64)
-    shade = 0.3 + 0.7 * hillshade(z, cell_size)
+    d = np.clip(np.nan_to_num(np.asarray(lake_depth, dtype=np.float64), nan=0.0), 0.0, None)
+    shade = 0.3 + 0.7 * hillshade(z + d, cell_size)  # the water layer: lakes are shaded flat
     ground = np.broadcast_to(GROUND, z.shape + (3,)).copy()
     if vegetation is not None:
         v = np.clip(np.asarray(vegetation, dtype=np.float64), 0.0, 1.0)[..., None]
@@ -112,7 +115,6 @@ def hydrology_map(
         s = np.where(s >= stream_threshold, s, 0.0)
     a_s = ease_out(s)[..., None]
     rgb = (1.0 - a_s) * rgb + a_s * LIGHT_BLUE * (0.6 + 0.4 * shade[..., None])
-    d = np.nan_to_num(np.asarray(lake_depth, dtype=np.float64), nan=0.0)
     wet = d > 0
     if wet.any():
         ref = lake_depth_ref or float(np.percentile(d[wet], 95)) or 1.0
