@@ -74,3 +74,14 @@ def test_gif_animation(tmp_path):
         save_animation(tmp_path / "b.gif", [], fps=5)
     with pytest.raises(InputError, match=".gif or .mp4"):
         save_animation(tmp_path / "b.avi", frames, fps=5)
+
+
+def test_lakes_are_shaded_flat_on_their_water_surface():
+    # Bed rising eastward, lake up to level 10: the water surface z + d is flat, so every lake
+    # pixel away from the shore gets the same colour.
+    iy, ix = np.mgrid[0:20, 0:30].astype(float)
+    z = ix.copy()
+    depth = np.clip(10.0 - z, 0.0, None)
+    rgb = maps.hydrology_map(z, 1.0, np.zeros_like(z), depth, lake_depth_ref=1.0)
+    inner = rgb[2:-2, 2:8]  # depth >= 2 there: full lake opacity, no shore pixels
+    assert np.ptp(inner.reshape(-1, 3), axis=0).max() < 1e-12
