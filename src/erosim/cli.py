@@ -262,12 +262,14 @@ def bench_stream(particles, as_json):
 @click.argument("src", type=click.Path())
 @click.argument("dst", type=click.Path())
 @click.option("--cell-size", type=float, default=None, help="Cell size in metres (for formats that do not store it).")
-def convert(src, dst, cell_size):
+@click.option("--raw-shape", type=(int, int), default=None, metavar="ROWS COLS", help="Shape of a RAW16 input that is not square.")
+@click.option("--height-range", type=(float, float), default=None, metavar="MIN MAX", help="Heights (m) that 0 and 65535 stand for in a 16-bit input without a stored range.")
+def convert(src, dst, cell_size, raw_shape, height_range):
     """Convert a heightmap between GeoTIFF, 16-bit PNG, RAW16, ESRI ASCII grid and NPY."""
     from erosim.scenarios.kinds import resolve
 
     fn = _guard(resolve, "erosim.io.heightmaps:convert")
-    info = _guard(fn, src, dst, cell_size=cell_size)
+    info = _guard(fn, src, dst, cell_size=cell_size, raw_shape=raw_shape, height_range=height_range)
     if info:
         _print_result(info, as_json=False)
     click.echo(f"Wrote {dst}")

@@ -71,3 +71,12 @@ def test_drive_runs_to_total():
 
     done, steps = drive(advance, start=0.0, total=1.0, progress=False)
     assert done == pytest.approx(1.0) and steps == 4
+
+
+def test_atomic_files_get_usual_permissions(tmp_path):
+    import os
+
+    umask = os.umask(0)
+    os.umask(umask)
+    path = atomic.write_text(tmp_path / "p.txt", "x")
+    assert (path.stat().st_mode & 0o777) == (0o666 & ~umask)
