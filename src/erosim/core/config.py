@@ -14,6 +14,7 @@ an unknown key raises one that suggests the nearest valid key.
 from __future__ import annotations
 
 import difflib
+import typing
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -35,26 +36,48 @@ def param(default: Any = ..., *, unit: str = "", doc: str = "", **limits: Any) -
 def _fields_at(model: type[BaseModel], loc: tuple) -> list[str]:
     """Valid key names of the sub-table at ``loc`` (best effort, for suggestions)."""
     cls: Any = model
-    for part in loc:
+    for part in _skip_table_keys(model, loc):
         fields = getattr(cls, "model_fields", None)
         if not fields or part not in fields:
             break
-        ann = fields[part].annotation
+        ann = _table_value(fields[part].annotation)
         cls = ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
         if cls is None:
             return []
     return list(getattr(cls, "model_fields", {}) or [])
 
 
+def _table_value(ann: Any) -> Any:
+    """``dict[str, Sub]`` (a table of named sub-tables, e.g. ``[emitters.NAME]``) → ``Sub``."""
+    return typing.get_args(ann)[1] if typing.get_origin(ann) is dict else ann
+
+
+def _skip_table_keys(model: type[BaseModel], loc: tuple) -> tuple:
+    """``loc`` minus the names in ``dict[str, Sub]`` tables: ``emitters.main.x`` → ``emitters.x``."""
+    out, cls = [], model
+    it = iter(loc)
+    for part in it:
+        out.append(part)
+        fields = getattr(cls, "model_fields", None)
+        if not fields or part not in fields:
+            out.extend(it)
+            break
+        ann = fields[part].annotation
+        if typing.get_origin(ann) is dict:
+            next(it, None)
+        cls = _table_value(ann)
+    return tuple(out)
+
+
 def _limits_text(model: type[BaseModel], loc: tuple) -> str:
     cls: Any = model
     info = None
-    for part in loc:
+    for part in _skip_table_keys(model, loc):
         fields = getattr(cls, "model_fields", None)
         if not fields or part not in fields:
             return ""
         info = fields[part]
-        cls = info.annotation
+        cls = _table_value(info.annotation)
     if info is None:
         return ""
     words = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
