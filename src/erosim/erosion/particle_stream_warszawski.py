@@ -22,12 +22,15 @@ with ξ_k ~ U(0, 1), spread σ, jitters j_v, j_m. A particle acts ``K`` times (i
 to the emitter's pool, from which the emitter re-emits it (a pool of ``P`` slots per emitter, stepped
 round-robin, so ``P`` particles are in flight at once); it also returns early when it leaves the map.
 
-ST-3 motion (next position on a circle of radius ``v`` around the current one, angle ``α``)::
+ST-3 motion (next position on a circle of radius ``v`` around the current one, at the direction
+angle ``α_k``, which deviates from the particle's heading ``α`` by at most the admissible angle)::
 
+    δ_max   = α_max · max(0, 1 − v / v_max),        α_k = α + (2ξ_k − 1) δ_max
     C_{k+1} = C_k + v (cos α_k, sin α_k)
-    δ_max   = α_max · max(0, 1 − v / v_max),        α ← α + (2ξ − 1) δ_max
 
-so a slow particle may wander up to ``α_max`` per step and one at ``v_max`` keeps its course.
+so a slow particle may deviate up to ``α_max`` from its heading and one at ``v_max`` keeps its
+course. The deviation does not accumulate (the heading itself only changes in collisions, ST-4), so a
+stream wiggles but keeps its direction.
 Optional rotational motion: the particle turns around a pivot shifted by ``ρ`` from its track,
 with rotational speed ``r`` (rad per step) and rotation angle ``β``::
 
@@ -238,9 +241,9 @@ def _act(h, d, table, e, st, s, key, age):
         return px, py, False
     alpha = _steer(d, px, py, alpha, v, table[e, EGAMMA], int(table[e, EPROBES]), table[e, ESTEER])
     dmax = table[e, EAMAX] * max(0.0, 1.0 - v / table[e, EVMAX])
-    alpha += (2.0 * _u01(key, 8 + age) - 1.0) * dmax
-    st[s, 0] = cx + v * math.cos(alpha)
-    st[s, 1] = cy + v * math.sin(alpha)
+    ak = alpha + (2.0 * _u01(key, 8 + age) - 1.0) * dmax
+    st[s, 0] = cx + v * math.cos(ak)
+    st[s, 1] = cy + v * math.sin(ak)
     st[s, 2] = alpha
     st[s, 5] = beta + table[e, EROT]
     return px, py, True
@@ -344,7 +347,9 @@ class Emitter(Section):
     speed: float = param(2.0, gt=0, unit="m/step", doc="mean speed v (radius of the motion circle)")
     speed_jitter: float = param(0.2, ge=0, lt=1, unit="1", doc="relative speed jitter ±")
     max_speed: float = param(4.0, gt=0, unit="m/step", doc="v_max: at this speed the course never deviates")
-    max_angle_deg: float = param(20.0, ge=0, le=180, unit="deg", doc="alpha_max: largest random deviation per step")
+    max_angle_deg: float = param(
+        20.0, ge=0, le=180, unit="deg", doc="alpha_max: largest deviation from the heading (at v = 0)"
+    )
     gamma_deg: float = param(30.0, ge=0, le=180, unit="deg", doc="gamma: collision looks for soft rock within ±gamma")
     probes: int = param(2, ge=1, le=32, unit="1", doc="probe directions each side of the heading (2J+1 in all)")
     steer: float = param(0.5, ge=0, le=1, unit="1", doc="share of the turn toward the softest probe per impact")
@@ -357,31 +362,35 @@ class Emitter(Section):
     rotation_angle_deg: float = param(0.0, unit="deg", doc="beta_0: initial rotation angle")
 
 
-def emitter_table(emitters: list[Emitter], shape: tuple[int, int], cell_size: float) -> np.ndarray:
+def emitter_table(
+    emitters: list[Emitter] | dict[str, Emitter], shape: tuple[int, int], cell_size: float
+) -> np.ndarray:
     """The (E, NCOL) float64 table the kernels read; lengths converted to cells, angles to radians.
 
-    Raises :class:`ConfigError` for an empty emission window (zero size or entirely off the map).
+    Raises :class:`ConfigError` for an empty emission window (zero width or entirely off the map).
     """
     if not emitters:
         raise ConfigError("No emitter is defined; add an [emitters.NAME] table to the scenario.")
     ny, nx = shape
     t = np.zeros((len(emitters), NCOL))
-    for k, em in enumerate(emitters):
-        if em.width <= 0 and em.length <= 0:
+    named = emitters if isinstance(emitters, dict) else {str(k): em for k, em in enumerate(emitters)}
+    for k, (name, em) in enumerate(named.items()):
+        if em.width <= 0:
             raise ConfigError(
-                f"Emitter {k} has an empty emission window (width = length = 0); give it a width in metres."
+                f"Emitter '{name}' has an empty emission window (width = 0); give it a width > 0 "
+                "(the stream's width)."
             )
         if em.speed <= 0 or em.max_speed <= 0 or em.mass <= 0 or em.radius_per_mass <= 0:
             raise ConfigError(
-                f"Emitter {k}: speed, max_speed, mass and radius_per_mass must be positive; fix them."
+                f"Emitter '{name}': speed, max_speed, mass and radius_per_mass must be positive; fix them."
             )
         cx, cy = em.x * (nx - 1), em.y * (ny - 1)
         a = -math.radians(em.direction_deg)  # compass-style (CCW from east, north up) → grid (y down)
         half = 0.5 * max(em.width, em.length) / cell_size + 0.5
         if cx + half < 0 or cy + half < 0 or cx - half > nx - 1 or cy - half > ny - 1:
             raise ConfigError(
-                f"Emitter {k}'s window at x={em.x:g}, y={em.y:g} (fractions of the map) lies entirely off the "
-                "map, so it would emit nothing; put x and y between 0 and 1."
+                f"Emitter '{name}' has its window at x={em.x:g}, y={em.y:g} (fractions of the map), "
+                "entirely off the map, so it would emit nothing; put x and y between 0 and 1."
             )
         t[k] = 0.0
         t[k, EX], t[k, EY], t[k, EDIR] = cx, cy, a
@@ -419,7 +428,7 @@ class ParticleStream:
         h: np.ndarray,
         d: np.ndarray,
         cell_size: float,
-        emitters: list[Emitter],
+        emitters: list[Emitter] | dict[str, Emitter],
         seed: int,
         strata: Strata | None = None,
         pool: int = 64,
@@ -430,7 +439,8 @@ class ParticleStream:
         self.h = np.ascontiguousarray(h, dtype=np.float64).copy()
         self.d = check_hardness(d, self.h.shape).copy()
         self.cell_size = float(cell_size)
-        self.table = emitter_table(list(emitters), self.h.shape, self.cell_size)
+        self.table = emitter_table(emitters, self.h.shape, self.cell_size)
+        emitters = list(emitters.values()) if isinstance(emitters, dict) else list(emitters)
         if int(pool) < 1:
             raise ConfigError(f"The particle pool holds {pool} particles; set pool >= 1.")
         self.pool = int(pool)

@@ -1,0 +1,204 @@
+"""Runner of ``kind = "particle-stream"`` scenarios: terrain + hardness + emitters → carved terrain.
+
+What a run leaves (every file written atomically):
+
+* ``scenario.toml`` (resolved), ``report.json`` with ``removed_volume`` (m³, Σ(h₀ − h)·Δ²), the
+  kernel's own running count of it, particles, impacts, throughput, deepest cut and eroded area;
+* ``maps/height_initial.tif``, ``maps/height.tif`` (GeoTIFF, float32, georeference kept from a DEM),
+  ``maps/height.png`` (PNG16) and ``maps/height.raw`` (RAW16; its height range is in the report),
+  ``maps/hardness_initial.tif`` and ``maps/hardness.tif`` (final: strata that follow the cut change
+  it), ``maps/erosion.tif`` (h₀ − h, m) and ``maps/erosion_mask.png`` (PNG16 texture mask, 0…max);
+* ``figures/hillshade_before.png``, ``figures/hillshade_after.png``, ``figures/strata_after.png``
+  (shaded relief tinted by hardness) and ``figures/erosion.png``;
+* ``checkpoint/state.npz`` every ``stream.checkpoint_wall_s``, at the end and on Ctrl-C;
+  ``erosim run --resume DIR`` continues exactly (counter-based random numbers need no RNG state).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from erosim.core.errors import InputError
+from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
+from erosim.io import checkpoint
+from erosim.io.runfolder import RunFolder
+from erosim.scenarios.loader import Scenario, write_resolved
+from erosim.scenarios.schema_common import build_terrain
+from erosim.scenarios.schema_stream import HardnessSection, StreamScenario
+from erosim.simulation.loop import drive
+from erosim.terrain import hardness as hardness_mod
+from erosim.terrain.hardness import Strata
+from erosim.terrain.heightmap import Heightmap
+
+#: Emitter fields that are horizontal lengths (scaled by the cell size when length_unit = "cells").
+LENGTH_FIELDS = ("width", "length", "speed", "max_speed", "radius_per_mass", "pivot_offset")
+
+
+def build_hardness(section: HardnessSection, hm: Heightmap, seed: int) -> tuple[np.ndarray, Strata | None]:
+    """The initial hardness map for ``hm`` and, for strata that follow the cut, their :class:`Strata`."""
+    kind = section.kind
+    if kind == "file":
+        return hardness_mod.load(section.file, hm.shape), None
+    if kind == "uniform":
+        return np.full(hm.shape, float(section.value)), None
+    if kind == "noise":
+        return hardness_mod.noise(hm.shape, seed + 7919, section.noise_scale, section.low, section.high), None
+    if kind == "classes":
+        cm = _read_classes(section.class_file, hm.shape)
+        return hardness_mod.classes(cm, {int(k): v for k, v in section.materials.items()}), None
+    spec = Strata(tuple(section.thickness), tuple(section.values), section.base, section.tilt_x, section.tilt_y)
+    return hardness_mod.strata(hm.z, hm.cell_size, spec), (spec if section.follow_cut else None)
+
+
+def _read_classes(path: str, shape: tuple[int, int]) -> np.ndarray:
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"Class map '{p}' does not exist; check hardness.class_file.")
+    if p.suffix.lower() == ".npy":
+        cm = np.load(p, allow_pickle=False)
+    elif p.suffix.lower() in (".tif", ".tiff"):
+        import rasterio
+
+        with rasterio.open(p) as src:
+            cm = src.read(1)
+    else:
+        import imageio.v3 as iio
+
+        cm = np.asarray(iio.imread(p))
+    if cm.shape != tuple(shape):
+        raise InputError(f"Class map '{p}' has shape {cm.shape} but the terrain has {tuple(shape)}; they must match.")
+    return cm
+
+
+def emitters_in_metres(cfg: StreamScenario, cell_size: float) -> dict[str, Emitter]:
+    """The scenario's emitters (by name) with horizontal lengths in metres (the physics' unit)."""
+    out = {}
+    for name, em in cfg.emitters.items():
+        if cfg.stream.length_unit == "cells":
+            em = em.model_copy(update={k: getattr(em, k) * cell_size for k in LENGTH_FIELDS})
+        out[name] = em
+    return out
+
+
+def build(cfg: StreamScenario) -> tuple[Heightmap, np.ndarray, ParticleStream]:
+    """(initial heightmap, initial hardness, stream ready to run) for a validated scenario."""
+    hm = build_terrain(cfg.terrain, cfg.seed)
+    d0, strata = build_hardness(cfg.hardness, hm, cfg.seed)
+    stream = ParticleStream(
+        hm.z, d0, hm.cell_size, emitters_in_metres(cfg, hm.cell_size), cfg.seed, strata, pool=cfg.stream.pool
+    )
+    return hm, d0, stream
+
+
+def _strata_picture(z: np.ndarray, d: np.ndarray, cell_size: float) -> np.ndarray:
+    from erosim.viz.maps import colormap, hillshade
+
+    tint = colormap(d, "copper_r", vmin=0.0, vmax=1.0)
+    shade = 0.25 + 0.75 * hillshade(z, cell_size)
+    return np.clip(tint * shade[..., None], 0.0, 1.0)
+
+
+def write_outputs(out: RunFolder, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) -> dict[str, Any]:
+    """Maps and figures of a finished (or interrupted) stream; returns what the report needs."""
+    from erosim.io import heightmaps as hio
+    from erosim.viz.maps import colormap_png, hillshade, save_png
+
+    maps, figs = out.maps, out.figures
+    final = hm.copy(stream.h)
+    erosion = hm.z - stream.h
+    hio.write(maps / "height_initial.tif", hm)
+    hio.write(maps / "height.tif", final)
+    png = hio.write(maps / "height.png", final)
+    raw = hio.write(maps / "height.raw", final)
+    hio.write(maps / "hardness_initial.tif", d0, like=hm)
+    hio.write(maps / "hardness.tif", stream.d, like=hm)
+    hio.write(maps / "erosion.tif", erosion, like=hm)
+    mask = hio.write_mask_png16(maps / "erosion_mask.png", erosion)
+    save_png(figs / "hillshade_before.png", hillshade(hm.z, hm.cell_size))
+    save_png(figs / "hillshade_after.png", hillshade(stream.h, hm.cell_size))
+    save_png(figs / "strata_after.png", _strata_picture(stream.h, stream.d, hm.cell_size))
+    colormap_png(figs / "erosion.png", erosion, "magma")
+    return {
+        "height_png_range": png.get("height_range"),
+        "height_raw_range": raw.get("height_range"),
+        "height_raw_shape": list(hm.shape),
+        "erosion_mask_vmax": mask["vmax"],
+    }
+
+
+def run(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: bool = True) -> dict:
+    """Run a particle-stream scenario into ``out``; returns a short summary for the CLI."""
+    cfg: StreamScenario = scenario.config
+    hm, d0, stream = build(cfg)
+    elapsed = 0.0
+    if resume:
+        state, meta = checkpoint.load(out.checkpoint)
+        stream.load_state(state)
+        elapsed = float(meta.get("elapsed_s", 0.0))
+    write_resolved(scenario, out)
+    rounds = max(1, cfg.stream.impacts_per_batch // max(1, stream.st.shape[0]))
+    t0 = time.perf_counter()
+
+    def completed() -> float:
+        in_flight = int((stream.serial >= 0).sum())
+        return float(stream.particles_emitted - in_flight) if not stream.done else float(stream.particles_total)
+
+    def advance() -> float:
+        stream.advance(rounds)
+        return completed()
+
+    def save_checkpoint() -> None:
+        checkpoint.save(out.checkpoint, stream.state(), {"elapsed_s": elapsed + time.perf_counter() - t0})
+
+    total = float(stream.particles_total)
+    drive(
+        advance,
+        start=completed() if resume else 0.0,
+        total=total,
+        checkpoint=save_checkpoint,
+        checkpoint_wall_s=cfg.stream.checkpoint_wall_s,
+        label=scenario.name,
+        unit="particles",
+        progress=progress,
+    )
+    # the loop stops when every particle was emitted *and* has acted; one more sweep marks it done
+    while not stream.done:
+        stream.advance(rounds)
+    wall = elapsed + time.perf_counter() - t0
+    files = write_outputs(out, hm, d0, stream)
+    erosion = hm.z - stream.h
+    area = hm.cell_size**2
+    removed = float(erosion.sum() * area)
+    report = {
+        "kind": "particle-stream",
+        "status": "completed",
+        "method": "particle stream over a hardness map (Warszawski, seed 004)",
+        "removed_volume": removed,
+        "removed_volume_unit": "m3",
+        "removed_volume_kernel": stream.removed_volume(),
+        "max_depth": float(erosion.max()),
+        "eroded_area_m2": float((erosion > 0).sum() * area),
+        "particles": stream.particles_total,
+        "impacts": stream.impacts,
+        "emitters": list(cfg.emitters),
+        "hardness_source": cfg.hardness.kind,
+        "strata_follow_cut": stream.strata is not None,
+        "terrain": {"shape": list(hm.shape), "cell_size": hm.cell_size,
+                    "z_min": float(hm.z.min()), "z_max": float(hm.z.max())},
+        "stream_wall_s": wall,
+        "impacts_per_s": stream.impacts / wall if wall > 0 else None,
+        **files,
+    }
+    out.write_report(report, seed=cfg.seed)
+    return {
+        "removed_volume_m3": removed,
+        "max_depth_m": report["max_depth"],
+        "particles": stream.particles_total,
+        "impacts": stream.impacts,
+        "impacts_per_s": report["impacts_per_s"],
+    }
