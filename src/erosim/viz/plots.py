@@ -33,12 +33,13 @@ def snapshot(path, positions: np.ndarray, velocities: np.ndarray, *, t: float,
     ix, iz = 0, pos.shape[1] - 1 if pos.ndim == 2 else 1
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     w, hgt = hi[ix] - lo[ix], hi[iz] - lo[iz]
-    fig, ax = plt.subplots(figsize=(min(12.0, 2.5 + 6.0 * max(1.0, w / max(hgt, 1e-12))), 4.5))
+    aspect = hgt / max(w, 1e-12)
+    fig, ax = plt.subplots(figsize=(9.0 if aspect < 1 else 2.0 + 6.0 / aspect, 1.3 + min(7.0, 7.0 * aspect)))
     if boundary is not None and len(boundary):
         ax.scatter(boundary[:, ix], boundary[:, iz], s=1, c="0.6", lw=0)
     order = np.argsort(pos[:, 1]) if pos.shape[1] == 3 else slice(None)  # far particles first
     sc = ax.scatter(pos[order, ix], pos[order, iz], s=2, c=speed[order], cmap="viridis", lw=0)
-    fig.colorbar(sc, ax=ax, label="speed (m/s)")
+    fig.colorbar(sc, ax=ax, label="speed (m/s)", fraction=0.025, pad=0.02)
     ax.set_xlim(lo[ix], hi[ix])
     ax.set_ylim(lo[iz], hi[iz])
     ax.set_aspect("equal")
