@@ -108,17 +108,27 @@ def test_resume_from_state_reproduces_uninterrupted_run():
     assert second.removed == whole.removed and second.impacts == whole.impacts
 
 
+def steer(d, alpha, gamma, probes, share):
+    """The collision rule for a particle at (10, 20) with speed 2 cells."""
+    step = gamma / probes
+    return _steer(d, 10.0, 20.0, alpha, 2.0, math.cos(step), math.sin(step), probes, step, share)
+
+
 def test_collision_turns_toward_the_softer_side():
     d = np.full((40, 40), 0.8)
     d[:20, :] = 0.1  # soft band north (small row index) of a particle at row 20 heading east
     gamma = math.radians(30)
-    alpha = _steer(d, 10.0, 20.0, 0.0, 2.0, gamma, 3, 1.0)
+    alpha = steer(d, 0.0, gamma, 3, 1.0)
     assert alpha < 0  # turned north (toward −y)
     assert alpha >= -gamma - 1e-12
     # a uniform map keeps the course (ties go to the smallest turn)
-    assert _steer(np.full((40, 40), 0.3), 10.0, 20.0, 0.4, 2.0, gamma, 3, 1.0) == 0.4
+    assert steer(np.full((40, 40), 0.3), 0.4, gamma, 3, 1.0) == 0.4
     # half steering turns half as far
-    assert _steer(d, 10.0, 20.0, 0.0, 2.0, gamma, 3, 0.5) == pytest.approx(0.5 * alpha)
+    assert steer(d, 0.0, gamma, 3, 0.5) == pytest.approx(0.5 * alpha)
+    # the mirror image (soft band south, from row 21) turns the other way
+    south = np.full((40, 40), 0.8)
+    south[21:, :] = 0.1
+    assert steer(south, 0.0, gamma, 3, 1.0) == pytest.approx(-alpha, abs=1e-12)
 
 
 def test_stream_bends_into_a_soft_band_beside_it():

@@ -134,7 +134,7 @@ def strata(z: np.ndarray, cell_size: float, spec: Strata) -> np.ndarray:
     i = np.arange(nx, dtype=np.float64)[None, :]
     j = np.arange(ny, dtype=np.float64)[:, None]
     q = z + tx * i + ty * j - spec.base
-    q = q - period * np.floor(q / period)
+    q = q - period * np.floor(q * (1.0 / period))
     band = np.searchsorted(edges, q, side="right") - 1
     return np.ascontiguousarray(vals[np.clip(band, 0, vals.size - 1)])
 

@@ -1,0 +1,89 @@
+"""Benchmark of particle-stream erosion (``erosim bench stream``): throughput and O(n) in particles.
+
+Fixed work per particle, whatever the count, so that time per particle measures the method's cost
+alone: a fixed 512² generated terrain (``hills``, 10 m cells) with strata hardness that follows the cut
+(the library scenario's mode, the heavier kernel), eight emitters on the west edge heading east, each
+particle making exactly ``STEPS`` impacts (speed 1.5 cells, so it never leaves the map) with a radius
+of influence of 4 cells per unit mass (≈ 50 cells per impact). The stream runs on one thread by design
+(see :mod:`erosim.erosion.particle_stream_warszawski`). Each count is timed after a warm-up (JIT
+compile excluded), repeated until at least ``MIN_TIME`` s have been measured; the best repeat counts.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
+from erosim.terrain import hardness
+from erosim.terrain.generate import generate
+from erosim.terrain.hardness import Strata
+
+SIZE = 512
+CELL = 10.0
+STEPS = 32
+EMITTERS = 8
+POOL = 64
+MIN_TIME = 1.0
+STRATA = Strata(thickness=(12.0, 5.0, 9.0, 4.0), hardness=(0.25, 0.85, 0.45, 0.7), tilt_x=0.01)
+
+
+def _emitters(particles: int) -> list[Emitter]:
+    counts = [particles // EMITTERS + (1 if k < particles % EMITTERS else 0) for k in range(EMITTERS)]
+    return [
+        Emitter(
+            x=0.02, y=(k + 0.5) / EMITTERS, width=8 * CELL, particles=counts[k], steps=STEPS,
+            speed=1.5 * CELL, max_speed=3 * CELL, max_angle_deg=12.0, gamma_deg=15.0, steer=0.05,
+            spread_deg=1.0, depth_per_mass=0.01, radius_per_mass=4 * CELL,
+        )
+        for k in range(EMITTERS)
+    ]
+
+
+def run(particles: list[int]) -> dict:
+    """Time streams of each particle count; returns ``{"runs": [...], ...}`` (one JSON object)."""
+    counts = [int(n) for n in particles]
+    hm = generate("hills", SIZE, CELL, 0, relief=40.0)
+    d0 = hardness.strata(hm.z, CELL, STRATA)
+    ParticleStream(hm.z, d0, CELL, _emitters(64), 0, STRATA, pool=POOL).run()  # JIT warm-up
+    runs = []
+    for n in counts:
+        best = None
+        repeats = 0
+        spent = 0.0
+        while repeats == 0 or (spent < MIN_TIME and repeats < 20):
+            s = ParticleStream(hm.z, d0, CELL, _emitters(n), 0, STRATA, pool=POOL)
+            t0 = time.perf_counter()
+            s.run(batch=4096)
+            dt = time.perf_counter() - t0
+            spent += dt
+            repeats += 1
+            if best is None or dt < best[0]:
+                best = (dt, s.impacts)
+        dt, impacts = best
+        runs.append({
+            "particles": n,
+            "impacts": impacts,
+            "seconds": dt,
+            "particles_per_s": n / dt if dt > 0 else None,
+            "updates_per_s": impacts / dt if dt > 0 else None,
+            "us_per_particle": 1e6 * dt / n if n else None,
+            "us_per_update": 1e6 * dt / impacts if impacts else None,
+            "repeats": repeats,
+        })
+    per = [r["us_per_particle"] for r in runs if r["us_per_particle"]]
+    spread = (max(per) / min(per) - 1.0) if per else None
+    return {
+        "benchmark": "particle-stream (Warszawski)",
+        "map": f"{SIZE}x{SIZE} cells of {CELL:g} m, strata hardness following the cut",
+        "steps_per_particle": STEPS,
+        "emitters": EMITTERS,
+        "pool_per_emitter": POOL,
+        "threads": 1,
+        "runs": runs,
+        "us_per_particle_spread": spread,
+        "linear_within_20pct": spread is not None and spread <= 0.20,
+        "min_updates_per_s": min(r["updates_per_s"] for r in runs) if runs else None,
+        "target_updates_per_s": 1e6,
+    }
