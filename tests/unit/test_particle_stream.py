@@ -18,8 +18,17 @@ def flat(n=N, value=10.0):
 
 def single(**kw):
     """One particle, one impact, no jitter: it strikes exactly at the window centre."""
-    base = dict(particles=1, steps=1, width=1e-9, spread_deg=0, speed_jitter=0, mass_jitter=0,
-                max_angle_deg=0, x=0.5, y=0.5)
+    base = dict(
+        particles=1,
+        steps=1,
+        width=1e-9,
+        spread_deg=0,
+        speed_jitter=0,
+        mass_jitter=0,
+        max_angle_deg=0,
+        x=0.5,
+        y=0.5,
+    )
     return Emitter(**{**base, **kw})
 
 
@@ -37,17 +46,21 @@ def test_single_impact_stays_inside_radius_of_influence():
     # largest at the impact point, e·m there (erodibility 1): Δh(r) = e m (1 - r²/λ²)
     # (tolerance: the 1e-9-wide window shifts the impact by < 1e-9 cells, a 1e-9 relative change)
     drop = h0 - h
-    np.testing.assert_allclose(drop, np.clip(0.15 * (1 - r**2 / lam**2), 0, None), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        drop, np.clip(0.15 * (1 - r**2 / lam**2), 0, None), rtol=0, atol=1e-9
+    )
 
 
 def test_heavier_particle_erodes_wider_area():
     h0 = flat()
     areas = []
     for mass in (1.0, 2.0):
-        h, _, _ = erode(h0, np.zeros_like(h0), 1.0, [single(mass=mass, radius_per_mass=5.0)], seed=1)
+        h, _, _ = erode(
+            h0, np.zeros_like(h0), 1.0, [single(mass=mass, radius_per_mass=5.0)], seed=1
+        )
         areas.append(int((h < h0).sum()))
     assert areas[1] > areas[0]
-    # λ ∝ m, so the disc's area ∝ m²: ratio 4 up to the lattice count of two discs of radius 5 and 10
+    # λ ∝ m, so the disc's area ∝ m²: ratio 4 up to the lattice count of discs of radius 5 and 10
     # cells (boundary cells ~ 2πλ, i.e. a few percent here)
     assert 3.5 < areas[1] / areas[0] < 4.5
     assert areas[1] == pytest.approx(math.pi * 10.0**2, rel=0.05)
@@ -73,7 +86,10 @@ def test_terrain_only_goes_down_and_removed_volume_is_reported():
     h0 = 20.0 + 3.0 * rng.random((N, N))
     d = rng.random((N, N))
     cell = 2.5
-    em = [Emitter(particles=300, x=0.05, y=0.3), Emitter(particles=300, x=0.5, y=0.95, direction_deg=90)]
+    em = [
+        Emitter(particles=300, x=0.05, y=0.3),
+        Emitter(particles=300, x=0.5, y=0.95, direction_deg=90),
+    ]
     h, _, vol = erode(h0, d, cell, em, seed=11)
     assert (h <= h0).all()
     assert vol > 0
@@ -136,8 +152,21 @@ def test_stream_bends_into_a_soft_band_beside_it():
     h0 = flat(n)
     d = np.full((n, n), 0.9)
     d[:60, :] = 0.05  # soft rock beside (north of) the stream, whose window spans rows 60..68
-    em = [Emitter(particles=300, steps=60, x=0.0, y=64 / (n - 1), width=8.0, speed=2.0, max_speed=4.0,
-                  spread_deg=0, max_angle_deg=5, gamma_deg=45, steer=0.5)]
+    em = [
+        Emitter(
+            particles=300,
+            steps=60,
+            x=0.0,
+            y=64 / (n - 1),
+            width=8.0,
+            speed=2.0,
+            max_speed=4.0,
+            spread_deg=0,
+            max_angle_deg=5,
+            gamma_deg=45,
+            steer=0.5,
+        )
+    ]
     soft, _, _ = erode(h0, d, 1.0, em, seed=4)
     ctrl, _, _ = erode(h0, np.full((n, n), 0.9), 1.0, em, seed=4)
 
@@ -149,21 +178,36 @@ def test_stream_bends_into_a_soft_band_beside_it():
     row_s, north_s = downstream(soft)
     # control: the stream runs straight along row 64 (±5° jitter that does not accumulate)
     assert abs(row_c - 64) < 3 and north_c < 0.01
-    # with the band: the cut moved into the soft rock (seeds 0–3 give centroids 37–40, shares 0.6–0.7)
+    # with the band: the cut moved into the soft rock (seeds 0–3: centroids 37–40, shares 0.6–0.7)
     assert row_s < 50 and north_s > 0.4
 
 
 def test_fast_particles_keep_course_slow_ones_wander():
     def spread(speed):
-        em = [Emitter(particles=50, steps=40, x=0.0, y=0.5, width=1e-9, spread_deg=0, speed=speed,
-                      max_speed=2.0, max_angle_deg=60, speed_jitter=0, mass_jitter=0, radius_per_mass=1.5)]
+        em = [
+            Emitter(
+                particles=50,
+                steps=40,
+                x=0.0,
+                y=0.5,
+                width=1e-9,
+                spread_deg=0,
+                speed=speed,
+                max_speed=2.0,
+                max_angle_deg=60,
+                speed_jitter=0,
+                mass_jitter=0,
+                radius_per_mass=1.5,
+            )
+        ]
         h, _, _ = erode(flat(128), np.zeros((128, 128)), 1.0, em, seed=2)
         rows = np.nonzero((flat(128) - h).sum(axis=1))[0]
         return rows.max() - rows.min()
 
     # at v = v_max the admissible deviation α_max (1 − v/v_max) is zero: the track stays on its row
     # (width of the disc, 2λ = 3 cells); at v = v_max/4 each step may deviate up to 45°, a lateral
-    # random walk of ~0.2 cells per step: over 40 steps and 50 particles it spans 7–10 rows (seeds 0–4)
+    # random walk of ~0.2 cells per step: over 40 steps and 50 particles it spans 7–10 rows
+    # (seeds 0–4)
     assert spread(2.0) <= 3
     assert spread(0.5) > 5
 
@@ -172,8 +216,10 @@ def test_rotational_motion_strikes_around_the_pivot():
     em = single(steps=4, speed=1e-6, pivot_offset=6.0, rotation_speed_deg=90.0, radius_per_mass=1.2)
     h, _, _ = erode(flat(), np.zeros((N, N)), 1.0, [em], seed=0)
     c = 0.5 * (N - 1)
-    hits = {(round(c + 6 * math.cos(math.radians(a))), round(c - 6 * math.sin(math.radians(a))))
-            for a in (0, 90, 180, 270)}
+    hits = {
+        (round(c + 6 * math.cos(math.radians(a))), round(c - 6 * math.sin(math.radians(a))))
+        for a in (0, 90, 180, 270)
+    }
     for i, j in hits:
         assert h[j, i] < 10.0
     assert h[round(c), round(c)] == 10.0  # the pivot itself is not struck (λ = 1.2 < ρ = 6)

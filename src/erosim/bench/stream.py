@@ -1,19 +1,18 @@
 """Benchmark of particle-stream erosion (``erosim bench stream``): throughput and O(n) in particles.
 
 Fixed work per particle, whatever the count, so that time per particle measures the method's cost
-alone: a fixed 512² generated terrain (``hills``, 10 m cells) with strata hardness that follows the cut
-(the library scenario's mode, the heavier kernel), eight emitters on the west edge heading east, each
-particle making exactly ``STEPS`` impacts (speed 1.5 cells, so it never leaves the map) with a radius
-of influence of 4 cells per unit mass (≈ 50 cells per impact). The stream runs on one thread by design
-(see :mod:`erosim.erosion.particle_stream_warszawski`). Each count is timed after a warm-up (JIT
-compile excluded), repeated until at least ``MIN_TIME`` s have been measured; the best repeat counts.
+alone: a fixed 512² generated terrain (``hills``, 10 m cells) with strata hardness that follows the
+cut (the library scenario's mode, the heavier kernel), eight emitters on the west edge heading east,
+each particle making exactly ``STEPS`` impacts (speed 1.5 cells, so it never leaves the map) with a
+radius of influence of 4 cells per unit mass (≈ 50 cells per impact). The stream runs on one thread
+by design (see :mod:`erosim.erosion.particle_stream_warszawski`). Each count is timed after a
+warm-up (JIT compile excluded), repeated until at least ``MIN_TIME`` s have been measured; the best
+repeat counts.
 """
 
 from __future__ import annotations
 
 import time
-
-import numpy as np
 
 from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
 from erosim.terrain import hardness
@@ -30,12 +29,24 @@ STRATA = Strata(thickness=(12.0, 5.0, 9.0, 4.0), hardness=(0.25, 0.85, 0.45, 0.7
 
 
 def _emitters(particles: int) -> list[Emitter]:
-    counts = [particles // EMITTERS + (1 if k < particles % EMITTERS else 0) for k in range(EMITTERS)]
+    counts = [
+        particles // EMITTERS + (1 if k < particles % EMITTERS else 0) for k in range(EMITTERS)
+    ]
     return [
         Emitter(
-            x=0.02, y=(k + 0.5) / EMITTERS, width=8 * CELL, particles=counts[k], steps=STEPS,
-            speed=1.5 * CELL, max_speed=3 * CELL, max_angle_deg=12.0, gamma_deg=15.0, steer=0.05,
-            spread_deg=1.0, depth_per_mass=0.01, radius_per_mass=4 * CELL,
+            x=0.02,
+            y=(k + 0.5) / EMITTERS,
+            width=8 * CELL,
+            particles=counts[k],
+            steps=STEPS,
+            speed=1.5 * CELL,
+            max_speed=3 * CELL,
+            max_angle_deg=12.0,
+            gamma_deg=15.0,
+            steer=0.05,
+            spread_deg=1.0,
+            depth_per_mass=0.01,
+            radius_per_mass=4 * CELL,
         )
         for k in range(EMITTERS)
     ]
@@ -62,16 +73,18 @@ def run(particles: list[int]) -> dict:
             if best is None or dt < best[0]:
                 best = (dt, s.impacts)
         dt, impacts = best
-        runs.append({
-            "particles": n,
-            "impacts": impacts,
-            "seconds": dt,
-            "particles_per_s": n / dt if dt > 0 else None,
-            "updates_per_s": impacts / dt if dt > 0 else None,
-            "us_per_particle": 1e6 * dt / n if n else None,
-            "us_per_update": 1e6 * dt / impacts if impacts else None,
-            "repeats": repeats,
-        })
+        runs.append(
+            {
+                "particles": n,
+                "impacts": impacts,
+                "seconds": dt,
+                "particles_per_s": n / dt if dt > 0 else None,
+                "updates_per_s": impacts / dt if dt > 0 else None,
+                "us_per_particle": 1e6 * dt / n if n else None,
+                "us_per_update": 1e6 * dt / impacts if impacts else None,
+                "repeats": repeats,
+            }
+        )
     per = [r["us_per_particle"] for r in runs if r["us_per_particle"]]
     spread = (max(per) / min(per) - 1.0) if per else None
     return {

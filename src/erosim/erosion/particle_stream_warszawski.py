@@ -12,15 +12,17 @@ cell units; cell ``(i, j)`` sits at ``x = i, y = j``. Angles are in radians in t
 ST-1 terrain: heights ``H`` (m) and hardness ``D ∈ [0, 1]`` (1 = unerodible, 0 = fully erodible),
 both ``(ny, nx)``.
 
-ST-2 emission. An emitter has a window centred at ``E`` with unit direction ``u = (cos α_e, sin α_e)``
-and its normal ``n = (−sin α_e, cos α_e)``; width ``w`` (across) and length ``ℓ`` (along), cells::
+ST-2 emission. An emitter has a window centred at ``E`` with unit direction ``u = (cos α_e, sin
+α_e)`` and its normal ``n = (−sin α_e, cos α_e)``; width ``w`` (across) and length ``ℓ`` (along),
+cells::
 
     C₀ = E + (ξ₁ − ½) w n + (ξ₂ − ½) ℓ u,      α₀ = α_e + (2ξ₃ − 1) σ
     v  = v̄ (1 + (2ξ₄ − 1) j_v),               m  = m̄ (1 + (2ξ₅ − 1) j_m),     β₀ = β̄
 
-with ξ_k ~ U(0, 1), spread σ, jitters j_v, j_m. A particle acts ``K`` times (impacts) and then returns
-to the emitter's pool, from which the emitter re-emits it (a pool of ``P`` slots per emitter, stepped
-round-robin, so ``P`` particles are in flight at once); it also returns early when it leaves the map.
+with ξ_k ~ U(0, 1), spread σ, jitters j_v, j_m. A particle acts ``K`` times (impacts) and then
+returns to the emitter's pool, from which the emitter re-emits it (a pool of ``P`` slots per
+emitter, stepped round-robin, so ``P`` particles are in flight at once); it also returns early when
+it leaves the map.
 
 ST-3 motion (next position on a circle of radius ``v`` around the current one, at the direction
 angle ``α_k``, which deviates from the particle's heading ``α`` by at most the admissible angle)::
@@ -29,10 +31,10 @@ angle ``α_k``, which deviates from the particle's heading ``α`` by at most the
     C_{k+1} = C_k + v (cos α_k, sin α_k)
 
 so a slow particle may deviate up to ``α_max`` from its heading and one at ``v_max`` keeps its
-course. The deviation does not accumulate (the heading itself only changes in collisions, ST-4), so a
-stream wiggles but keeps its direction.
-Optional rotational motion: the particle turns around a pivot shifted by ``ρ`` from its track,
-with rotational speed ``r`` (rad per step) and rotation angle ``β``::
+course. The deviation does not accumulate (the heading itself only changes in collisions, ST-4), so
+a stream wiggles but keeps its direction. Optional rotational motion: the particle turns around a
+pivot shifted by ``ρ`` from its track, with rotational speed ``r`` (rad per step) and rotation angle
+``β``::
 
     P_k = C_k + ρ (cos β_k, sin β_k),              β_{k+1} = β_k + r
 
@@ -60,10 +62,10 @@ so ``d = 1`` never changes and the terrain only goes down. The kernels return ``
 lowerings (m); times the cell area it is the removed volume.
 
 Strata that follow the cut (``advance_strata``): with hardness given by layered strata
-(:mod:`erosim.terrain.hardness`), a cell's hardness is that of the band its *current* height lies in,
-``d = D_b`` with ``b`` the band of ``q = (h + t_x i + t_y j − z₀) mod T`` (bands of thicknesses
-``t_b`` from ``z₀`` repeating with period ``T = Σ t_b``, tilt ``t_x, t_y`` in metres per cell), and it
-is re-read after every lowering, so a canyon meets hard and soft layers as it deepens.
+(:mod:`erosim.terrain.hardness`), a cell's hardness is that of the band its *current* height lies
+in, ``d = D_b`` with ``b`` the band of ``q = (h + t_x i + t_y j − z₀) mod T`` (bands of thicknesses
+``t_b`` from ``z₀`` repeating with period ``T = Σ t_b``, tilt ``t_x, t_y`` in metres per cell), and
+it is re-read after every lowering, so a canyon meets hard and soft layers as it deepens.
 
 ST-6 cost: per impact a fixed ``2J + 1`` probes and ``≈ π λ²`` cells, so the work is O(n) in the
 number of particles.
@@ -72,8 +74,8 @@ Why hand-written Numba: the stream is inherently sequential — each impact read
 earlier ones cut (strata hardness too) — and is made of tiny per-particle operations that no array
 library expresses; a jitted loop runs them at ~10⁷ impacts per second. It runs on one thread on
 purpose: the result then depends only on the seed, never on the thread count. Random numbers are
-counter-based (SplitMix64 of seed, emitter, particle serial and draw number), so a checkpoint needs no
-generator state and a resumed run reproduces the uninterrupted one exactly.
+counter-based (SplitMix64 of seed, emitter, particle serial and draw number), so a checkpoint needs
+no generator state and a resumed run reproduces the uninterrupted one exactly.
 """
 
 from __future__ import annotations
@@ -95,8 +97,10 @@ EMASS, EMJIT, EDEPTH, ERADIUS, ERHO, EROT, EBETA, ESTEPS = 13, 14, 15, 16, 17, 1
 ECOSD, ESIND = 21, 22  # cos and sin of the probe spacing Δ = γ/J
 NCOL = 23
 
-OFF_MAP = 2.0  # hardness a probe off the map reads: harder than any rock, so streams keep to the map
-TIE = 1e-9  # probes softer by less than this are ties (bilinear round-off must not steer a uniform map)
+# hardness a probe off the map reads: harder than any rock, so streams keep to the map
+OFF_MAP = 2.0
+# probes softer by less than this are ties (bilinear round-off must not steer a uniform map)
+TIE = 1e-9
 
 
 # ------------------------------------------------------------------------------------ random
@@ -126,7 +130,7 @@ def _u01(key, draw):
 # ----------------------------------------------------------------------------------- pieces
 @njit(cache=True, inline="always")
 def _emit(table, e, serial, seed, st, s):
-    """ST-2: place slot ``s`` of emitter ``e`` as particle number ``serial`` (state row ``st[s]``)."""
+    """ST-2: place slot ``s`` of emitter ``e`` as particle number ``serial`` (row ``st[s]``)."""
     key = _key(seed, e, serial)
     a = table[e, EDIR]
     ux = math.cos(a)
@@ -213,7 +217,7 @@ def _band(z, tx, ty, i, j, z0, edges, values, period, inv_period):
 
 @njit(cache=True)
 def strata_init(h, strata, edges, values, d, floor):
-    """Fill ``d`` (hardness) and ``floor`` (height where each cell leaves its stratum) from ``h``."""
+    """Fill ``d`` (hardness) and ``floor`` (height where a cell leaves its stratum) from ``h``."""
     ny, nx = h.shape
     for j in range(ny):
         for i in range(nx):
@@ -244,7 +248,9 @@ def _stamp_strata(h, d, floor, x0, y0, lam, depth, strata, edges, values):
                 h[j, i] -= dh
                 total += dh
                 if h[j, i] < floor[j, i]:
-                    d[j, i], floor[j, i] = _band(h[j, i], tx, ty, i, j, z0, edges, values, period, inv_period)
+                    d[j, i], floor[j, i] = _band(
+                        h[j, i], tx, ty, i, j, z0, edges, values, period, inv_period
+                    )
     return total
 
 
@@ -265,7 +271,9 @@ def _act(h, d, table, e, st, s, key, age):
         return px, py, False
     nprobe = int(table[e, EPROBES])
     step = table[e, EGAMMA] / nprobe
-    alpha = _steer(d, px, py, alpha, v, table[e, ECOSD], table[e, ESIND], nprobe, step, table[e, ESTEER])
+    alpha = _steer(
+        d, px, py, alpha, v, table[e, ECOSD], table[e, ESIND], nprobe, step, table[e, ESTEER]
+    )
     dmax = table[e, EAMAX] * max(0.0, 1.0 - v / table[e, EVMAX])
     ak = alpha + (2.0 * _u01(key, 8 + age) - 1.0) * dmax
     st[s, 0] = cx + v * math.cos(ak)
@@ -343,9 +351,8 @@ def advance_strata(
             m = st[s, 4]
             px, py, ok = _act(h, d, table, e, st, s, key, age[s])
             if ok:
-                acc[0] += _stamp_strata(
-                    h, d, floor, px, py, table[e, ERADIUS] * m, table[e, EDEPTH] * m, strata, edges, values
-                )
+                lam, depth = table[e, ERADIUS] * m, table[e, EDEPTH] * m
+                acc[0] += _stamp_strata(h, d, floor, px, py, lam, depth, strata, edges, values)
                 impacts += 1
                 age[s] += 1
             if not ok or age[s] >= table[e, ESTEPS]:
@@ -359,12 +366,17 @@ def advance_strata(
 class Emitter(Section):
     """One emitter (the scenario's ``[emitters.NAME]`` table); lengths in metres, angles in degrees.
 
-    ``x``, ``y`` place the window centre as fractions of the map width (from the west edge) and height
-    (from the north edge); ``direction_deg`` is the heading, counter-clockwise from east (90 = north).
+    ``x``, ``y`` place the window centre as fractions of the map width (from the west edge) and
+    height (from the north edge); ``direction_deg`` is the heading, counter-clockwise from east (90
+    = north).
     """
 
-    x: float = param(0.05, unit="1", doc="window centre, fraction of the map width from the west edge")
-    y: float = param(0.5, unit="1", doc="window centre, fraction of the map height from the north edge")
+    x: float = param(
+        0.05, unit="1", doc="window centre, fraction of the map width from the west edge"
+    )
+    y: float = param(
+        0.5, unit="1", doc="window centre, fraction of the map height from the north edge"
+    )
     direction_deg: float = param(0.0, unit="deg", doc="stream heading, counter-clockwise from east")
     width: float = param(20.0, ge=0, unit="m", doc="window width across the stream (stream width)")
     length: float = param(0.0, ge=0, unit="m", doc="window length along the stream")
@@ -373,18 +385,36 @@ class Emitter(Section):
     steps: int = param(40, ge=1, unit="1", doc="impacts per particle before it returns to the pool")
     speed: float = param(2.0, gt=0, unit="m/step", doc="mean speed v (radius of the motion circle)")
     speed_jitter: float = param(0.2, ge=0, lt=1, unit="1", doc="relative speed jitter ±")
-    max_speed: float = param(4.0, gt=0, unit="m/step", doc="v_max: at this speed the course never deviates")
-    max_angle_deg: float = param(
-        20.0, ge=0, le=180, unit="deg", doc="alpha_max: largest deviation from the heading (at v = 0)"
+    max_speed: float = param(
+        4.0, gt=0, unit="m/step", doc="v_max: at this speed the course never deviates"
     )
-    gamma_deg: float = param(30.0, ge=0, le=180, unit="deg", doc="gamma: collision looks for soft rock within ±gamma")
-    probes: int = param(2, ge=1, le=32, unit="1", doc="probe directions each side of the heading (2J+1 in all)")
-    steer: float = param(0.5, ge=0, le=1, unit="1", doc="share of the turn toward the softest probe per impact")
+    max_angle_deg: float = param(
+        20.0,
+        ge=0,
+        le=180,
+        unit="deg",
+        doc="alpha_max: largest deviation from the heading (at v = 0)",
+    )
+    gamma_deg: float = param(
+        30.0, ge=0, le=180, unit="deg", doc="gamma: collision looks for soft rock within ±gamma"
+    )
+    probes: int = param(
+        2, ge=1, le=32, unit="1", doc="probe directions each side of the heading (2J+1 in all)"
+    )
+    steer: float = param(
+        0.5, ge=0, le=1, unit="1", doc="share of the turn toward the softest probe per impact"
+    )
     mass: float = param(1.0, gt=0, unit="1", doc="mean particle mass (erosive strength)")
     mass_jitter: float = param(0.2, ge=0, lt=1, unit="1", doc="relative mass jitter ±")
-    depth_per_mass: float = param(0.02, ge=0, unit="m", doc="e: lowering at the impact point per unit mass")
-    radius_per_mass: float = param(4.0, gt=0, unit="m", doc="kappa: radius of influence per unit mass")
-    pivot_offset: float = param(0.0, ge=0, unit="m", doc="rho: rotational motion, pivot shift from the track")
+    depth_per_mass: float = param(
+        0.02, ge=0, unit="m", doc="e: lowering at the impact point per unit mass"
+    )
+    radius_per_mass: float = param(
+        4.0, gt=0, unit="m", doc="kappa: radius of influence per unit mass"
+    )
+    pivot_offset: float = param(
+        0.0, ge=0, unit="m", doc="rho: rotational motion, pivot shift from the track"
+    )
     rotation_speed_deg: float = param(0.0, unit="deg/step", doc="r: rotational speed")
     rotation_angle_deg: float = param(0.0, unit="deg", doc="beta_0: initial rotation angle")
 
@@ -400,7 +430,9 @@ def emitter_table(
         raise ConfigError("No emitter is defined; add an [emitters.NAME] table to the scenario.")
     ny, nx = shape
     t = np.zeros((len(emitters), NCOL))
-    named = emitters if isinstance(emitters, dict) else {str(k): em for k, em in enumerate(emitters)}
+    named = (
+        emitters if isinstance(emitters, dict) else {str(k): em for k, em in enumerate(emitters)}
+    )
     for k, (name, em) in enumerate(named.items()):
         if em.width <= 0:
             raise ConfigError(
@@ -409,21 +441,28 @@ def emitter_table(
             )
         if em.speed <= 0 or em.max_speed <= 0 or em.mass <= 0 or em.radius_per_mass <= 0:
             raise ConfigError(
-                f"Emitter '{name}': speed, max_speed, mass and radius_per_mass must be positive; fix them."
+                f"Emitter '{name}': speed, max_speed, mass and radius_per_mass must be positive; "
+                "fix them."
             )
         cx, cy = em.x * (nx - 1), em.y * (ny - 1)
-        a = -math.radians(em.direction_deg)  # compass-style (CCW from east, north up) → grid (y down)
+        a = -math.radians(
+            em.direction_deg
+        )  # compass-style (CCW from east, north up) → grid (y down)
         half = 0.5 * max(em.width, em.length) / cell_size + 0.5
         if cx + half < 0 or cy + half < 0 or cx - half > nx - 1 or cy - half > ny - 1:
             raise ConfigError(
-                f"Emitter '{name}' has its window at x={em.x:g}, y={em.y:g} (fractions of the map), "
+                f"Emitter '{name}' has its window at x={em.x:g}, y={em.y:g} (map fractions), "
                 "entirely off the map, so it would emit nothing; put x and y between 0 and 1."
             )
         t[k] = 0.0
         t[k, EX], t[k, EY], t[k, EDIR] = cx, cy, a
         t[k, EWIDTH], t[k, ELENGTH] = em.width / cell_size, em.length / cell_size
         t[k, ESPREAD] = math.radians(em.spread_deg)
-        t[k, ESPEED], t[k, EVJIT], t[k, EVMAX] = em.speed / cell_size, em.speed_jitter, em.max_speed / cell_size
+        t[k, ESPEED], t[k, EVJIT], t[k, EVMAX] = (
+            em.speed / cell_size,
+            em.speed_jitter,
+            em.max_speed / cell_size,
+        )
         t[k, EAMAX], t[k, EGAMMA] = math.radians(em.max_angle_deg), math.radians(em.gamma_deg)
         t[k, EPROBES], t[k, ESTEER] = max(int(em.probes), 1), em.steer
         t[k, EMASS], t[k, EMJIT] = em.mass, em.mass_jitter
@@ -437,11 +476,14 @@ def emitter_table(
 
 
 def strata_arrays(strata: Strata, cell_size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(params (t_x, t_y per cell, z₀, T, 1/T), band lower edges, band hardness) for :func:`advance_strata`."""
+    """(params (t_x, t_y per cell, z₀, T, 1/T), band lower edges, band hardness) for
+    :func:`advance_strata`."""
     th = np.asarray(strata.thickness, dtype=np.float64)
     edges = np.concatenate([[0.0], np.cumsum(th)[:-1]])
     period = float(th.sum())
-    params = np.array([strata.tilt_x * cell_size, -strata.tilt_y * cell_size, strata.base, period, 1.0 / period])
+    params = np.array(
+        [strata.tilt_x * cell_size, -strata.tilt_y * cell_size, strata.base, period, 1.0 / period]
+    )
     return params, edges, np.asarray(strata.hardness, dtype=np.float64)
 
 
@@ -506,8 +548,19 @@ class ParticleStream:
 
     def advance(self, rounds: int) -> int:
         """Run ``rounds`` sweeps (each slot acts once per sweep); returns the impacts done."""
-        args = (self.h, self.d, self.table, self.st, self.serial, self.age, self.emitted,
-                self.total, self.acc, np.uint64(self.seed), int(rounds))
+        args = (
+            self.h,
+            self.d,
+            self.table,
+            self.st,
+            self.serial,
+            self.age,
+            self.emitted,
+            self.total,
+            self.acc,
+            np.uint64(self.seed),
+            int(rounds),
+        )
         if self.strata is None:
             impacts, did = advance_fixed(*args)
         else:
@@ -535,8 +588,14 @@ class ParticleStream:
     def state(self) -> dict[str, np.ndarray]:
         """Everything the next sweep reads (for checkpoints)."""
         out = {
-            "h": self.h, "d": self.d, "st": self.st, "serial": self.serial, "age": self.age,
-            "emitted": self.emitted, "acc": self.acc, "impacts": np.int64(self.impacts),
+            "h": self.h,
+            "d": self.d,
+            "st": self.st,
+            "serial": self.serial,
+            "age": self.age,
+            "emitted": self.emitted,
+            "acc": self.acc,
+            "impacts": np.int64(self.impacts),
             "finished": np.bool_(self.finished),
         }
         if self.strata is not None:
@@ -551,7 +610,8 @@ class ParticleStream:
         for name in names:
             if name not in state:
                 raise InputError(
-                    f"The checkpoint lacks '{name}'; resume with the scenario the run was started with."
+                    f"The checkpoint lacks '{name}'; resume with the scenario the run was "
+                    "started with."
                 )
             cur = getattr(self, name)
             new = np.ascontiguousarray(state[name], dtype=cur.dtype)
@@ -574,6 +634,8 @@ def erode(
     strata: Strata | None = None,
     pool: int = 64,
 ) -> tuple[np.ndarray, np.ndarray, float]:
-    """Run a stream to the end; returns (new heights, final hardness, removed volume m³). Inputs unchanged."""
+    """Run a stream to the end; returns (new heights, final hardness, removed volume m³).
+
+    The inputs are not changed."""
     s = ParticleStream(h, d, cell_size, emitters, seed, strata, pool).run()
     return s.h, s.d, s.removed_volume()

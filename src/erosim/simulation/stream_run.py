@@ -37,19 +37,29 @@ from erosim.terrain.heightmap import Heightmap
 LENGTH_FIELDS = ("width", "length", "speed", "max_speed", "radius_per_mass", "pivot_offset")
 
 
-def build_hardness(section: HardnessSection, hm: Heightmap, seed: int) -> tuple[np.ndarray, Strata | None]:
-    """The initial hardness map for ``hm`` and, for strata that follow the cut, their :class:`Strata`."""
+def build_hardness(
+    section: HardnessSection, hm: Heightmap, seed: int
+) -> tuple[np.ndarray, Strata | None]:
+    """The initial hardness map for ``hm`` and, for strata that follow the cut, their Strata."""
     kind = section.kind
     if kind == "file":
         return hardness_mod.load(section.file, hm.shape), None
     if kind == "uniform":
         return np.full(hm.shape, float(section.value)), None
     if kind == "noise":
-        return hardness_mod.noise(hm.shape, seed + 7919, section.noise_scale, section.low, section.high), None
+        return hardness_mod.noise(
+            hm.shape, seed + 7919, section.noise_scale, section.low, section.high
+        ), None
     if kind == "classes":
         cm = _read_classes(section.class_file, hm.shape)
         return hardness_mod.classes(cm, {int(k): v for k, v in section.materials.items()}), None
-    spec = Strata(tuple(section.thickness), tuple(section.values), section.base, section.tilt_x, section.tilt_y)
+    spec = Strata(
+        tuple(section.thickness),
+        tuple(section.values),
+        section.base,
+        section.tilt_x,
+        section.tilt_y,
+    )
     return hardness_mod.strata(hm.z, hm.cell_size, spec), (spec if section.follow_cut else None)
 
 
@@ -67,11 +77,15 @@ def _read_classes(path: str, shape: tuple[int, int]) -> np.ndarray:
         with rasterio.open(p) as src:
             cm = src.read(1)
     else:
-        import imageio.v3 as iio
+        from PIL import Image
 
-        cm = np.asarray(iio.imread(p))
+        with Image.open(p) as img:
+            cm = np.asarray(img)
     if cm.shape != tuple(shape):
-        raise InputError(f"Class map '{p}' has shape {cm.shape} but the terrain has {tuple(shape)}; they must match.")
+        raise InputError(
+            f"Class map '{p}' has shape {cm.shape} but the terrain has {tuple(shape)}; "
+            "they must match."
+        )
     return cm
 
 
@@ -90,7 +104,13 @@ def build(cfg: StreamScenario) -> tuple[Heightmap, np.ndarray, ParticleStream]:
     hm = build_terrain(cfg.terrain, cfg.seed)
     d0, strata = build_hardness(cfg.hardness, hm, cfg.seed)
     stream = ParticleStream(
-        hm.z, d0, hm.cell_size, emitters_in_metres(cfg, hm.cell_size), cfg.seed, strata, pool=cfg.stream.pool
+        hm.z,
+        d0,
+        hm.cell_size,
+        emitters_in_metres(cfg, hm.cell_size),
+        cfg.seed,
+        strata,
+        pool=cfg.stream.pool,
     )
     return hm, d0, stream
 
@@ -103,7 +123,9 @@ def _strata_picture(z: np.ndarray, d: np.ndarray, cell_size: float) -> np.ndarra
     return np.clip(tint * shade[..., None], 0.0, 1.0)
 
 
-def write_outputs(out: RunFolder, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) -> dict[str, Any]:
+def write_outputs(
+    out: RunFolder, hm: Heightmap, d0: np.ndarray, stream: ParticleStream
+) -> dict[str, Any]:
     """Maps and figures of a finished (or interrupted) stream; returns what the report needs."""
     from erosim.io import heightmaps as hio
     from erosim.viz.maps import colormap_png, hillshade, save_png
@@ -146,14 +168,20 @@ def run(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: b
 
     def completed() -> float:
         in_flight = int((stream.serial >= 0).sum())
-        return float(stream.particles_emitted - in_flight) if not stream.done else float(stream.particles_total)
+        return (
+            float(stream.particles_emitted - in_flight)
+            if not stream.done
+            else float(stream.particles_total)
+        )
 
     def advance() -> float:
         stream.advance(rounds)
         return completed()
 
     def save_checkpoint() -> None:
-        checkpoint.save(out.checkpoint, stream.state(), {"elapsed_s": elapsed + time.perf_counter() - t0})
+        checkpoint.save(
+            out.checkpoint, stream.state(), {"elapsed_s": elapsed + time.perf_counter() - t0}
+        )
 
     total = float(stream.particles_total)
     drive(
@@ -188,8 +216,12 @@ def run(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: b
         "emitters": list(cfg.emitters),
         "hardness_source": cfg.hardness.kind,
         "strata_follow_cut": stream.strata is not None,
-        "terrain": {"shape": list(hm.shape), "cell_size": hm.cell_size,
-                    "z_min": float(hm.z.min()), "z_max": float(hm.z.max())},
+        "terrain": {
+            "shape": list(hm.shape),
+            "cell_size": hm.cell_size,
+            "z_min": float(hm.z.min()),
+            "z_max": float(hm.z.max()),
+        },
         "stream_wall_s": wall,
         "impacts_per_s": stream.impacts / wall if wall > 0 else None,
         **files,

@@ -6,13 +6,16 @@ geological material:
 * :func:`load` — from a GeoTIFF (band 1), a greyscale/colour image (PNG, 8 or 16 bit) or ``.npy``.
   Floating-point rasters are taken as hardness directly; integer ones are scaled by their type's
   maximum (``uint8``/255, ``uint16``/65535), so a white pixel is unerodible rock.
-* :func:`strata` — layered rock by height band: bands of thickness ``t_b`` and hardness ``D_b`` stacked
+* :func:`strata` — layered rock by height band: bands of thickness ``t_b`` and hardness ``D_b``
+stacked
   from ``z₀`` and repeating with period ``T = Σ t_b``, on planes tilted by ``(t_x, t_y)`` m/m::
 
       q = (h + t_x X + t_y Y − z₀) mod T,     D = D_b  for  e_b ≤ q < e_{b+1},  e_b = Σ_{k<b} t_k
 
-  (``X`` east, ``Y`` north, metres; the same rule as the erosion kernel uses when strata follow the cut).
-* :func:`noise` — a smooth random field (Gaussian-filtered white noise, :func:`scipy.ndimage.gaussian_filter`)
+  (``X`` east, ``Y`` north, metres; the same rule as the erosion kernel uses when strata follow the
+  cut).
+* :func:`noise` — a smooth random field (Gaussian-filtered white noise,
+:func:`scipy.ndimage.gaussian_filter`)
   rescaled to ``[low, high]``.
 * :func:`classes` — a class map (integers) and a table of materials → hardness per class.
 
@@ -31,6 +34,7 @@ from scipy import ndimage
 
 from erosim.core.errors import InputError
 
+
 @dataclass(frozen=True)
 class Strata:
     """Layered hardness: bands of ``thickness`` (m) and ``hardness`` from ``base`` (m), repeating,
@@ -43,11 +47,15 @@ class Strata:
     tilt_y: float = 0.0
 
 
-def check_hardness(d: np.ndarray, shape: tuple[int, int] | None = None, what: str = "hardness map") -> np.ndarray:
-    """``d`` as C-contiguous float64, or an :class:`InputError` (NaN, outside [0, 1], wrong shape)."""
+def check_hardness(
+    d: np.ndarray, shape: tuple[int, int] | None = None, what: str = "hardness map"
+) -> np.ndarray:
+    """``d`` as C-contiguous float64, or an :class:`InputError` (NaN, outside [0, 1], bad shape)."""
     d = np.asarray(d)
     if d.ndim != 2:
-        raise InputError(f"The {what} must be a 2-D array, got shape {d.shape}; give one value per cell.")
+        raise InputError(
+            f"The {what} must be a 2-D array, got shape {d.shape}; give one value per cell."
+        )
     if shape is not None and d.shape != tuple(shape):
         raise InputError(
             f"The {what} has shape {d.shape} but the heightmap has {tuple(shape)}; "
@@ -55,7 +63,9 @@ def check_hardness(d: np.ndarray, shape: tuple[int, int] | None = None, what: st
         )
     d = np.ascontiguousarray(d, dtype=np.float64)
     if not np.isfinite(d).all():
-        raise InputError(f"The {what} holds NaN or infinite values; fill them with a hardness in [0, 1].")
+        raise InputError(
+            f"The {what} holds NaN or infinite values; fill them with a hardness in [0, 1]."
+        )
     lo, hi = float(d.min()), float(d.max())
     if lo < 0.0 or hi > 1.0:
         raise InputError(
@@ -80,7 +90,7 @@ MATERIALS: dict[str, float] = {
 
 
 def load(path: str | os.PathLike, shape: tuple[int, int] | None = None) -> np.ndarray:
-    """Read a hardness map; ``shape`` (ny, nx), when given, must match. Raises :class:`InputError`."""
+    """Read a hardness map; ``shape`` (ny, nx), when given, must match (else an InputError)."""
     p = Path(path)
     if not p.is_file():
         raise InputError(f"Hardness file '{p}' does not exist; check the path (hardness.file).")
@@ -91,30 +101,40 @@ def load(path: str | os.PathLike, shape: tuple[int, int] | None = None) -> np.nd
 
             with rasterio.open(p) as src:
                 raw = src.read(1, masked=True)
-                a = np.asarray(raw.filled(np.nan) if np.ma.isMaskedArray(raw) and raw.mask.any() else raw.data)
+                a = np.asarray(
+                    raw.filled(np.nan) if np.ma.isMaskedArray(raw) and raw.mask.any() else raw.data
+                )
         elif ext == ".npy":
             a = np.load(p, allow_pickle=False)
         else:
-            import imageio.v3 as iio
+            from PIL import Image
 
-            a = np.asarray(iio.imread(p))
+            with Image.open(p) as img:
+                a = np.asarray(img)
             if a.ndim == 3:  # colour: mean of the colour channels (alpha ignored)
                 kind = a.dtype
                 a = a[..., :3].mean(axis=2) if a.shape[2] >= 3 else a[..., 0]
-                a = a.astype(np.float64) / np.iinfo(kind).max if np.issubdtype(kind, np.integer) else a
+                a = (
+                    a.astype(np.float64) / np.iinfo(kind).max
+                    if np.issubdtype(kind, np.integer)
+                    else a
+                )
     except (OSError, ValueError) as exc:
-        raise InputError(f"Hardness file '{p}' cannot be read ({exc}); give a GeoTIFF, PNG or .npy file.") from None
+        raise InputError(
+            f"Hardness file '{p}' cannot be read ({exc}); give a GeoTIFF, PNG or .npy file."
+        ) from None
     if np.issubdtype(a.dtype, np.integer):
         if a.dtype.itemsize > 2 or np.issubdtype(a.dtype, np.signedinteger):
             raise InputError(
-                f"Hardness file '{p}' holds {a.dtype} integers; use floats in [0, 1] or 8/16-bit unsigned pixels."
+                f"Hardness file '{p}' holds {a.dtype} integers; "
+                "use floats in [0, 1] or 8/16-bit unsigned pixels."
             )
         a = a.astype(np.float64) / np.iinfo(a.dtype).max
     return check_hardness(a, shape, what=f"hardness map '{p.name}'")
 
 
 def strata(z: np.ndarray, cell_size: float, spec: Strata) -> np.ndarray:
-    """Hardness of the stratum each cell's height lies in (tilted, repeating bands; see module doc)."""
+    """Hardness of the stratum each cell's height lies in (tilted, repeating bands; module doc)."""
     th = np.asarray(spec.thickness, dtype=np.float64)
     vals = np.asarray(spec.hardness, dtype=np.float64)
     if th.size == 0 or th.size != vals.size:
@@ -123,7 +143,9 @@ def strata(z: np.ndarray, cell_size: float, spec: Strata) -> np.ndarray:
             "list one hardness per band."
         )
     if (th <= 0).any():
-        raise InputError("Every stratum thickness must be positive (metres); fix hardness.thickness.")
+        raise InputError(
+            "Every stratum thickness must be positive (metres); fix hardness.thickness."
+        )
     check_hardness(vals[None, :], what="strata hardness list")
     z = np.asarray(z, dtype=np.float64)
     ny, nx = z.shape
@@ -144,9 +166,14 @@ def noise(
 ) -> np.ndarray:
     """Smooth random hardness in ``[low, high]``: white noise blurred with σ = ``scale`` cells."""
     if not 0.0 <= low <= high <= 1.0:
-        raise InputError(f"Noise hardness range {low:g}..{high:g} is not within [0, 1]; use 0 <= low <= high <= 1.")
+        raise InputError(
+            f"Noise hardness range {low:g}..{high:g} is not within [0, 1]; "
+            "use 0 <= low <= high <= 1."
+        )
     if scale <= 0:
-        raise InputError(f"Noise scale {scale:g} cells must be positive; give the feature size in cells.")
+        raise InputError(
+            f"Noise scale {scale:g} cells must be positive; give the feature size in cells."
+        )
     rng = np.random.default_rng(seed)
     f = ndimage.gaussian_filter(rng.standard_normal(shape), sigma=scale, mode="wrap")
     span = f.max() - f.min()
@@ -155,15 +182,21 @@ def noise(
 
 
 def classes(class_map: np.ndarray, materials: dict[int, str | float]) -> np.ndarray:
-    """Hardness from an integer class map and a table class → material name (see :data:`MATERIALS`) or value."""
+    """Hardness from an integer class map and a table class → material name or hardness value.
+
+    Material names are those of :data:`MATERIALS`."""
     cm = np.asarray(class_map)
     if not np.issubdtype(cm.dtype, np.integer):
-        raise InputError(f"A class map must hold integer classes, got {cm.dtype}; save it as an integer raster.")
+        raise InputError(
+            f"A class map must hold integer classes, got {cm.dtype}; save it as an integer raster."
+        )
     out = np.full(cm.shape, np.nan)
     for cls, mat in materials.items():
         if isinstance(mat, str):
             if mat not in MATERIALS:
-                raise InputError(f"Unknown material '{mat}' for class {cls}; use one of: {', '.join(MATERIALS)}.")
+                raise InputError(
+                    f"Unknown material '{mat}' for class {cls}; use one of: {', '.join(MATERIALS)}."
+                )
             val = MATERIALS[mat]
         else:
             val = float(mat)
@@ -171,6 +204,7 @@ def classes(class_map: np.ndarray, materials: dict[int, str | float]) -> np.ndar
     missing = np.unique(cm[np.isnan(out)])
     if missing.size:
         raise InputError(
-            f"Class map values {missing[:5].tolist()} have no material; add them to the materials table."
+            f"Class map values {missing[:5].tolist()} have no material; "
+            "add them to the materials table."
         )
     return check_hardness(out, what="class-map hardness")
