@@ -43,7 +43,13 @@ def test_library_scenario_writes_the_run_folder(tmp_path):
         "erosion_mask.png",
     ):
         assert (out / "maps" / name).is_file(), name
-    for name in ("hillshade_before.png", "hillshade_after.png", "strata_after.png", "erosion.png"):
+    for name in (
+        "hillshade_before.png",
+        "hillshade_after.png",
+        "strata_after.png",
+        "erosion.png",
+        "canyon.png",
+    ):
         assert (out / "figures" / name).is_file(), name
     assert (out / "scenario.toml").is_file() and (out / "checkpoint" / "state.npz").is_file()
     rep = json.loads((out / "report.json").read_text())

@@ -9,7 +9,8 @@ What a run leaves (every file written atomically):
   ``maps/hardness_initial.tif`` and ``maps/hardness.tif`` (final: strata that follow the cut change
   it), ``maps/erosion.tif`` (h₀ − h, m) and ``maps/erosion_mask.png`` (PNG16 texture mask, 0…max);
 * ``figures/hillshade_before.png``, ``figures/hillshade_after.png``, ``figures/strata_after.png``
-  (shaded relief tinted by hardness) and ``figures/erosion.png``;
+  (shaded relief tinted by hardness), ``figures/erosion.png`` and ``figures/canyon.png`` (that map
+  beside a cross-section through the deepest cut, rock coloured by hardness);
 * ``checkpoint/state.npz`` every ``stream.checkpoint_wall_s``, at the end and on Ctrl-C;
   ``erosim run --resume DIR`` continues exactly (counter-based random numbers need no RNG state).
 """
@@ -123,6 +124,70 @@ def _strata_picture(z: np.ndarray, d: np.ndarray, cell_size: float) -> np.ndarra
     return np.clip(tint * shade[..., None], 0.0, 1.0)
 
 
+def canyon_figure(
+    path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: float, spec: Strata | None
+) -> None:
+    """Map (relief tinted by hardness) and a north–south cross-section through the deepest cut
+    in the middle of the map (30–70 % of its width).
+
+    The section's rock is coloured by its hardness — the strata themselves when they are known
+    (``spec``), else the surface hardness of each cell — under the final surface; the dashed line is
+    the surface before erosion, so the white space between the two is the carved canyon.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from erosim.io.atomic import atomic_path
+
+    erosion = h0 - h
+    ny, nx = h.shape
+    lo, hi = int(0.3 * nx), max(int(0.7 * nx), int(0.3 * nx) + 1)  # away from the emitter's head
+    deepest = erosion[:, lo:hi].max(axis=0)
+    col = lo + int(np.argmax(deepest)) if deepest.max() > 0 else nx // 2
+    centre = int(np.argmax(erosion[:, col])) if erosion[:, col].max() > 0 else ny // 2
+    cut = np.nonzero(erosion[:, col] > 0.02 * max(erosion[:, col].max(), 1e-12))[0]
+    half = max(15, int(1.2 * (cut.max() - cut.min() + 1)) if cut.size else 15)
+    r0, r1 = max(0, centre - half), min(ny, centre + half + 1)
+    rows = np.arange(r0, r1)
+    top, bottom = float(h0[rows, col].max()), float(h[rows, col].min())
+    pad = 0.15 * max(top - bottom, 1.0)
+    zs = np.linspace(top + pad, bottom - pad, 400)[:, None]
+    if spec is not None:
+        from erosim.terrain.hardness import strata_at
+
+        rock = strata_at(zs, float(col), rows[None, :].astype(float), cell, spec)
+    else:
+        rock = np.broadcast_to(d[rows, col][None, :], (zs.size, rows.size)).copy()
+    rock = np.where(zs <= h[rows, col][None, :], rock, np.nan)
+    dist = (rows - r0) * cell
+
+    fig = Figure(figsize=(10, 4.2), dpi=100)
+    FigureCanvasAgg(fig)
+    ax0, ax1 = fig.add_axes([0.01, 0.08, 0.36, 0.84]), fig.add_axes([0.45, 0.14, 0.46, 0.76])
+    ax0.imshow(_strata_picture(h, d, cell), interpolation="nearest")
+    ax0.plot([col, col], [r0, r1 - 1], color="cyan", lw=1.5)
+    ax0.set_axis_off()
+    ax0.set_title("after: relief tinted by hardness", fontsize=10)
+    im = ax1.imshow(
+        rock,
+        extent=[dist[0], dist[-1], zs[-1, 0], zs[0, 0]],
+        aspect="auto",
+        cmap="copper_r",
+        vmin=0.0,
+        vmax=1.0,
+        interpolation="nearest",
+    )
+    ax1.plot(dist, h0[rows, col], "k--", lw=1.0, label="before")
+    ax1.plot(dist, h[rows, col], "k-", lw=1.2, label="after")
+    ax1.set_xlabel("distance along the section, north → south (m)")
+    ax1.set_ylabel("height (m)")
+    ax1.set_title(f"cross-section at x = {col * cell:.0f} m (cyan line)", fontsize=10)
+    ax1.legend(loc="lower left", fontsize=8)
+    fig.colorbar(im, ax=ax1, label="hardness (1 = unerodible)", fraction=0.05, pad=0.02)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+
+
 def write_outputs(
     out: RunFolder, hm: Heightmap, d0: np.ndarray, stream: ParticleStream
 ) -> dict[str, Any]:
@@ -145,6 +210,7 @@ def write_outputs(
     save_png(figs / "hillshade_after.png", hillshade(stream.h, hm.cell_size))
     save_png(figs / "strata_after.png", _strata_picture(stream.h, stream.d, hm.cell_size))
     colormap_png(figs / "erosion.png", erosion, "magma")
+    canyon_figure(figs / "canyon.png", hm.z, stream.h, stream.d, hm.cell_size, stream.strata)
     return {
         "height_png_range": png.get("height_range"),
         "height_raw_range": raw.get("height_range"),

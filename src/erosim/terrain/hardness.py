@@ -135,6 +135,16 @@ def load(path: str | os.PathLike, shape: tuple[int, int] | None = None) -> np.nd
 
 def strata(z: np.ndarray, cell_size: float, spec: Strata) -> np.ndarray:
     """Hardness of the stratum each cell's height lies in (tilted, repeating bands; module doc)."""
+    z = np.asarray(z, dtype=np.float64)
+    ny, nx = z.shape
+    i = np.arange(nx, dtype=np.float64)[None, :]
+    j = np.arange(ny, dtype=np.float64)[:, None]
+    return np.ascontiguousarray(strata_at(z, i, j, cell_size, spec))
+
+
+def strata_at(z, i, j, cell_size: float, spec: Strata) -> np.ndarray:
+    """Hardness of the stratum at height ``z`` above grid position (column ``i``, row ``j``);
+    arrays broadcast (e.g. a cross-section: heights × rows at one column)."""
     th = np.asarray(spec.thickness, dtype=np.float64)
     vals = np.asarray(spec.hardness, dtype=np.float64)
     if th.size == 0 or th.size != vals.size:
@@ -147,18 +157,14 @@ def strata(z: np.ndarray, cell_size: float, spec: Strata) -> np.ndarray:
             "Every stratum thickness must be positive (metres); fix hardness.thickness."
         )
     check_hardness(vals[None, :], what="strata hardness list")
-    z = np.asarray(z, dtype=np.float64)
-    ny, nx = z.shape
     edges = np.concatenate([[0.0], np.cumsum(th)[:-1]])
     period = float(th.sum())
     # same arithmetic, in the same order, as the kernel's _band (so both agree to the bit)
     tx, ty = spec.tilt_x * cell_size, -spec.tilt_y * cell_size
-    i = np.arange(nx, dtype=np.float64)[None, :]
-    j = np.arange(ny, dtype=np.float64)[:, None]
-    q = z + tx * i + ty * j - spec.base
+    q = np.asarray(z, dtype=np.float64) + tx * i + ty * j - spec.base
     q = q - period * np.floor(q * (1.0 / period))
     band = np.searchsorted(edges, q, side="right") - 1
-    return np.ascontiguousarray(vals[np.clip(band, 0, vals.size - 1)])
+    return vals[np.clip(band, 0, vals.size - 1)]
 
 
 def noise(
