@@ -53,7 +53,7 @@ def _table_value(ann: Any) -> Any:
 
 
 def _skip_table_keys(model: type[BaseModel], loc: tuple) -> tuple:
-    """``loc`` minus the names in ``dict[str, Sub]`` tables: ``emitters.main.x`` → ``emitters.x``."""
+    """``loc`` minus names in ``dict[str, Sub]`` tables (``emitters.main.x`` → ``emitters.x``)."""
     out, cls = [], model
     it = iter(loc)
     for part in it:
@@ -127,6 +127,10 @@ def describe_section(model: type[BaseModel], prefix: str = "") -> list[tuple[str
         ann = info.annotation
         if isinstance(ann, type) and issubclass(ann, BaseModel):
             rows.extend(describe_section(ann, key + "."))
+            continue
+        sub = _table_value(ann)
+        if sub is not ann and isinstance(sub, type) and issubclass(sub, BaseModel):
+            rows.extend(describe_section(sub, key + ".<name>."))  # [key.NAME] tables
             continue
         extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
         default = "" if info.is_required() else repr(info.get_default(call_default_factory=True))

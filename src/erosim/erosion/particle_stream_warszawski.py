@@ -366,6 +366,9 @@ def advance_strata(
 class Emitter(Section):
     """One emitter (the scenario's ``[emitters.NAME]`` table); lengths in metres, angles in degrees.
 
+    The scenario may give the horizontal lengths in cells instead (``stream.length_unit``); the
+    runner converts them to metres before the physics sees them.
+
     ``x``, ``y`` place the window centre as fractions of the map width (from the west edge) and
     height (from the north edge); ``direction_deg`` is the heading, counter-clockwise from east (90
     = north).
@@ -378,15 +381,19 @@ class Emitter(Section):
         0.5, unit="1", doc="window centre, fraction of the map height from the north edge"
     )
     direction_deg: float = param(0.0, unit="deg", doc="stream heading, counter-clockwise from east")
-    width: float = param(20.0, ge=0, unit="m", doc="window width across the stream (stream width)")
-    length: float = param(0.0, ge=0, unit="m", doc="window length along the stream")
+    width: float = param(
+        20.0, ge=0, unit="m|cell", doc="window width across the stream (stream width)"
+    )
+    length: float = param(0.0, ge=0, unit="m|cell", doc="window length along the stream")
     spread_deg: float = param(5.0, ge=0, le=180, unit="deg", doc="initial heading jitter ±")
     particles: int = param(10_000, ge=0, unit="1", doc="particles this emitter emits in total")
     steps: int = param(40, ge=1, unit="1", doc="impacts per particle before it returns to the pool")
-    speed: float = param(2.0, gt=0, unit="m/step", doc="mean speed v (radius of the motion circle)")
+    speed: float = param(
+        2.0, gt=0, unit="m|cell per step", doc="mean speed v (radius of the motion circle)"
+    )
     speed_jitter: float = param(0.2, ge=0, lt=1, unit="1", doc="relative speed jitter ±")
     max_speed: float = param(
-        4.0, gt=0, unit="m/step", doc="v_max: at this speed the course never deviates"
+        4.0, gt=0, unit="m|cell per step", doc="v_max: at this speed the course never deviates"
     )
     max_angle_deg: float = param(
         20.0,
@@ -410,10 +417,10 @@ class Emitter(Section):
         0.02, ge=0, unit="m", doc="e: lowering at the impact point per unit mass"
     )
     radius_per_mass: float = param(
-        4.0, gt=0, unit="m", doc="kappa: radius of influence per unit mass"
+        4.0, gt=0, unit="m|cell", doc="kappa: radius of influence per unit mass"
     )
     pivot_offset: float = param(
-        0.0, ge=0, unit="m", doc="rho: rotational motion, pivot shift from the track"
+        0.0, ge=0, unit="m|cell", doc="rho: rotational motion, pivot shift from the track"
     )
     rotation_speed_deg: float = param(0.0, unit="deg/step", doc="r: rotational speed")
     rotation_angle_deg: float = param(0.0, unit="deg", doc="beta_0: initial rotation angle")
