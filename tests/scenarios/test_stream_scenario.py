@@ -213,3 +213,19 @@ def test_every_hardness_source_builds(tmp_path):
         hm, d0, stream = stream_run.build(sc.config)
         assert ok(d0), name
         assert (stream.strata is not None) == (name == "strata"), name
+
+
+def test_bench_stream_prints_one_json_object(monkeypatch):
+    from erosim.bench import stream as bench
+
+    monkeypatch.setattr(bench, "SIZE", 96)  # the contract, not the timing: a small map, one repeat
+    monkeypatch.setattr(bench, "MIN_TIME", 0.0)
+    res = CliRunner().invoke(
+        cli, ["bench", "stream", "--particles", "100", "--particles", "300", "--json"]
+    )
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.output)
+    assert [r["particles"] for r in out["runs"]] == [100, 300]
+    for r in out["runs"]:
+        assert r["impacts"] == r["particles"] * bench.STEPS  # fixed work per particle
+        assert r["particles_per_s"] > 0 and r["us_per_particle"] > 0
