@@ -58,21 +58,27 @@ erodibility::
 
     h ← h − Δh (1 − d)
 
-so ``d = 1`` never changes and the terrain only goes down. The kernels return ``Σ`` of the
-lowerings (m); times the cell area it is the removed volume.
+so ``d = 1`` never changes and the terrain only goes down. The kernels add up the lowerings (m,
+in ``acc[0]``); times the cell area that is the removed volume.
+
+Order of one step of a particle (it moves on the heightmap, so every step touches the surface and
+is both a collision and an impact): impact point ``P_k`` (off the map → back to the pool),
+collision turn of the heading (ST-4), deformation around ``P_k`` (ST-5), move to ``C_{k+1}``
+(ST-3).
 
 Strata that follow the cut (``advance_strata``): with hardness given by layered strata
 (:mod:`erosim.terrain.hardness`), a cell's hardness is that of the band its *current* height lies
 in, ``d = D_b`` with ``b`` the band of ``q = (h + t_x i + t_y j − z₀) mod T`` (bands of thicknesses
 ``t_b`` from ``z₀`` repeating with period ``T = Σ t_b``, tilt ``t_x, t_y`` in metres per cell), and
-it is re-read after every lowering, so a canyon meets hard and soft layers as it deepens.
+it is re-read whenever a lowering takes a cell below its stratum's floor, so a canyon meets hard
+and soft layers as it deepens.
 
 ST-6 cost: per impact a fixed ``2J + 1`` probes and ``≈ π λ²`` cells, so the work is O(n) in the
 number of particles.
 
 Why hand-written Numba: the stream is inherently sequential — each impact reads the terrain the
 earlier ones cut (strata hardness too) — and is made of tiny per-particle operations that no array
-library expresses; a jitted loop runs them at ~10⁷ impacts per second. It runs on one thread on
+library expresses; a jitted loop runs millions of impacts per second. It runs on one thread on
 purpose: the result then depends only on the seed, never on the thread count. Random numbers are
 counter-based (SplitMix64 of seed, emitter, particle serial and draw number), so a checkpoint needs
 no generator state and a resumed run reproduces the uninterrupted one exactly.
