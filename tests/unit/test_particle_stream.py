@@ -256,3 +256,24 @@ def test_bad_inputs_give_clear_errors():
         from erosim.core.config import validate_section
 
         validate_section(Emitter, {"width": -1.0}, "emitters.main")
+
+
+@pytest.mark.parametrize(
+    "direction, drow, dcol", [(0, 0, 1), (90, -1, 0), (180, 0, -1), (-90, 1, 0)]
+)
+def test_direction_is_compass_style_and_the_window_bounds_the_entry(direction, drow, dcol):
+    n = 96
+    c = 0.5 * (n - 1)
+    # first impacts only: they lie in the window, a segment of width 10 across the heading
+    em = single(particles=200, width=10.0, direction_deg=direction, radius_per_mass=1.0)
+    h, _, _ = erode(flat(n), np.zeros((n, n)), 1.0, [em], seed=3)
+    rows, cols = np.nonzero(h < 10.0)
+    along = (rows - c) * drow + (cols - c) * dcol
+    across = (rows - c) * dcol - (cols - c) * drow
+    assert np.abs(along).max() < 1.0  # within λ = 1 of the window's line
+    assert np.abs(across).max() < 5.0 + 1.0 and np.abs(across).max() > 4.0  # ±w/2 (+λ)
+    # travelling: the cut extends along the heading (east = +column, north = −row)
+    em = single(particles=20, steps=30, speed=1.0, max_speed=1.0, direction_deg=direction)
+    h, _, _ = erode(flat(n), np.zeros((n, n)), 1.0, [em], seed=3)
+    rows, cols = np.nonzero(h < 10.0)
+    assert ((rows - c) * drow + (cols - c) * dcol).max() > 25
