@@ -1,0 +1,200 @@
+"""HY-1 descend: a water droplet runs downhill, erodes and deposits (SimpleHydrology 2020).
+
+One step of duration dt (the seed's, split into n sub-steps of h = dt/n so that a droplet never
+moves more than ``max_step`` cells — at a finer grid it then sees every cell it crosses):
+
+    n_h  = −∇z / √(1 + |∇z|²)                        horizontal part of the unit normal
+    a    = (ℓ/s²) · n_h / (V/V₀ · ρ)                  (seed: acc = n.xz / (volume·density))
+    v   += h·a ;  x += h·v ;  v *= 1 − h·f_eff,       f_eff = friction·(1 − 0.5·stream)
+    c_eq = cap·ℓ·(V/V₀)·|v|·max(0, Δz·dt/h)           capacity; Δz the drop over the sub-step
+    ΔS   = (h/dt)·k_d·(1 − roots)·(c_eq − S)          × erodibility where ΔS > 0 (erosion)
+    z   −= ΔS spread over the ℓ×ℓ footprint of the old position; S += ΔS
+    V   *= 1 − h·e_eff,                               e_eff = evaporation·(1 − 0.2·stream)
+
+The droplet ends when V < V_min, or leaves the world (map edge, sea: its water and sediment leave),
+or stops for HY-2 flood: it enters a lake, or it is in a strong stream (> 0.5) with |a| below
+0.01 ℓ/s², or (``pit_flood``, an erosim addition) it moves less than half a cell per sub-step
+into a cell no higher than its 8 neighbours. Every visited cell's footprint is marked in ``track`` (HY-4). Lake cells are never
+eroded or filled by descent (their water level bookkeeping stays exact, see ``pools``).
+
+Sediment is kept as an amount (m³) — the seed's ``sediment /= (1 − dt·evap)`` rescaling is left
+out so that the sediment budget closes. Written as a Numba kernel because the droplet loop is
+sequential and per-point (no library does it).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from erosim.hydrology.params import (
+    P_ACC,
+    P_AMIN,
+    P_CA,
+    P_CAP,
+    P_DENS,
+    P_DT,
+    P_DX,
+    P_EVAP,
+    P_FOOT,
+    P_FRIC,
+    P_KD,
+    P_MAXSTEP,
+    P_MAXSTEPS,
+    P_PIT,
+    P_SEA,
+    P_V0,
+    P_VMIN,
+)
+from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_STEPS
+from erosim.kernels.raster import bilinear, gradient
+
+ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
+LEFT = 1  # left the map or entered the sea: water and sediment accounted as gone
+STOP = 2  # stopped at a cell for HY-2 flood
+
+
+@njit(cache=True)
+def footprint_start(x, m):
+    """First index of the m-cell footprint centred on x (cell units): floor(x − (m−1)/2 + ½)."""
+    return int(math.floor(x - 0.5 * (m - 1) + 0.5))
+
+
+@njit(cache=True)
+def mark(track, nx, ny, x, y, m):
+    i0 = footprint_start(x, m)
+    j0 = footprint_start(y, m)
+    for j in range(max(j0, 0), min(j0 + m, ny)):
+        for i in range(max(i0, 0), min(i0 + m, nx)):
+            track[j * nx + i] = 1
+
+
+@njit(cache=True)
+def transfer(zf, lake_of, nx, ny, x, y, m, amount, cell_area):
+    """Remove ``amount`` m³ (negative: add) evenly from the dry cells of the footprint at (x, y).
+
+    Returns the amount actually moved (0 when every footprint cell is a lake cell).
+    """
+    i0 = footprint_start(x, m)
+    j0 = footprint_start(y, m)
+    cnt = 0
+    for j in range(max(j0, 0), min(j0 + m, ny)):
+        for i in range(max(i0, 0), min(i0 + m, nx)):
+            if lake_of[j * nx + i] < 0:
+                cnt += 1
+    if cnt == 0:
+        return 0.0
+    dz = amount / (cnt * cell_area)
+    for j in range(max(j0, 0), min(j0 + m, ny)):
+        for i in range(max(i0, 0), min(i0 + m, nx)):
+            c = j * nx + i
+            if lake_of[c] < 0:
+                zf[c] -= dz
+    return amount
+
+
+@njit(cache=True)
+def is_pit(zf, nx, ny, ix, iy):
+    """True when cell (ix, iy) is not higher than any of its (in-map) 8 neighbours."""
+    h = zf[iy * nx + ix]
+    for j in range(max(iy - 1, 0), min(iy + 2, ny)):
+        for i in range(max(ix - 1, 0), min(ix + 2, nx)):
+            if zf[j * nx + i] < h:
+                return False
+    return True
+
+
+@njit(cache=True)
+def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, track, B, P):
+    """Run one droplet until it ends, leaves or stops (see module docstring).
+
+    Returns (status, x, y, vx, vy, V, S) with positions in cell units and V, S in m³.
+    """
+    ny, nx = z2.shape
+    dt = P[P_DT]
+    dx = P[P_DX]
+    ca = P[P_CA]
+    m = int(P[P_FOOT])
+    maxstep = P[P_MAXSTEP]
+    v0 = P[P_V0]
+    vmin = P[P_VMIN]
+    sea = P[P_SEA]
+    steps = 0
+    maxsteps = int(P[P_MAXSTEPS])
+    while True:
+        ix = int(x + 0.5)
+        iy = int(y + 0.5)
+        c = iy * nx + ix
+        mark(track, nx, ny, x, y, m)
+        gx, gy = gradient(z2, x, y)
+        gx /= dx
+        gy /= dx
+        inv = 1.0 / math.sqrt(1.0 + gx * gx + gy * gy)
+        vrel = V / v0
+        s = stream[c]
+        fe = P[P_FRIC] * (1.0 - 0.5 * s)
+        ee = P[P_EVAP] * (1.0 - 0.2 * s)
+        scale = P[P_ACC] / (vrel * P[P_DENS])
+        ax = -gx * inv * scale
+        ay = -gy * inv * scale
+        amag = math.sqrt(ax * ax + ay * ay)
+        nsub = 1
+        if maxstep > 0.0:
+            dist = (math.sqrt(vx * vx + vy * vy) + dt * amag) * dt / dx
+            if dist > maxstep:
+                nsub = min(int(math.ceil(dist / maxstep)), 1024)
+        h = dt / nsub
+        vx += h * ax
+        vy += h * ay
+        x0 = x
+        y0 = y
+        x += h * vx / dx
+        y += h * vy / dx
+        damp = 1.0 - h * fe
+        vx *= damp
+        vy *= damp
+        steps += 1
+        if x < -0.5 or y < -0.5 or x >= nx - 0.5 or y >= ny - 0.5:
+            B[B_LEFT] += V
+            B[B_CARRIED] += S
+            B[B_STEPS] += steps
+            return LEFT, x0, y0, vx, vy, 0.0, 0.0
+        jx = int(x + 0.5)
+        jy = int(y + 0.5)
+        cn = jy * nx + jx
+        if zf[cn] < sea:
+            B[B_LEFT] += V
+            B[B_CARRIED] += S
+            B[B_STEPS] += steps
+            return LEFT, x, y, vx, vy, 0.0, 0.0
+        if (stream[cn] > 0.5 and amag < P[P_AMIN]) or lake_of[cn] >= 0:
+            B[B_STEPS] += steps
+            return STOP, x, y, vx, vy, V, S
+        speed = math.sqrt(vx * vx + vy * vy)
+        if speed * h < P[P_PIT] and is_pit(zf, nx, ny, jx, jy):
+            B[B_STEPS] += steps
+            return STOP, x, y, vx, vy, V, S
+        # mass transfer at the old position
+        drop = (bilinear(z2, x0, y0) - bilinear(z2, x, y)) * nsub
+        ceq = P[P_CAP] * vrel * speed * drop if drop > 0.0 else 0.0
+        hold = 1.0 - roots[c]
+        if hold < 0.0:
+            hold = 0.0
+        diff = ceq - S
+        amt = (P[P_KD] / nsub) * hold * diff
+        if diff > 0.0:
+            amt *= erod[c]
+        if amt != 0.0:
+            moved = transfer(zf, lake_of, nx, ny, x0, y0, m, amt, ca)
+            if moved > 0.0:
+                B[B_ERODED] += moved
+            else:
+                B[B_DEPOSITED] -= moved
+            S += moved
+        vn = V * (1.0 - h * ee)
+        B[B_EVAP] += V - vn
+        V = vn
+        if V < vmin or steps >= maxsteps:
+            B[B_STEPS] += steps
+            return ENDED, x, y, vx, vy, V, S

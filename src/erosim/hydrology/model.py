@@ -1,0 +1,427 @@
+"""HY-3 the hydrological cycle and its water and sediment budgets.
+
+A cycle: ``droplets_per_cycle`` droplets, each spawned uniformly (or by the rain map), then
+descend (HY-1) and flood (HY-2) alternately — at most ``spill`` floods — until its volume is
+spent; then the stream map update (HY-4) and one vegetation step (HY-5). Droplets run one after
+another in a single-threaded Numba loop: each droplet sees the terrain and lakes the previous one
+left, which is the seed's semantics and makes the result independent of the thread count.
+
+Random numbers: droplet i's spawn point comes from SplitMix64 hashing of (seed, i), vegetation's
+from NumPy's PCG64 seeded with (seed, cycle): a run resumed from a checkpoint taken between
+cycles repeats the uninterrupted run bit for bit.
+
+Budgets (float64 accumulators, m³):
+
+* water — rained = Σ V₀ over droplets; in_lakes = Σ lake depth·Δx² (measured on the final maps);
+  evaporated = evaporation along the paths + the volume left in droplets that ended (below the
+  minimum volume, at the spill limit, or at the step cap: the seed deletes them); left_edges =
+  water that left over a map edge or into the sea (droplets and lakes draining there).
+  closure_rel = |rained − in_lakes − evaporated − left_edges| / rained.
+* sediment — eroded = volume taken from the terrain; deposited = volume put back (along paths,
+  on lake beds, where droplets end); carried_off = sediment leaving over an edge or into the sea.
+  closure_rel = |eroded − deposited − carried_off| / eroded. Independently,
+  Σ(z − z₀)·Δx² = deposited − eroded is checked (``terrain_change``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+
+import numpy as np
+from numba import njit
+
+from erosim.core.errors import InputError
+from erosim.hydrology import pools, streams, vegetation
+from erosim.hydrology.droplets import ENDED, LEFT, descend
+from erosim.hydrology.params import (
+    P_CA,
+    P_DRAIN,
+    P_EDGE,
+    P_LAKES,
+    P_SEA,
+    P_SPILL,
+    P_V0,
+    HydrologyParams,
+    VegetationParams,
+    droplets_per_cycle,
+    kernel_constants,
+    reference_length,
+)
+from erosim.hydrology.pools import (
+    B_CARRIED,
+    B_DEPOSITED,
+    B_ERODED,
+    B_EVAP,
+    B_FLOOD_NS,
+    B_FLOODS,
+    B_LEFT,
+    B_RAINED,
+    B_RESID,
+    B_SIZE,
+    B_STEPS,
+    B_TO_LAKES,
+    DRAIN,
+    HS_BUMP,
+    HS_NLAKES,
+    flood,
+    settle_in_lake,
+)
+from erosim.terrain.heightmap import Heightmap
+
+_libc = ctypes.CDLL(ctypes.util.find_library("c"))
+_clock_gettime = _libc.clock_gettime
+_clock_gettime.argtypes = [ctypes.c_int, ctypes.c_void_p]
+_clock_gettime.restype = ctypes.c_int
+_CLOCK_MONOTONIC = 1
+
+
+@njit
+def _now_real(ts):
+    """Monotonic clock in ns (libc clock_gettime through ctypes: ~30 ns a call)."""
+    _clock_gettime(_CLOCK_MONOTONIC, ts.ctypes.data)
+    return ts[0] * 1_000_000_000 + ts[1]
+
+
+@njit(cache=True)
+def _now_none(ts):
+    return 0
+
+
+@njit(cache=True)
+def splitmix64(x):
+    """SplitMix64 finaliser (Steele, Lea & Flood 2014): a well-mixed 64-bit hash of x."""
+    x = (x + np.uint64(0x9E3779B97F4A7C15)) & np.uint64(0xFFFFFFFFFFFFFFFF)
+    x = ((x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)) & np.uint64(0xFFFFFFFFFFFFFFFF)
+    x = ((x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)) & np.uint64(0xFFFFFFFFFFFFFFFF)
+    return x ^ (x >> np.uint64(31))
+
+
+@njit(cache=True)
+def _unit(state):
+    """Next uniform in [0, 1) and the new state."""
+    state = splitmix64(state)
+    return (state >> np.uint64(11)) * (1.0 / 9007199254740992.0), state
+
+
+@njit(cache=True)
+def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P,
+            hkey, hcell, hleft, hright, hrank, hs, stack):
+    """A droplet ends at cell c: its volume counts as evaporated, its sediment settles there."""
+    B[B_RESID] += V
+    if S <= 0.0:
+        return
+    k = lake_of[c]
+    if k >= 0:
+        extra = settle_in_lake(k, c, S, zf, lake_of, level, area, mroot, broot, P[P_CA],
+                               hkey, hcell, hleft, hright, hrank, hs, stack)
+        B[B_TO_LAKES] -= extra
+        B[B_RESID] += extra
+        B[B_DEPOSITED] += S
+    elif zf[c] < P[P_SEA]:
+        B[B_CARRIED] += S
+    else:
+        zf[c] += S / P[P_CA]
+        B[B_DEPOSITED] += S
+
+
+@njit(cache=True)
+def run_droplets(first, count, seed, z2, stream, roots, erod, lake_of, track, level, area, mroot,
+                 broot, hkey, hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, now,
+                 margin, lake_cap):
+    """Droplets ``first`` … ``first + count − 1``; returns how many ran (fewer when the heap pool
+    or the lake table needs a rebuild first — the caller rebuilds and continues).
+
+    ``now`` is the flood timer: :func:`_now_none` normally (cached build), :func:`_now_real` in
+    the benchmark (a separate, uncached build that measures the time spent in HY-2)."""
+    ny, nx = z2.shape
+    zf = z2.reshape(-1)
+    sf = stream.reshape(-1)
+    rf = roots.reshape(-1)
+    ef = erod.reshape(-1)
+    ts = np.zeros(2, np.int64)
+    spill = int(P[P_SPILL])
+    lakes_on = P[P_LAKES] > 0.0
+    ca = P[P_CA]
+    sea = P[P_SEA]
+    edge = P[P_EDGE]
+    drainage = P[P_DRAIN]
+    base = splitmix64(np.uint64(seed) * np.uint64(0x2545F4914F6CDD1D))
+    for i in range(count):
+        if hkey.shape[0] - hs[HS_BUMP] < margin or hs[HS_NLAKES] + spill + 2 >= lake_cap:
+            return i
+        st = splitmix64(base ^ np.uint64(first + i))
+        u1, st = _unit(st)
+        u2, st = _unit(st)
+        if rain_cdf.shape[0] > 0:
+            u3, st = _unit(st)
+            cell = np.searchsorted(rain_cdf, u3 * rain_cdf[-1], side="right")
+            if cell >= nx * ny:
+                cell = nx * ny - 1
+            x = (cell % nx) + u1 - 0.5
+            y = (cell // nx) + u2 - 0.5
+        else:
+            x = u1 * nx - 0.5
+            y = u2 * ny - 0.5
+        V = P[P_V0]
+        S = 0.0
+        vx = 0.0
+        vy = 0.0
+        B[B_RAINED] += V
+        rounds = spill
+        while True:
+            status, x, y, vx, vy, V, S = descend(x, y, vx, vy, V, S, z2, zf, sf, rf, ef,
+                                                 lake_of, track, B, P)
+            if status == LEFT:
+                break
+            c = int(y + 0.5) * nx + int(x + 0.5)
+            if status == ENDED or not lakes_on:
+                _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P,
+                        hkey, hcell, hleft, hright, hrank, hs, stack)
+                break
+            t0 = now(ts)
+            res, cell, V, S = flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea,
+                                    edge, ca, drainage, hkey, hcell, hleft, hright, hrank, hs, stack,
+                                    walk)
+            B[B_FLOOD_NS] += now(ts) - t0
+            B[B_FLOODS] += 1
+            if res != DRAIN:
+                break
+            x = float(cell % nx)
+            y = float(cell // nx)
+            rounds -= 1
+            if rounds <= 0:
+                _settle(cell, V, S, zf, lake_of, level, area, mroot, broot, B, P,
+                        hkey, hcell, hleft, hright, hrank, hs, stack)
+                break
+    return count
+
+
+def _check_map(name: str, arr, shape) -> np.ndarray:
+    a = np.asarray(arr, dtype=np.float64)
+    if a.shape != tuple(shape):
+        raise InputError(
+            f"The {name} map has shape {a.shape} but the terrain has {tuple(shape)}; "
+            "give a map of the same size as the terrain."
+        )
+    if not np.isfinite(a).all() or (a < 0).any():
+        raise InputError(f"The {name} map holds negative or non-finite values; use finite values >= 0.")
+    return np.ascontiguousarray(a)
+
+
+class HydrologyModel:
+    """Heightmap + stream, lakes and trees, advanced one cycle at a time (HY-3)."""
+
+    STATE_KEYS = ("z", "z0", "stream", "roots", "trees", "lake_of", "level", "budget",
+                  "droplets", "cycles")
+
+    def __init__(self, terrain: Heightmap, params: HydrologyParams | None = None,
+                 veg: VegetationParams | None = None, seed: int = 0,
+                 rain: np.ndarray | None = None, erodibility: np.ndarray | None = None,
+                 timing: bool = False):
+        self.p = params or HydrologyParams()
+        self.veg = veg or VegetationParams()
+        self.seed = int(seed)
+        self.terrain = terrain
+        self.cell_size = float(terrain.cell_size)
+        self.ell = reference_length(self.p, self.cell_size)
+        self.P = kernel_constants(self.p, self.cell_size)
+        self.z = np.ascontiguousarray(terrain.z, dtype=np.float64).copy()
+        self.z0 = self.z.copy()
+        ny, nx = self.z.shape
+        n = nx * ny
+        self.n = n
+        self.stream = np.zeros((ny, nx))
+        self.roots = np.zeros((ny, nx))
+        self.trees = np.zeros((ny, nx), np.uint8)
+        self.track = np.zeros(n, np.uint8)
+        self.erod = np.ones((ny, nx)) if erodibility is None else _check_map("erodibility", erodibility, (ny, nx))
+        if rain is None:
+            self.rain_cdf = np.zeros(0)
+        else:
+            r = _check_map("rain", rain, (ny, nx)).ravel()
+            if r.sum() <= 0:
+                raise InputError("The rain map is zero everywhere; give positive values where rain falls.")
+            self.rain_cdf = np.cumsum(r)
+        self.lake_of = np.full(n, -1, np.int64)
+        self.per_cycle = droplets_per_cycle(self.p, (ny, nx), self.cell_size)
+        self.lake_cap = n + self.p.spill * self.per_cycle + 16
+        self.level = np.zeros(self.lake_cap)
+        self.budget = np.zeros(B_SIZE)
+        self.droplets = 0
+        self.cycles = 0
+        self.timing = bool(timing)
+        # work arrays (rebuilt lake structures live only within a cycle)
+        self.area = np.zeros(self.lake_cap, np.int64)
+        self.mroot = np.full(self.lake_cap, -1, np.int64)
+        self.broot = np.full(self.lake_cap, -1, np.int64)
+        self.stack = np.zeros(256, np.int64)
+        self.stamp = np.zeros(n, np.int64)
+        self.order = np.zeros(n, np.int64)
+        self.start = np.zeros(n + 2, np.int64)
+        self.hs = np.zeros(4, np.int64)
+        self.margin = max(n, 65536)
+        self._alloc_pool(3 * self.margin)
+
+    # ----------------------------------------------------------------------------- internals
+    def _alloc_pool(self, size: int) -> None:
+        self.hkey = np.zeros(size)
+        self.hcell = np.zeros(size, np.int64)
+        self.hleft = np.zeros(size, np.int64)
+        self.hright = np.zeros(size, np.int64)
+        self.hrank = np.zeros(size, np.int64)
+        self.walk = np.zeros(size, np.int64)
+
+    def _rebuild(self) -> None:
+        ny, nx = self.z.shape
+        zf = self.z.reshape(-1)
+        while True:
+            old = self.level[: max(int(self.hs[HS_NLAKES]), 1)].copy()
+            lake_before = self.lake_of.copy()
+            k = pools.rebuild(nx, ny, zf, self.lake_of, old, self.P[P_SEA], self.P[P_EDGE], self.level,
+                              self.area, self.mroot, self.broot, self.hkey, self.hcell, self.hleft,
+                              self.hright, self.hrank, self.hs, self.stack, self.stamp, self.order,
+                              self.start)
+            if self.hkey.shape[0] - self.hs[HS_BUMP] >= 2 * self.margin:
+                self.n_lakes = k
+                return
+            # pool too small for the lakes present: grow it and rebuild from the same maps
+            self.lake_of[:] = lake_before
+            self.level[: old.size] = old
+            self.hs[HS_NLAKES] = old.size
+            self._alloc_pool(2 * self.hkey.shape[0] + 2 * self.margin)
+
+    # ----------------------------------------------------------------------------- public API
+    def cycle(self) -> None:
+        """One cycle: droplets, then the stream map and the vegetation."""
+        todo = self.per_cycle
+        ny, nx = self.z.shape
+        while todo > 0:
+            self._rebuild()
+            done = run_droplets(
+                self.droplets, todo, self.seed, self.z, self.stream, self.roots, self.erod,
+                self.lake_of, self.track, self.level, self.area, self.mroot, self.broot, self.hkey,
+                self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk,
+                self.rain_cdf, self.budget, self.P, _now_real if self.timing else _now_none, self.margin, self.lake_cap,
+            )
+            self.droplets += done
+            todo -= done
+        streams.update(self.stream, self.track, self.p.stream_rate)
+        if self.veg.enabled:
+            rng = np.random.default_rng([self.seed & 0xFFFFFFFF, self.cycles, 0x5EED])
+            vegetation.step(self.trees, self.roots, self.z, self.cell_size, self.ell,
+                            self.lake_depth(), self.stream, self.sea_mask(), self.veg, rng)
+        self.cycles += 1
+
+    def run(self, cycles: int) -> None:
+        for _ in range(cycles):
+            self.cycle()
+
+    def sea_mask(self) -> np.ndarray:
+        return self.z < self.P[P_SEA]
+
+    def lake_depth(self) -> np.ndarray:
+        """Depth of standing water (m) per cell (the pool map)."""
+        return pools.depth_map(self.lake_of, self.level, self.z)
+
+    def erosion(self) -> np.ndarray:
+        """Net lowering of the terrain (m, ≥ 0)."""
+        return np.maximum(self.z0 - self.z, 0.0)
+
+    def deposition(self) -> np.ndarray:
+        """Net raising of the terrain (m, ≥ 0)."""
+        return np.maximum(self.z - self.z0, 0.0)
+
+    def vegetation(self) -> np.ndarray:
+        """Root density in [0, 1] (zero on water)."""
+        return self.roots.copy()
+
+    def water_budget(self) -> dict:
+        B = self.budget
+        ca = self.cell_size**2
+        rained = float(B[B_RAINED])
+        in_lakes = float(self.lake_depth().sum() * ca)
+        evaporated = float(B[B_EVAP] + B[B_RESID])
+        left = float(B[B_LEFT])
+        closure = abs(rained - in_lakes - evaporated - left) / rained if rained > 0 else 0.0
+        return {
+            "unit": "m3",
+            "rained": rained,
+            "in_lakes": in_lakes,
+            "evaporated": evaporated,
+            "left_edges": left,
+            "closure_rel": closure,
+            "evaporated_in_flight": float(B[B_EVAP]),
+            "ended_in_droplets": float(B[B_RESID]),
+            "in_lakes_tracked": float(B[B_TO_LAKES]),
+        }
+
+    def sediment_budget(self) -> dict:
+        B = self.budget
+        ca = self.cell_size**2
+        eroded = float(B[B_ERODED])
+        deposited = float(B[B_DEPOSITED])
+        carried = float(B[B_CARRIED])
+        closure = abs(eroded - deposited - carried) / eroded if eroded > 0 else 0.0
+        change = float(np.sum(self.z - self.z0) * ca)
+        return {
+            "unit": "m3",
+            "eroded": eroded,
+            "deposited": deposited,
+            "carried_off": carried,
+            "closure_rel": closure,
+            "terrain_change": change,
+            "terrain_change_rel_error": abs(change - (deposited - eroded)) / eroded if eroded > 0 else 0.0,
+        }
+
+    def stats(self) -> dict:
+        B = self.budget
+        depth = self.lake_depth()
+        return {
+            "droplets": int(self.droplets),
+            "cycles": int(self.cycles),
+            "droplets_per_cycle": int(self.per_cycle),
+            "descend_steps": int(B[B_STEPS]),
+            "floods": int(B[B_FLOODS]),
+            "lake_cells": int((depth > 0).sum()),
+            "lake_fraction": float((depth > 0).mean()),
+            "max_lake_depth_m": float(depth.max()),
+            "tree_fraction": float(self.trees.mean()),
+            "stream_max": float(self.stream.max()),
+            "reference_length_m": self.ell,
+        }
+
+    # ----------------------------------------------------------------------------- checkpoint
+    def state(self) -> dict:
+        k = max(int(self.hs[HS_NLAKES]), 1)
+        return {
+            "z": self.z, "z0": self.z0, "stream": self.stream, "roots": self.roots,
+            "trees": self.trees, "lake_of": self.lake_of, "level": self.level[:k].copy(),
+            "budget": self.budget, "droplets": np.int64(self.droplets), "cycles": np.int64(self.cycles),
+        }
+
+    def load_state(self, st: dict) -> None:
+        missing = [k for k in self.STATE_KEYS if k not in st]
+        if missing or np.shape(st["z"]) != self.z.shape:
+            raise InputError(
+                "The checkpoint does not match this hydrology run (missing or differently sized maps); "
+                "start the run again without --resume."
+            )
+        self.z[...] = st["z"]
+        self.z0[...] = st["z0"]
+        self.stream[...] = st["stream"]
+        self.roots[...] = st["roots"]
+        self.trees[...] = st["trees"]
+        self.lake_of[...] = st["lake_of"]
+        lv = np.asarray(st["level"])
+        self.level[: lv.size] = lv
+        self.hs[HS_NLAKES] = lv.size
+        self.budget[...] = st["budget"]
+        self.droplets = int(st["droplets"])
+        self.cycles = int(st["cycles"])
+
+    def flood_seconds(self) -> float:
+        return float(self.budget[B_FLOOD_NS]) * 1e-9
+
+
+__all__ = ["HydrologyModel", "run_droplets", "splitmix64"]
