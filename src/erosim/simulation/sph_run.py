@@ -233,6 +233,9 @@ def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progres
     except Interrupted as exc:
         status, error = "interrupted", str(exc)
         raise
+    except BaseException as exc:  # a bug or a stray Ctrl-C outside the loop: say so in the report
+        status, error = "failed", f"{type(exc).__name__}: {exc}"
+        raise
     finally:
         wall = time.perf_counter() - wall0
         rec.flush()
