@@ -103,7 +103,7 @@ class Recorder:
         snapshot(
             self.out.figures / f"snapshot_{self.n_snap:03d}.png",
             s.fluid_positions(), s.fluid_velocities(), t=float(s.t),
-            lo=self.cfg.domain.lo, hi=self.cfg.domain.hi, title=self.name,
+            lo=self.cfg.domain.lo, hi=self.cfg.domain.hi, spacing=self.dx, title=self.name,
         )
         self.n_snap += 1
 

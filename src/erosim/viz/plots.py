@@ -26,8 +26,11 @@ def _save(fig, path: str | os.PathLike) -> Path:
 
 
 def snapshot(path, positions: np.ndarray, velocities: np.ndarray, *, t: float,
-             lo, hi, boundary: np.ndarray | None = None, title: str = "") -> Path:
-    """Particles coloured by speed |u|; 3-D runs are shown as a side view (x–z)."""
+             lo, hi, spacing: float | None = None, boundary: np.ndarray | None = None,
+             title: str = "") -> Path:
+    """Particles coloured by speed |u|; 3-D runs are shown as a side view (x–z).
+
+    With ``spacing`` the dots are drawn about one particle spacing wide."""
     pos = np.asarray(positions)
     speed = np.linalg.norm(velocities, axis=1) if len(pos) else np.zeros(0)
     ix, iz = 0, pos.shape[1] - 1 if pos.ndim == 2 else 1
@@ -38,7 +41,11 @@ def snapshot(path, positions: np.ndarray, velocities: np.ndarray, *, t: float,
     if boundary is not None and len(boundary):
         ax.scatter(boundary[:, ix], boundary[:, iz], s=1, c="0.6", lw=0)
     order = np.argsort(pos[:, 1]) if pos.shape[1] == 3 else slice(None)  # far particles first
-    sc = ax.scatter(pos[order, ix], pos[order, iz], s=2, c=speed[order], cmap="viridis", lw=0)
+    size = 2.0
+    if spacing:
+        pts = fig.get_figwidth() * 0.75 * 72.0 * spacing / max(w, 1e-12)  # one spacing in points
+        size = float(np.clip((0.9 * pts) ** 2, 0.5, 60.0))
+    sc = ax.scatter(pos[order, ix], pos[order, iz], s=size, c=speed[order], cmap="viridis", lw=0)
     fig.colorbar(sc, ax=ax, label="speed (m/s)", fraction=0.025, pad=0.02)
     ax.set_xlim(lo[ix], hi[ix])
     ax.set_ylim(lo[iz], hi[iz])
