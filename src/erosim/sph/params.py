@@ -61,9 +61,9 @@ class SPHParams(Section):
     pressure_form: Literal["wcsph", "symmetric"] = param(
         "wcsph", doc="'wcsph' (SPH-5b, momentum conserving) or 'symmetric' ((p_i+p_j)/2, SPH-5a)"
     )
-    pressure_floor: Literal["auto", "zero", "none"] = param(
-        "auto",
-        doc="clamp negative pressure: 'zero' clamps p ≥ 0, 'none' keeps it; 'auto' = zero for summation, none for continuity",
+    pressure_floor: Literal["zero", "none"] = param(
+        "zero",
+        doc="'zero' clamps negative pressure to 0 (stable free surfaces); 'none' keeps tension (unstable at free surfaces)",
     )
     viscosity: Literal["artificial", "laminar"] = param(
         "artificial", doc="'artificial' (Monaghan Π, SPH-6b) or 'laminar' (μ∇²v, SPH-6a)"
@@ -80,6 +80,10 @@ class SPHParams(Section):
     cfl: float = param(0.2, gt=0, le=1, unit="1", doc="Courant number of the adaptive step (and of the fixed-step check)")
     precision: Literal["float32", "float64"] = param(
         "float64", doc="floating point type of the particle fields"
+    )
+    initial_pressure: Literal["hydrostatic", "zero"] = param(
+        "hydrostatic",
+        doc="start-up density: 'hydrostatic' sets ρ from p = ρ₀|g|(H − z) below the fluid's top H; 'zero' starts at ρ₀",
     )
     walls: Literal["particles", "reflect"] = param(
         "particles",
@@ -120,7 +124,5 @@ class SPHParams(Section):
         return self.h_factor * self.spacing
 
     def floor_is_zero(self) -> bool:
-        """Whether negative pressure is clamped to zero (resolves ``pressure_floor = 'auto'``)."""
-        if self.pressure_floor == "auto":
-            return self.density == "summation"
+        """Whether negative pressure is clamped to zero ."""
         return self.pressure_floor == "zero"

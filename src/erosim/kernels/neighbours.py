@@ -1,0 +1,298 @@
+"""Neighbour search (SPEC SPH-8): a hashed uniform grid of occupied cells plus Verlet neighbour lists.
+
+Why hand-written Numba: SciPy's ``cKDTree`` is O(n log n), single-threaded for building and returns
+Python-level pair sets; the solver needs an O(n) search whose memory grows with the number of
+particles, not with the domain's volume, and whose output (CSR lists split into fluid and boundary
+neighbours) feeds the force loop directly.
+
+Method
+------
+1. Cell of a particle: (i, j, k) = ⌊(x − origin)/c⌋ + 1 with cell edge c ≥ search radius; the three
+   integers are packed into one 64-bit key (21 bits per axis in 3-D, 31 in 2-D).
+2. Occupied cells are numbered through an open-addressing hash table (linear probing, Fibonacci
+   hashing, size a power of two ≥ 2n) — memory O(n) whatever the domain size (the role of the seed's
+   XOR hash, Teschner et al. 2003, but exact: keys are compared, so no false candidates).
+3. Cells are ordered by key and particles counting-sorted by cell (Green 2010's sorted grid), which
+   also gives the permutation the solver uses to reorder particles for memory locality.
+4. For every cell the ids of its 3^d neighbour cells are looked up once; each particle then scans
+   them and keeps the particles closer than the radius — two passes (count, fill) into CSR lists.
+
+List layout: for query particle i, ``nbr[start[i]:mid[i]]`` are fluid neighbours (index < n_fluid)
+and ``nbr[mid[i]:start[i+1]]`` boundary neighbours; particles ≥ ``n_fluid`` (boundary) get fluid
+neighbours only (boundary–boundary pairs never interact). A particle is never its own neighbour.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+
+
+def key_bits(dim: int) -> int:
+    """Bits per axis in a packed cell key."""
+    return 21 if dim == 3 else 31
+
+
+@njit(parallel=True, cache=True)
+def cell_keys(pos, origin, inv_cell, bits, keys):
+    """keys[i] = packed (⌊(x − origin)/c⌋ + 1) of particle i, 2-D or 3-D."""
+    n, d = pos.shape
+    for i in prange(n):
+        k = np.int64(0)
+        for a in range(d):
+            c = np.int64(np.floor((pos[i, a] - origin[a]) * inv_cell)) + 1
+            k |= c << (bits * a)
+        keys[i] = k
+
+
+@njit(inline="always", cache=True)
+def _slot(key, shift):
+    return np.int64((np.uint64(key) * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(shift))
+
+
+@njit(cache=True)
+def hash_cells(keys, table_key, table_cell, shift, particle_cell, cell_key):
+    """Number the occupied cells (first appearance order); returns the number of cells.
+
+    ``table_key`` must be filled with −1; its length is a power of two 2^(64−shift) > len(keys).
+    """
+    mask = table_key.size - 1
+    ncell = 0
+    for i in range(keys.size):
+        k = keys[i]
+        s = _slot(k, shift)
+        while True:
+            tk = table_key[s]
+            if tk == k:
+                particle_cell[i] = table_cell[s]
+                break
+            if tk == -1:
+                table_key[s] = k
+                table_cell[s] = ncell
+                cell_key[ncell] = k
+                particle_cell[i] = ncell
+                ncell += 1
+                break
+            s = (s + 1) & mask
+    return ncell
+
+
+@njit(cache=True)
+def lookup(key, table_key, table_cell, shift):
+    """Cell id of ``key`` or −1 if no particle is in that cell."""
+    mask = table_key.size - 1
+    s = _slot(key, shift)
+    while True:
+        tk = table_key[s]
+        if tk == key:
+            return table_cell[s]
+        if tk == -1:
+            return -1
+        s = (s + 1) & mask
+
+
+@njit(cache=True)
+def renumber_cells(particle_cell, rank):
+    """Replace every particle's cell id by ``rank[id]`` (cells reordered by key)."""
+    for i in range(particle_cell.size):
+        particle_cell[i] = rank[particle_cell[i]]
+
+
+@njit(cache=True)
+def counting_sort(particle_cell, ncell, cell_start, cell_index):
+    """cell_start[c]:cell_start[c+1] lists (in cell_index) the particles of cell c, in index order."""
+    cell_start[: ncell + 1] = 0
+    for i in range(particle_cell.size):
+        cell_start[particle_cell[i] + 1] += 1
+    for c in range(ncell):
+        cell_start[c + 1] += cell_start[c]
+    fill = cell_start[:ncell].copy()
+    for i in range(particle_cell.size):
+        c = particle_cell[i]
+        cell_index[fill[c]] = i
+        fill[c] += 1
+
+
+@njit(parallel=True, cache=True)
+def neighbour_cells(cell_key, ncell, table_key, table_cell, shift, bits, dim, out):
+    """out[c, :] = ids of the 3^dim cells around cell c (−1 where empty)."""
+    for c in prange(ncell):
+        k0 = cell_key[c]
+        m = 0
+        if dim == 3:
+            for dz in range(-1, 2):
+                for dy in range(-1, 2):
+                    for dx in range(-1, 2):
+                        k = k0 + dx + (np.int64(dy) << bits) + (np.int64(dz) << (2 * bits))
+                        out[c, m] = lookup(k, table_key, table_cell, shift)
+                        m += 1
+        else:
+            for dy in range(-1, 2):
+                for dx in range(-1, 2):
+                    k = k0 + dx + (np.int64(dy) << bits)
+                    out[c, m] = lookup(k, table_key, table_cell, shift)
+                    m += 1
+
+
+@njit(parallel=True, cache=True)
+def count_neighbours(pos, n_fluid, particle_cell, cell_nbrs, cell_start, cell_index, r2max, count_f, count_b):
+    """Pass 1: number of fluid and boundary neighbours of every particle within sqrt(r2max)."""
+    n, d = pos.shape
+    kn = cell_nbrs.shape[1]
+    for i in prange(n):
+        c = particle_cell[i]
+        cf = 0
+        cb = 0
+        for k in range(kn):
+            cc = cell_nbrs[c, k]
+            if cc < 0:
+                continue
+            for s in range(cell_start[cc], cell_start[cc + 1]):
+                j = cell_index[s]
+                if j == i:
+                    continue
+                r2 = 0.0
+                for a in range(d):
+                    t = pos[i, a] - pos[j, a]
+                    r2 += t * t
+                if r2 < r2max:
+                    if j < n_fluid:
+                        cf += 1
+                    elif i < n_fluid:
+                        cb += 1
+        count_f[i] = cf
+        count_b[i] = cb
+
+
+@njit(cache=True)
+def offsets(count_f, count_b, start, mid):
+    """CSR offsets: start[i] .. mid[i] fluid neighbours, mid[i] .. start[i+1] boundary ones."""
+    start[0] = 0
+    for i in range(count_f.size):
+        mid[i] = start[i] + count_f[i]
+        start[i + 1] = mid[i] + count_b[i]
+    return start[count_f.size]
+
+
+@njit(parallel=True, cache=True)
+def fill_neighbours(pos, n_fluid, particle_cell, cell_nbrs, cell_start, cell_index, r2max, start, mid, nbr):
+    """Pass 2: write the neighbour indices counted by :func:`count_neighbours`."""
+    n, d = pos.shape
+    kn = cell_nbrs.shape[1]
+    for i in prange(n):
+        c = particle_cell[i]
+        pf = start[i]
+        pb = mid[i]
+        for k in range(kn):
+            cc = cell_nbrs[c, k]
+            if cc < 0:
+                continue
+            for s in range(cell_start[cc], cell_start[cc + 1]):
+                j = cell_index[s]
+                if j == i:
+                    continue
+                r2 = 0.0
+                for a in range(d):
+                    t = pos[i, a] - pos[j, a]
+                    r2 += t * t
+                if r2 < r2max:
+                    if j < n_fluid:
+                        nbr[pf] = j
+                        pf += 1
+                    elif i < n_fluid:
+                        nbr[pb] = j
+                        pb += 1
+
+
+class _Grid:
+    """Buffers of one hashed grid (reused between builds, grown only when needed)."""
+
+    def __init__(self, dim: int):
+        self.dim = dim
+        self.bits = key_bits(dim)
+        self.n = -1
+
+    def ensure(self, n: int) -> None:
+        if n == self.n:
+            return
+        self.n = n
+        tsize = 1 << max(4, int(np.ceil(np.log2(2 * n + 2))))
+        self.shift = 64 - int(np.log2(tsize))
+        self.table_key = np.empty(tsize, np.int64)
+        self.table_cell = np.empty(tsize, np.int64)
+        self.keys = np.empty(n, np.int64)
+        self.particle_cell = np.empty(n, np.int64)
+        self.cell_key = np.empty(n, np.int64)
+        self.cell_start = np.empty(n + 1, np.int64)
+        self.cell_index = np.empty(n, np.int64)
+        self.cell_nbrs = np.empty((0, 3**self.dim), np.int32)
+
+    def ensure_cells(self, ncell: int) -> None:
+        if self.cell_nbrs.shape[0] < ncell:
+            self.cell_nbrs = np.empty((int(ncell * 1.25) + 16, 3**self.dim), np.int32)
+
+
+def grid_origin(pos: np.ndarray, cell: float) -> np.ndarray:
+    """Grid origin one cell below the particles' minimum corner (so packed coordinates stay ≥ 1)."""
+    return pos.min(axis=0) - cell
+
+
+def build_grid(grid: _Grid, pos: np.ndarray, cell: float) -> int:
+    """Hash, order (by key) and counting-sort ``pos`` into ``grid``; returns the number of cells.
+
+    Raises ``ValueError`` when the particles span more cells than a packed key can hold.
+    """
+    n, d = pos.shape
+    grid.ensure(n)
+    origin = grid_origin(pos, cell)
+    span = (pos.max(axis=0) - origin) / cell + 2
+    if np.any(span >= (1 << grid.bits) - 2):
+        raise ValueError(
+            f"particles span {int(span.max())} cells along one axis, more than the {(1 << grid.bits) - 3} a key holds"
+        )
+    cell_keys(pos, origin.astype(np.float64), 1.0 / cell, grid.bits, grid.keys)
+    grid.table_key.fill(-1)
+    ncell = hash_cells(grid.keys, grid.table_key, grid.table_cell, grid.shift, grid.particle_cell, grid.cell_key)
+    # order cells by key (row-major in space) for locality; renumber table and particles
+    order = np.argsort(grid.cell_key[:ncell], kind="stable")
+    rank = np.empty(ncell, np.int64)
+    rank[order] = np.arange(ncell)
+    grid.cell_key[:ncell] = grid.cell_key[:ncell][order]
+    _renumber_table(grid.table_key, grid.table_cell, rank)
+    renumber_cells(grid.particle_cell, rank)
+    counting_sort(grid.particle_cell, ncell, grid.cell_start, grid.cell_index)
+    grid.ensure_cells(ncell)
+    neighbour_cells(grid.cell_key, ncell, grid.table_key, grid.table_cell, grid.shift, grid.bits, d, grid.cell_nbrs)
+    return ncell
+
+
+@njit(cache=True)
+def _renumber_table(table_key, table_cell, rank):
+    for s in range(table_key.size):
+        if table_key[s] != -1:
+            table_cell[s] = rank[table_cell[s]]
+
+
+def find_neighbours(pos, radius: float, n_fluid: int | None = None):
+    """All neighbours closer than ``radius`` (strictly) of every particle, as CSR lists.
+
+    Returns ``(start, mid, nbr)``: fluid neighbours of i are ``nbr[start[i]:mid[i]]`` and boundary
+    neighbours (indices ≥ ``n_fluid``) ``nbr[mid[i]:start[i+1]]``; particles ≥ ``n_fluid`` list
+    only fluid neighbours. ``n_fluid`` defaults to all particles. Allocates; for tests and probes.
+    """
+    pos = np.ascontiguousarray(pos, dtype=np.float64)
+    n, d = pos.shape
+    nf = n if n_fluid is None else int(n_fluid)
+    grid = _Grid(d)
+    build_grid(grid, pos, float(radius))
+    cf = np.empty(n, np.int64)
+    cb = np.empty(n, np.int64)
+    count_neighbours(pos, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, cf, cb)
+    start = np.empty(n + 1, np.int64)
+    mid = np.empty(n, np.int64)
+    total = offsets(cf, cb, start, mid)
+    nbr = np.empty(total, np.int64)
+    fill_neighbours(pos, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, start, mid, nbr)
+    return start, mid, nbr

@@ -1,0 +1,1 @@
+"""Boundary handling: box walls and obstacles by reflection (``box``), fixed boundary particles (``particles``)."""

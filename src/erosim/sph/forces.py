@@ -1,0 +1,439 @@
+"""SPH pair forces and density rates (SPEC SPH-3, SPH-5, SPH-6, SPH-7), fused into one neighbour pass.
+
+Per fluid particle i, over its neighbour list (fluid j first, then fixed boundary j), one loop computes
+
+* pressure (SPH-5):  a_i −= Σ m_j P_ij ∇W_ij with P_ij = p_i/ρ_i² + p_j/ρ_j² ("wcsph", SPH-5b) or
+  (p_i + p_j)/(2ρ_iρ_j) ("symmetric", seed 000 eq. 2.5 divided by ρ_i, SPH-5a);
+* viscosity (SPH-6):  artificial (Monaghan 1992 as in Becker & Teschner 2007)
+  a_i −= Σ m_j Π_ij ∇W_ij, Π_ij = −ν v_ij·r_ij/(r² + εh_s²), ν = 2αh_s c/(ρ_i + ρ_j), only if v_ij·r_ij < 0;
+  or laminar (seed 000 eq. 2.6 divided by ρ_i) a_i += μ Σ m_j (v_j − v_i)/(ρ_iρ_j) ∇²W;
+* continuity: dρ_i/dt = Σ m_j v_ij·∇W_ij (Monaghan 1992) plus, between fluid particles, δ-SPH density
+  diffusion (Molteni & Colagrossi 2009) with the hydrostatic correction of Fourtakas et al. (2019):
+  + δ h_s c Σ (m_j/ρ_j) 2 [(ρ_j − ρ_i) − (ρ_j^H − ρ_i^H)] (−f_ij r²)/(r² + η²),
+  ρ_j^H − ρ_i^H = −ρ₀ g·r_ij / c²  (r_ij = r_i − r_j, ∇W_ij = f_ij r_ij, η² = 0.01 h_s²);
+* gravity (SPH-7) added once.
+
+Boundary particles (fixed, "dynamic boundary particles" of Crespo et al. 2007) get dρ/dt from their
+fluid neighbours only; their pressure from the same EOS pushes fluid away. h is the kernel support
+radius, h_s = h/2 the smoothing length used in ν, δ and ε.
+
+The variants are scalar Numba functions passed to the per-particle bodies; the parallel loop drivers
+below are one small cached function per combination (Numba cannot cache a driver that takes functions
+as arguments, so each combination is spelled out; :func:`fluid_driver` picks one by name): ``gradf(r, h)``, ``lap(r, h)`` (from :mod:`erosim.kernels.sph_kernels`),
+``pterm(p_i, p_j, ρ_i, ρ_j)`` and ``visc(v·r, r², f, L, ρ_i, ρ_j, k_visc, ε²) -> (c_r, c_v)`` where
+the viscous acceleration is m_j (c_r r_ij + c_v v_ij).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit, prange
+
+from erosim.kernels import sph_kernels as K
+
+# ---------------------------------------------------------------- pair terms
+
+
+@njit(inline="always", cache=True)
+def pterm_wcsph(pi, pj, rhoi, rhoj):
+    """SPH-5b: p_i/ρ_i² + p_j/ρ_j²."""
+    return pi / (rhoi * rhoi) + pj / (rhoj * rhoj)
+
+
+@njit(inline="always", cache=True)
+def pterm_symmetric(pi, pj, rhoi, rhoj):
+    """SPH-5a: (p_i + p_j)/(2ρ_iρ_j)."""
+    return (pi + pj) / (2.0 * rhoi * rhoj)
+
+
+@njit(inline="always", cache=True)
+def visc_artificial(vdotr, r2, f, lapw, rhoi, rhoj, kv, eps2):
+    """Monaghan Π (SPH-6b), kv = 2αh_s c: returns (c_r, c_v) = (−Π f, 0)."""
+    if vdotr >= 0.0:
+        return 0.0, 0.0
+    return kv * vdotr * f / ((rhoi + rhoj) * (r2 + eps2)), 0.0
+
+
+@njit(inline="always", cache=True)
+def visc_laminar(vdotr, r2, f, lapw, rhoi, rhoj, kv, eps2):
+    """Laminar (SPH-6a), kv = μ: returns (0, −μ L/(ρ_iρ_j))."""
+    return 0.0, -kv * lapw / (rhoi * rhoj)
+
+
+@njit(inline="always", cache=True)
+def no_lap(r, h):
+    """Stand-in Laplacian for the artificial viscosity (which does not use it)."""
+    return 0.0
+
+
+# ---------------------------------------------------------------- fused drivers
+
+
+@njit(inline="always")
+def fluid_particle_3d(gradf, lap, pterm, visc, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                      kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    """3-D: acceleration and dρ/dt of fluid particle i (see the module docstring)."""
+    h2 = h * h
+    xi = pos[i, 0]
+    yi = pos[i, 1]
+    zi = pos[i, 2]
+    ui = vel[i, 0]
+    vi = vel[i, 1]
+    wi = vel[i, 2]
+    rhoi = rho[i]
+    pi = p[i]
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    dr = 0.0
+    dd = 0.0
+    for s in range(start[i], mid[i]):
+        j = nbr[s]
+        dx = xi - pos[j, 0]
+        dy = yi - pos[j, 1]
+        dz = zi - pos[j, 2]
+        r2 = dx * dx + dy * dy + dz * dz
+        if r2 >= h2:
+            continue
+        r = math.sqrt(r2)
+        f = gradf(r, h)
+        rhoj = rho[j]
+        du = ui - vel[j, 0]
+        dv = vi - vel[j, 1]
+        dw = wi - vel[j, 2]
+        vdotr = du * dx + dv * dy + dw * dz
+        cr, cv = visc(vdotr, r2, f, lap(r, h), rhoi, rhoj, kv, eps2)
+        c = cr - pterm(pi, p[j], rhoi, rhoj) * f
+        ax += c * dx + cv * du
+        ay += c * dy + cv * dv
+        az += c * dz + cv * dw
+        dr += vdotr * f
+        dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy + gz * dz)) * (-f) * r2 / ((r2 + eta2) * rhoj)
+    for s in range(mid[i], start[i + 1]):
+        j = nbr[s]
+        dx = xi - pos[j, 0]
+        dy = yi - pos[j, 1]
+        dz = zi - pos[j, 2]
+        r2 = dx * dx + dy * dy + dz * dz
+        if r2 >= h2:
+            continue
+        r = math.sqrt(r2)
+        f = gradf(r, h)
+        rhoj = rho[j]
+        vdotr = ui * dx + vi * dy + wi * dz
+        cr, cv = visc(vdotr, r2, f, lap(r, h), rhoi, rhoj, kv, eps2)
+        c = cr - pterm(pi, p[j], rhoi, rhoj) * f
+        ax += c * dx + cv * ui
+        ay += c * dy + cv * vi
+        az += c * dz + cv * wi
+        dr += vdotr * f
+    acc[i, 0] = m * ax + gx
+    acc[i, 1] = m * ay + gy
+    acc[i, 2] = m * az + gz
+    drho[i] = m * (dr + kdiff * dd)
+
+
+@njit(inline="always")
+def fluid_particle_2d(gradf, lap, pterm, visc, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                      kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    """2-D: acceleration and dρ/dt of fluid particle i (``gz`` unused)."""
+    h2 = h * h
+    xi = pos[i, 0]
+    yi = pos[i, 1]
+    ui = vel[i, 0]
+    vi = vel[i, 1]
+    rhoi = rho[i]
+    pi = p[i]
+    ax = 0.0
+    ay = 0.0
+    dr = 0.0
+    dd = 0.0
+    for s in range(start[i], mid[i]):
+        j = nbr[s]
+        dx = xi - pos[j, 0]
+        dy = yi - pos[j, 1]
+        r2 = dx * dx + dy * dy
+        if r2 >= h2:
+            continue
+        r = math.sqrt(r2)
+        f = gradf(r, h)
+        rhoj = rho[j]
+        du = ui - vel[j, 0]
+        dv = vi - vel[j, 1]
+        vdotr = du * dx + dv * dy
+        cr, cv = visc(vdotr, r2, f, lap(r, h), rhoi, rhoj, kv, eps2)
+        c = cr - pterm(pi, p[j], rhoi, rhoj) * f
+        ax += c * dx + cv * du
+        ay += c * dy + cv * dv
+        dr += vdotr * f
+        dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy)) * (-f) * r2 / ((r2 + eta2) * rhoj)
+    for s in range(mid[i], start[i + 1]):
+        j = nbr[s]
+        dx = xi - pos[j, 0]
+        dy = yi - pos[j, 1]
+        r2 = dx * dx + dy * dy
+        if r2 >= h2:
+            continue
+        r = math.sqrt(r2)
+        f = gradf(r, h)
+        rhoj = rho[j]
+        vdotr = ui * dx + vi * dy
+        cr, cv = visc(vdotr, r2, f, lap(r, h), rhoi, rhoj, kv, eps2)
+        c = cr - pterm(pi, p[j], rhoi, rhoj) * f
+        ax += c * dx + cv * ui
+        ay += c * dy + cv * vi
+        dr += vdotr * f
+    acc[i, 0] = m * ax + gx
+    acc[i, 1] = m * ay + gy
+    drho[i] = m * (dr + kdiff * dd)
+
+
+@njit(inline="always")
+def boundary_particle(gradf, i, pos, vel, start, mid, nbr, m, h, drho):
+    """dρ/dt of fixed boundary particle i: Σ_fluid m_j (0 − v_j)·∇W_ij."""
+    h2 = h * h
+    d = pos.shape[1]
+    dr = 0.0
+    for s in range(start[i], mid[i]):
+        j = nbr[s]
+        r2 = 0.0
+        vdotr = 0.0
+        for a in range(d):
+            t = pos[i, a] - pos[j, a]
+            r2 += t * t
+            vdotr -= vel[j, a] * t
+        if r2 >= h2:
+            continue
+        dr += vdotr * gradf(math.sqrt(r2), h)
+    drho[i] = m * dr
+
+
+@njit(inline="always")
+def summation_particle(w, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho):
+    """SPH-3: ρ_i = m (W(0) + Σ_j W(r_ij)) for fluid; boundary ρ = ρ_base + m Σ_fluid W, at least ρ₀.
+
+    ``rho_base`` holds, for boundary particles, the constant part m (W(0) + Σ_boundary W).
+    """
+    h2 = h * h
+    d = pos.shape[1]
+    w0 = w(0.0, h)
+    acc = 0.0
+    for s in range(start[i], start[i + 1]):
+        j = nbr[s]
+        r2 = 0.0
+        for a in range(d):
+            t = pos[i, a] - pos[j, a]
+            r2 += t * t
+        if r2 < h2:
+            acc += w(math.sqrt(r2), h)
+    if i < n_fluid:
+        rho[i] = m * (w0 + acc)
+    else:
+        rho[i] = max(rho0, rho_base[i] + m * acc)
+
+
+# ---------------------------------------------------------------- drivers, one per variant
+# (listed out so Numba can cache each; the body above is shared)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_2d_wendland_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_2d(K.wendland_f_2d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_2d_wendland_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_2d(K.wendland_f_2d, K.wendland_lap_2d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_2d_wendland_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_2d(K.wendland_f_2d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_2d_wendland_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_2d(K.wendland_f_2d, K.wendland_lap_2d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_2d_muller_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_2d(K.muller_f_2d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_2d_muller_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_2d(K.muller_f_2d, K.muller_lap_2d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_2d_muller_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_2d(K.muller_f_2d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_2d_muller_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_2d(K.muller_f_2d, K.muller_lap_2d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_3d_wendland_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_3d(K.wendland_f_3d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_3d_wendland_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_3d(K.wendland_f_3d, K.wendland_lap_3d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_3d_wendland_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_3d(K.wendland_f_3d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_3d_wendland_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_3d(K.wendland_f_3d, K.wendland_lap_3d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_3d_muller_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_3d(K.muller_f_3d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_3d_muller_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_3d(K.muller_f_3d, K.muller_lap_3d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_3d_muller_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_3d(K.muller_f_3d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def fluid_pass_3d_muller_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    for i in prange(n_fluid):
+        fluid_particle_3d(K.muller_f_3d, K.muller_lap_3d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
+                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+
+
+@njit(parallel=True, cache=True)
+def boundary_pass_2d_wendland(pos, vel, start, mid, nbr, n_fluid, n_total, m, h, drho):
+    for i in prange(n_fluid, n_total):
+        boundary_particle(K.wendland_f_2d, i, pos, vel, start, mid, nbr, m, h, drho)
+
+
+@njit(parallel=True, cache=True)
+def summation_density_2d_wendland(pos, start, nbr, n_fluid, n_total, m, h, rho_base, rho0, rho):
+    for i in prange(n_total):
+        summation_particle(K.wendland_w_2d, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho)
+
+
+@njit(parallel=True, cache=True)
+def boundary_pass_2d_muller(pos, vel, start, mid, nbr, n_fluid, n_total, m, h, drho):
+    for i in prange(n_fluid, n_total):
+        boundary_particle(K.muller_f_2d, i, pos, vel, start, mid, nbr, m, h, drho)
+
+
+@njit(parallel=True, cache=True)
+def summation_density_2d_muller(pos, start, nbr, n_fluid, n_total, m, h, rho_base, rho0, rho):
+    for i in prange(n_total):
+        summation_particle(K.muller_w_2d, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho)
+
+
+@njit(parallel=True, cache=True)
+def boundary_pass_3d_wendland(pos, vel, start, mid, nbr, n_fluid, n_total, m, h, drho):
+    for i in prange(n_fluid, n_total):
+        boundary_particle(K.wendland_f_3d, i, pos, vel, start, mid, nbr, m, h, drho)
+
+
+@njit(parallel=True, cache=True)
+def summation_density_3d_wendland(pos, start, nbr, n_fluid, n_total, m, h, rho_base, rho0, rho):
+    for i in prange(n_total):
+        summation_particle(K.wendland_w_3d, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho)
+
+
+@njit(parallel=True, cache=True)
+def boundary_pass_3d_muller(pos, vel, start, mid, nbr, n_fluid, n_total, m, h, drho):
+    for i in prange(n_fluid, n_total):
+        boundary_particle(K.muller_f_3d, i, pos, vel, start, mid, nbr, m, h, drho)
+
+
+@njit(parallel=True, cache=True)
+def summation_density_3d_muller(pos, start, nbr, n_fluid, n_total, m, h, rho_base, rho0, rho):
+    for i in prange(n_total):
+        summation_particle(K.muller_w_3d, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho)
+
+
+_FLUID = {
+    (2, 'wendland', 'wcsph', 'artificial'): fluid_pass_2d_wendland_wcsph_artificial,
+    (2, 'wendland', 'wcsph', 'laminar'): fluid_pass_2d_wendland_wcsph_laminar,
+    (2, 'wendland', 'symmetric', 'artificial'): fluid_pass_2d_wendland_symmetric_artificial,
+    (2, 'wendland', 'symmetric', 'laminar'): fluid_pass_2d_wendland_symmetric_laminar,
+    (2, 'muller', 'wcsph', 'artificial'): fluid_pass_2d_muller_wcsph_artificial,
+    (2, 'muller', 'wcsph', 'laminar'): fluid_pass_2d_muller_wcsph_laminar,
+    (2, 'muller', 'symmetric', 'artificial'): fluid_pass_2d_muller_symmetric_artificial,
+    (2, 'muller', 'symmetric', 'laminar'): fluid_pass_2d_muller_symmetric_laminar,
+    (3, 'wendland', 'wcsph', 'artificial'): fluid_pass_3d_wendland_wcsph_artificial,
+    (3, 'wendland', 'wcsph', 'laminar'): fluid_pass_3d_wendland_wcsph_laminar,
+    (3, 'wendland', 'symmetric', 'artificial'): fluid_pass_3d_wendland_symmetric_artificial,
+    (3, 'wendland', 'symmetric', 'laminar'): fluid_pass_3d_wendland_symmetric_laminar,
+    (3, 'muller', 'wcsph', 'artificial'): fluid_pass_3d_muller_wcsph_artificial,
+    (3, 'muller', 'wcsph', 'laminar'): fluid_pass_3d_muller_wcsph_laminar,
+    (3, 'muller', 'symmetric', 'artificial'): fluid_pass_3d_muller_symmetric_artificial,
+    (3, 'muller', 'symmetric', 'laminar'): fluid_pass_3d_muller_symmetric_laminar,
+}
+
+
+def fluid_driver(dim: int, kernel: str, pressure_form: str, viscosity: str):
+    """The fused fluid pass for this combination of variants."""
+    return _FLUID[(dim, kernel, pressure_form, viscosity)]
+
+
+def boundary_driver(dim: int, kernel: str):
+    """dρ/dt of boundary particles with this kernel."""
+    return globals()[f"boundary_pass_{dim}d_{kernel}"]
+
+
+def summation_driver(dim: int, kernel: str):
+    """Summation density (SPH-3) with this kernel."""
+    return globals()[f"summation_density_{dim}d_{kernel}"]
+
+
+@njit(parallel=True, cache=True)
+def pressure_pass(rho, rho0, b, gamma, pmin, i0, i1, p):
+    """p_i = max(B((ρ_i/ρ₀)^γ − 1), pmin) for i in [i0, i1) (the linear law is γ = 1, B = kρ₀)."""
+    for i in prange(i0, i1):
+        p[i] = max(b * ((rho[i] / rho0) ** gamma - 1.0), pmin)
