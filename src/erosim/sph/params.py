@@ -36,7 +36,8 @@ class SPHParams(Section):
     spacing: float = param(0.01, gt=0, unit="m", doc="initial particle spacing Δx (mass = ρ₀Δx^dim)")
     h_factor: float = param(
         2.0, ge=1.2, le=4.0, unit="1",
-        doc="kernel support radius h = h_factor·spacing (2.0 gives about 33 neighbours in 3-D, 12 in 2-D)",
+        doc="kernel support radius h = h_factor·spacing; default 2.0 in 3-D (about 33 neighbours), "
+        "2.6 in 2-D (about 19)",
     )
     rho0: float = param(1000.0, gt=0, unit="kg/m^3", doc="rest density ρ₀")
     kernel: Literal["wendland", "muller"] = param(
@@ -68,7 +69,7 @@ class SPHParams(Section):
     viscosity: Literal["artificial", "laminar"] = param(
         "artificial", doc="'artificial' (Monaghan Π, SPH-6b) or 'laminar' (μ∇²v, SPH-6a)"
     )
-    alpha: float = param(0.02, ge=0, le=1, unit="1", doc="artificial viscosity coefficient α (SPH-6b)")
+    alpha: float = param(0.1, ge=0, le=1, unit="1", doc="artificial viscosity coefficient α (SPH-6b)")
     mu: float = param(1.0e-3, ge=0, unit="Pa*s", doc="dynamic viscosity μ for 'laminar' (water: 1e-3)")
     gravity: tuple[float, ...] | None = param(
         None, unit="m/s^2", doc="gravity vector; default (0, −9.81) in 2-D, (0, 0, −9.81) in 3-D (last axis up)"
@@ -101,6 +102,14 @@ class SPHParams(Section):
     max_mach: float = param(
         1.0, gt=0, unit="1", doc="stop as unstable when a fluid particle is faster than max_mach·c"
     )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _default_h_factor(cls, data):
+        """2-D needs a wider support than 3-D for a comparable neighbour count (≈19 vs ≈33)."""
+        if isinstance(data, dict) and "h_factor" not in data and data.get("dim", 3) in (2, "2"):
+            data = {**data, "h_factor": 2.6}
+        return data
 
     @model_validator(mode="after")
     def _check_gravity(self) -> SPHParams:
