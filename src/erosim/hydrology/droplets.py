@@ -7,14 +7,15 @@ moves more than ``max_step`` cells — at a finer grid it then sees every cell i
     a    = (ℓ/s²) · n_h / (V/V₀ · ρ)                  (seed: acc = n.xz / (volume·density))
     v   += h·a ;  x += h·v ;  v *= 1 − h·f_eff,       f_eff = friction·(1 − 0.5·stream)
     c_eq = cap·ℓ·(V/V₀)·|v|·max(0, Δz·dt/h)           capacity; Δz the drop over the sub-step
-    ΔS   = (h/dt)·k_d·(1 − roots)·(c_eq − S)          × erodibility where ΔS > 0 (erosion)
+    ΔS   = (h/dt)·k_d·max(0, 1 − ρ_r)·(c_eq − S)          × erodibility where ΔS > 0 (erosion)
     z   −= ΔS spread over the ℓ×ℓ footprint of the old position; S += ΔS
     V   *= 1 − h·e_eff,                               e_eff = evaporation·(1 − 0.2·stream)
 
 The droplet ends when V < V_min, or leaves the world (map edge, sea: its water and sediment leave),
 or stops for HY-2 flood: it enters a lake, or it is in a strong stream (> 0.5) with |a| below
-0.01 ℓ/s², or (``pit_flood``, an erosim addition) it moves less than half a cell per sub-step
-into a cell no higher than its 8 neighbours. Every visited cell's footprint is marked in ``track`` (HY-4). Lake cells are never
+0.01 ℓ/s², or (``pit_flood``, an erosim addition) it moves less than ℓ/2 per sub-step and a
+steepest-descent walk of at most 2·ℓ/Δx + 1 cells from its cell reaches a local minimum: it
+floods at that minimum (instead of oscillating in the depression until it evaporates). Every visited cell's footprint is marked in ``track`` (HY-4). Lake cells are never
 eroded or filled by descent (their water level bookkeeping stays exact, see ``pools``).
 
 Sediment is kept as an amount (m³) — the seed's ``sediment /= (1 − dt·evap)`` rescaling is left
@@ -43,11 +44,20 @@ from erosim.hydrology.params import (
     P_MAXSTEP,
     P_MAXSTEPS,
     P_PIT,
+    P_ROOT,
     P_SEA,
     P_V0,
     P_VMIN,
 )
-from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_STEPS
+from erosim.hydrology.pools import (
+    B_CARRIED,
+    B_DEPOSITED,
+    B_ERODED,
+    B_EVAP,
+    B_LEFT,
+    B_STEPS,
+    walk_down,
+)
 from erosim.kernels.raster import bilinear, gradient
 
 ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
@@ -94,19 +104,8 @@ def transfer(zf, lake_of, nx, ny, x, y, m, amount, cell_area):
     return amount
 
 
-@njit(cache=True)
-def is_pit(zf, nx, ny, ix, iy):
-    """True when cell (ix, iy) is not higher than any of its (in-map) 8 neighbours."""
-    h = zf[iy * nx + ix]
-    for j in range(max(iy - 1, 0), min(iy + 2, ny)):
-        for i in range(max(ix - 1, 0), min(ix + 2, nx)):
-            if zf[j * nx + i] < h:
-                return False
-    return True
-
-
-@njit(cache=True)
-def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, track, B, P):
+@njit(cache=True, error_model="numpy")
+def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, track, B, P):
     """Run one droplet until it ends, leaves or stops (see module docstring).
 
     Returns (status, x, y, vx, vy, V, S) with positions in cell units and V, S in m³.
@@ -172,13 +171,15 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, track, B, 
             B[B_STEPS] += steps
             return STOP, x, y, vx, vy, V, S
         speed = math.sqrt(vx * vx + vy * vy)
-        if speed * h < P[P_PIT] and is_pit(zf, nx, ny, jx, jy):
-            B[B_STEPS] += steps
-            return STOP, x, y, vx, vy, V, S
+        if speed * h < P[P_PIT]:
+            pit, at_min = walk_down(cn, 2 * m + 1, zf, lake_of, level, sea, nx, ny)
+            if at_min:
+                B[B_STEPS] += steps
+                return STOP, float(pit % nx), float(pit // nx), vx, vy, V, S
         # mass transfer at the old position
         drop = (bilinear(z2, x0, y0) - bilinear(z2, x, y)) * nsub
         ceq = P[P_CAP] * vrel * speed * drop if drop > 0.0 else 0.0
-        hold = 1.0 - roots[c]
+        hold = 1.0 - P[P_ROOT] * roots[c]
         if hold < 0.0:
             hold = 0.0
         diff = ceq - S

@@ -38,7 +38,9 @@ from erosim.hydrology.params import (
     P_CA,
     P_DRAIN,
     P_EDGE,
+    P_FOOT,
     P_LAKES,
+    P_ROOT,
     P_SEA,
     P_SPILL,
     P_V0,
@@ -66,6 +68,7 @@ from erosim.hydrology.pools import (
     HS_NLAKES,
     flood,
     settle_in_lake,
+    walk_down,
 )
 from erosim.terrain.heightmap import Heightmap
 
@@ -146,6 +149,7 @@ def run_droplets(first, count, seed, z2, stream, roots, erod, lake_of, track, le
     sea = P[P_SEA]
     edge = P[P_EDGE]
     drainage = P[P_DRAIN]
+    nwalk = 2 * int(P[P_FOOT]) + 1
     base = splitmix64(np.uint64(seed) * np.uint64(0x2545F4914F6CDD1D))
     for i in range(count):
         if hkey.shape[0] - hs[HS_BUMP] < margin or hs[HS_NLAKES] + spill + 2 >= lake_cap:
@@ -169,9 +173,13 @@ def run_droplets(first, count, seed, z2, stream, roots, erod, lake_of, track, le
         vy = 0.0
         B[B_RAINED] += V
         rounds = spill
+        at_min = False
         while True:
-            status, x, y, vx, vy, V, S = descend(x, y, vx, vy, V, S, z2, zf, sf, rf, ef,
-                                                 lake_of, track, B, P)
+            if at_min:  # spilled into a depression: it floods there without descending
+                status = 2
+            else:
+                status, x, y, vx, vy, V, S = descend(x, y, vx, vy, V, S, z2, zf, sf, rf, ef,
+                                                     lake_of, level, track, B, P)
             if status == LEFT:
                 break
             c = int(y + 0.5) * nx + int(x + 0.5)
@@ -187,8 +195,12 @@ def run_droplets(first, count, seed, z2, stream, roots, erod, lake_of, track, le
             B[B_FLOODS] += 1
             if res != DRAIN:
                 break
+            # step off the drain down the water/terrain surface, away from the lake it left
+            cell, at_min = walk_down(cell, nwalk, zf, lake_of, level, sea, nx, ny)
             x = float(cell % nx)
             y = float(cell // nx)
+            vx = 0.0
+            vy = 0.0
             rounds -= 1
             if rounds <= 0:
                 _settle(cell, V, S, zf, lake_of, level, area, mroot, broot, B, P,
@@ -212,8 +224,9 @@ def _check_map(name: str, arr, shape) -> np.ndarray:
 class HydrologyModel:
     """Heightmap + stream, lakes and trees, advanced one cycle at a time (HY-3)."""
 
-    STATE_KEYS = ("z", "z0", "stream", "roots", "trees", "lake_of", "level", "budget",
-                  "droplets", "cycles")
+    STATE_KEYS = ("z", "z0", "stream", "cover", "trees", "lake_of", "level", "budget",
+                  "droplets", "cycles", "area", "mroot", "broot", "hs", "hkey", "hcell", "hleft",
+                  "hright", "hrank")
 
     def __init__(self, terrain: Heightmap, params: HydrologyParams | None = None,
                  veg: VegetationParams | None = None, seed: int = 0,
@@ -226,13 +239,14 @@ class HydrologyModel:
         self.cell_size = float(terrain.cell_size)
         self.ell = reference_length(self.p, self.cell_size)
         self.P = kernel_constants(self.p, self.cell_size)
+        self.P[P_ROOT] = self.veg.root_strength if self.veg.enabled else 0.0
         self.z = np.ascontiguousarray(terrain.z, dtype=np.float64).copy()
         self.z0 = self.z.copy()
         ny, nx = self.z.shape
         n = nx * ny
         self.n = n
         self.stream = np.zeros((ny, nx))
-        self.roots = np.zeros((ny, nx))
+        self.cover = np.zeros((ny, nx))  # tree cover within the root radius (HY-5)
         self.trees = np.zeros((ny, nx), np.uint8)
         self.track = np.zeros(n, np.uint8)
         self.erod = np.ones((ny, nx)) if erodibility is None else _check_map("erodibility", erodibility, (ny, nx))
@@ -262,6 +276,7 @@ class HydrologyModel:
         self.hs = np.zeros(4, np.int64)
         self.margin = max(n, 65536)
         self._alloc_pool(3 * self.margin)
+        self._built = False
 
     # ----------------------------------------------------------------------------- internals
     def _alloc_pool(self, size: int) -> None:
@@ -284,6 +299,7 @@ class HydrologyModel:
                               self.start)
             if self.hkey.shape[0] - self.hs[HS_BUMP] >= 2 * self.margin:
                 self.n_lakes = k
+                self._built = True
                 return
             # pool too small for the lakes present: grow it and rebuild from the same maps
             self.lake_of[:] = lake_before
@@ -295,22 +311,25 @@ class HydrologyModel:
     def cycle(self) -> None:
         """One cycle: droplets, then the stream map and the vegetation."""
         todo = self.per_cycle
-        ny, nx = self.z.shape
-        while todo > 0:
+        if not self._built or self.cycles % self.p.rebuild_every == 0:
             self._rebuild()
+        while todo > 0:
             done = run_droplets(
-                self.droplets, todo, self.seed, self.z, self.stream, self.roots, self.erod,
+                self.droplets, todo, self.seed, self.z, self.stream, self.cover, self.erod,
                 self.lake_of, self.track, self.level, self.area, self.mroot, self.broot, self.hkey,
                 self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk,
-                self.rain_cdf, self.budget, self.P, _now_real if self.timing else _now_none, self.margin, self.lake_cap,
+                self.rain_cdf, self.budget, self.P, _now_real if self.timing else _now_none,
+                self.margin, self.lake_cap,
             )
             self.droplets += done
             todo -= done
+            if todo > 0:
+                self._rebuild()  # heap pool or lake table full: compact, then go on
         streams.update(self.stream, self.track, self.p.stream_rate)
         if self.veg.enabled:
             rng = np.random.default_rng([self.seed & 0xFFFFFFFF, self.cycles, 0x5EED])
-            vegetation.step(self.trees, self.roots, self.z, self.cell_size, self.ell,
-                            self.lake_depth(), self.stream, self.sea_mask(), self.veg, rng)
+            vegetation.step(self.trees, self.cover, self.z, self.cell_size, self.ell, self.lake_of,
+                            self.level, self.P[P_SEA], self.stream, self.veg, rng)
         self.cycles += 1
 
     def run(self, cycles: int) -> None:
@@ -333,8 +352,8 @@ class HydrologyModel:
         return np.maximum(self.z - self.z0, 0.0)
 
     def vegetation(self) -> np.ndarray:
-        """Root density in [0, 1] (zero on water)."""
-        return self.roots.copy()
+        """Root density ρ_r in [0, 1] (zero on lakes and sea): what holds the soil (HY-5)."""
+        return vegetation.root_density(self.cover, self.veg, (self.lake_depth() > 0) | self.sea_mask())
 
     def water_budget(self) -> dict:
         B = self.budget
@@ -393,11 +412,17 @@ class HydrologyModel:
 
     # ----------------------------------------------------------------------------- checkpoint
     def state(self) -> dict:
+        """Everything the next cycle reads, lake heaps included (so a resume is bit-identical)."""
         k = max(int(self.hs[HS_NLAKES]), 1)
+        used = int(self.hs[HS_BUMP])
         return {
-            "z": self.z, "z0": self.z0, "stream": self.stream, "roots": self.roots,
+            "z": self.z, "z0": self.z0, "stream": self.stream, "cover": self.cover,
             "trees": self.trees, "lake_of": self.lake_of, "level": self.level[:k].copy(),
             "budget": self.budget, "droplets": np.int64(self.droplets), "cycles": np.int64(self.cycles),
+            "area": self.area[:k].copy(), "mroot": self.mroot[:k].copy(), "broot": self.broot[:k].copy(),
+            "hs": self.hs.copy(), "hkey": self.hkey[:used].copy(), "hcell": self.hcell[:used].copy(),
+            "hleft": self.hleft[:used].copy(), "hright": self.hright[:used].copy(),
+            "hrank": self.hrank[:used].copy(), "built": np.int64(self._built),
         }
 
     def load_state(self, st: dict) -> None:
@@ -407,18 +432,20 @@ class HydrologyModel:
                 "The checkpoint does not match this hydrology run (missing or differently sized maps); "
                 "start the run again without --resume."
             )
-        self.z[...] = st["z"]
-        self.z0[...] = st["z0"]
-        self.stream[...] = st["stream"]
-        self.roots[...] = st["roots"]
-        self.trees[...] = st["trees"]
-        self.lake_of[...] = st["lake_of"]
-        lv = np.asarray(st["level"])
-        self.level[: lv.size] = lv
-        self.hs[HS_NLAKES] = lv.size
-        self.budget[...] = st["budget"]
+        for name in ("z", "z0", "stream", "cover", "trees", "lake_of", "budget"):
+            getattr(self, name)[...] = st[name]
+        k = np.asarray(st["level"]).size
+        for name in ("level", "area", "mroot", "broot"):
+            getattr(self, name)[:k] = st[name]
+        self.hs[...] = st["hs"]
+        used = int(self.hs[HS_BUMP])
+        if used > self.hkey.shape[0] - 2 * self.margin:
+            self._alloc_pool(used + 3 * self.margin)
+        for name in ("hkey", "hcell", "hleft", "hright", "hrank"):
+            getattr(self, name)[:used] = st[name]
         self.droplets = int(st["droplets"])
         self.cycles = int(st["cycles"])
+        self._built = bool(int(st.get("built", 1)))
 
     def flood_seconds(self) -> float:
         return float(self.budget[B_FLOOD_NS]) * 1e-9

@@ -60,6 +60,9 @@ class HydrologyParams(Section):
         True, doc="a slow droplet in a pit (cell lower than its 8 neighbours) floods there; seed: off",
     )
     max_steps: int = param(20_000, ge=10, unit="1", doc="safety cap on sub-steps per descent")
+    rebuild_every: int = param(
+        16, ge=1, unit="cycles", doc="rebuild the lake heaps (fresh keys after erosion) every N cycles",
+    )
 
 
 class VegetationParams(Section):
@@ -78,8 +81,8 @@ class VegetationParams(Section):
 
 # indices of the kernel constant vector -------------------------------------------------------
 P_DT, P_FRIC, P_EVAP, P_KD, P_CAP, P_ACC, P_AMIN, P_DENS, P_V0, P_VMIN, P_DX, P_CA, P_MAXSTEP, \
-    P_FOOT, P_SEA, P_EDGE, P_DRAIN, P_MAXSTEPS, P_SPILL, P_LAKES, P_PIT = range(21)
-P_SIZE = 21
+    P_FOOT, P_SEA, P_EDGE, P_DRAIN, P_MAXSTEPS, P_SPILL, P_LAKES, P_PIT, P_ROOT = range(22)
+P_SIZE = 22
 
 
 def reference_length(p: HydrologyParams, cell_size: float) -> float:
@@ -120,5 +123,5 @@ def kernel_constants(p: HydrologyParams, cell_size: float) -> np.ndarray:
     c[P_MAXSTEPS] = p.max_steps
     c[P_SPILL] = p.spill
     c[P_LAKES] = 1.0 if p.lakes else 0.0
-    c[P_PIT] = 0.5 * cell_size if p.pit_flood else -1.0  # pit test below this move per sub-step (m)
+    c[P_PIT] = 0.5 * max(ell, cell_size) if p.pit_flood else -1.0  # pit test below this move (m)
     return c

@@ -162,6 +162,32 @@ def surface(c, zf, lake_of, level, sea_level):
 
 
 @njit(cache=True)
+def walk_down(c, max_walk, zf, lake_of, level, sea_level, nx, ny):
+    """Steepest-descent (D8) walk over the *surface* (lakes at their level) from cell c.
+
+    Returns (cell, at_minimum) after at most ``max_walk`` moves. Used to move a droplet off a
+    drain (so that it does not slide back onto the bed of the lake it just left) and to find the
+    bottom of the depression a slow droplet sits in (``pit_flood``).
+    """
+    for _ in range(max_walk):
+        iy = c // nx
+        ix = c - iy * nx
+        best = c
+        hb = surface(c, zf, lake_of, level, sea_level)
+        for j in range(max(iy - 1, 0), min(iy + 2, ny)):
+            for i in range(max(ix - 1, 0), min(ix + 2, nx)):
+                n = j * nx + i
+                h = surface(n, zf, lake_of, level, sea_level)
+                if h < hb:
+                    hb = h
+                    best = n
+        if best == c:
+            return c, True
+        c = best
+    return c, False
+
+
+@njit(cache=True)
 def _push_neighbours(k, c, nx, ny, zf, lake_of, level, broot, sea_level, edge_key,
                      hkey, hcell, hleft, hright, hrank, hs, stack):
     iy = c // nx
@@ -307,13 +333,18 @@ def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level,
     Returns (result, cell, V, S): SPENT (V went into the lake, S settled on its bed), DRAIN (the
     particle is at ``cell``, a drain, with V and the kept 10 % of S) or LEFT (drained off the world).
     """
-    k = lake_of[c]
-    if k < 0:
-        k = new_lake(c, nx, ny, zf, lake_of, level, area, mroot, broot, sea_level, edge_key,
-                     hkey, hcell, hleft, hright, hrank, hs, stack)
     # the seed keeps 10 % of the sediment when the particle drains on; the rest settles where it
     # entered the lake (the seed deletes it; settling keeps the sediment budget closed)
     dep = 0.9 * S
+    k = lake_of[c]
+    if k < 0:
+        if dep > 0.0:  # dry cell: settle first, then the new lake starts at the raised bed
+            zf[c] += dep / cell_area
+            B[B_DEPOSITED] += dep
+            S -= dep
+            dep = 0.0
+        k = new_lake(c, nx, ny, zf, lake_of, level, area, mroot, broot, sea_level, edge_key,
+                     hkey, hcell, hleft, hright, hrank, hs, stack)
     if dep > 0.0:
         extra = settle_in_lake(k, c, dep, zf, lake_of, level, area, mroot, broot, cell_area,
                                hkey, hcell, hleft, hright, hrank, hs, stack)
