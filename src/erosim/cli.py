@@ -150,6 +150,13 @@ def demo(out):
 
 
 # ------------------------------------------------------------------------------- list / describe
+def _first_sentence(text: str) -> str:
+    """The description's first sentence (its summary line), for one-line listings."""
+    line = " ".join(text.split())
+    end = line.find(". ")
+    return line if end < 0 else line[: end + 1]
+
+
 @cli.command(name="list")
 def list_():
     """List the scenario library."""
@@ -161,7 +168,7 @@ def list_():
     table = Table("scenario", "kind", "presets", "what it is")
     for name in loader.library_names():
         data = loader.read_toml(loader.LIBRARY / f"{name}.toml")
-        first = str(data.get("description", "")).strip().split("\n")[0]
+        first = _first_sentence(str(data.get("description", "")))
         presets = ", ".join(sorted(data.get("presets", {}) or {}))
         table.add_row(name, str(data.get("kind", "?")), presets, first)
     Console().print(table)
