@@ -14,8 +14,11 @@ Method
    XOR hash, Teschner et al. 2003, but exact: keys are compared, so no false candidates).
 3. Cells are ordered by key and particles counting-sorted by cell (Green 2010's sorted grid), which
    also gives the permutation the solver uses to reorder particles for memory locality.
-4. For every cell the ids of its 3^d neighbour cells are looked up once; each particle then scans
-   them and keeps the particles closer than the radius — two passes (count, fill) into CSR lists.
+4. For every cell the ids of its 3^d neighbour cells are looked up once; each fluid particle then
+   scans them and keeps the particles closer than the radius — two passes (count, fill) into CSR
+   lists. Boundary particles' lists (their fluid neighbours) are the transpose of the fluid
+   particles' boundary parts (:func:`transpose_boundary`), so the many boundary particles far from
+   any fluid cost nothing.
 
 List layout: for query particle i, ``nbr[start[i]:mid[i]]`` are fluid neighbours (index < n_fluid)
 and ``nbr[mid[i]:start[i+1]]`` boundary neighbours; particles ≥ ``n_fluid`` (boundary) get fluid
@@ -137,11 +140,11 @@ def neighbour_cells(cell_key, ncell, table_key, table_cell, shift, bits, dim, ou
 
 
 @njit(parallel=True, cache=True)
-def count_neighbours(pos, n_fluid, particle_cell, cell_nbrs, cell_start, cell_index, r2max, count_f, count_b):
-    """Pass 1: number of fluid and boundary neighbours of every particle within sqrt(r2max)."""
-    n, d = pos.shape
+def count_neighbours(pos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start, cell_index, r2max, count_f, count_b):
+    """Pass 1: number of fluid and boundary neighbours within sqrt(r2max) of particles 0 … n_query−1."""
+    d = pos.shape[1]
     kn = cell_nbrs.shape[1]
-    for i in prange(n):
+    for i in prange(n_query):
         c = particle_cell[i]
         cf = 0
         cb = 0
@@ -167,21 +170,21 @@ def count_neighbours(pos, n_fluid, particle_cell, cell_nbrs, cell_start, cell_in
 
 
 @njit(cache=True)
-def offsets(count_f, count_b, start, mid):
-    """CSR offsets: start[i] .. mid[i] fluid neighbours, mid[i] .. start[i+1] boundary ones."""
+def offsets(count_f, count_b, n_query, start, mid):
+    """CSR offsets of particles 0 … n_query−1: start[i] .. mid[i] fluid neighbours, mid[i] .. start[i+1] boundary."""
     start[0] = 0
-    for i in range(count_f.size):
+    for i in range(n_query):
         mid[i] = start[i] + count_f[i]
         start[i + 1] = mid[i] + count_b[i]
-    return start[count_f.size]
+    return start[n_query]
 
 
 @njit(parallel=True, cache=True)
-def fill_neighbours(pos, n_fluid, particle_cell, cell_nbrs, cell_start, cell_index, r2max, start, mid, nbr):
+def fill_neighbours(pos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start, cell_index, r2max, start, mid, nbr):
     """Pass 2: write the neighbour indices counted by :func:`count_neighbours`."""
-    n, d = pos.shape
+    d = pos.shape[1]
     kn = cell_nbrs.shape[1]
-    for i in prange(n):
+    for i in prange(n_query):
         c = particle_cell[i]
         pf = start[i]
         pb = mid[i]
@@ -204,6 +207,44 @@ def fill_neighbours(pos, n_fluid, particle_cell, cell_nbrs, cell_start, cell_ind
                     elif i < n_fluid:
                         nbr[pb] = j
                         pb += 1
+
+
+@njit(cache=True)
+def transpose_boundary(n_fluid, n_total, start, mid, nbr, count):
+    """Lists of the boundary particles (their fluid neighbours) from the fluid particles' lists.
+
+    Appends them after the fluid lists in ``nbr`` (which must have room), sets start/mid of particles
+    n_fluid … n_total−1 (mid = end: no boundary neighbours) and returns the active boundary particles
+    (those with at least one fluid neighbour), in index order. Fluid neighbours appear in index order.
+    """
+    nb = n_total - n_fluid
+    count[:nb] = 0
+    for i in range(n_fluid):
+        for s in range(mid[i], start[i + 1]):
+            count[nbr[s] - n_fluid] += 1
+    base = start[n_fluid]
+    n_active = 0
+    for k in range(nb):
+        i = n_fluid + k
+        mid[i] = base + count[k]
+        start[i + 1] = mid[i]
+        if count[k] > 0:
+            n_active += 1
+        count[k] = base
+        base = mid[i]
+    for i in range(n_fluid):
+        for s in range(mid[i], start[i + 1]):
+            k = nbr[s] - n_fluid
+            nbr[count[k]] = i
+            count[k] += 1
+    active = np.empty(n_active, np.int64)
+    a = 0
+    for k in range(nb):
+        i = n_fluid + k
+        if start[i + 1] > start[i]:
+            active[a] = i
+            a += 1
+    return active
 
 
 class _Grid:
@@ -289,10 +330,11 @@ def find_neighbours(pos, radius: float, n_fluid: int | None = None):
     build_grid(grid, pos, float(radius))
     cf = np.empty(n, np.int64)
     cb = np.empty(n, np.int64)
-    count_neighbours(pos, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, cf, cb)
+    count_neighbours(pos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, cf, cb)
     start = np.empty(n + 1, np.int64)
     mid = np.empty(n, np.int64)
-    total = offsets(cf, cb, start, mid)
-    nbr = np.empty(total, np.int64)
-    fill_neighbours(pos, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, start, mid, nbr)
+    total = offsets(cf, cb, nf, start, mid)
+    nbr = np.empty(total + int(cb[:nf].sum()), np.int64)
+    fill_neighbours(pos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, start, mid, nbr)
+    transpose_boundary(nf, n, start, mid, nbr, np.empty(max(n - nf, 1), np.int64))
     return start, mid, nbr

@@ -350,8 +350,9 @@ def fluid_pass_3d_muller_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_
 
 
 @njit(parallel=True, cache=True)
-def boundary_pass_2d_wendland(pos, vel, start, mid, nbr, n_fluid, n_total, m, h, drho):
-    for i in prange(n_fluid, n_total):
+def boundary_pass_2d_wendland(pos, vel, start, mid, nbr, active, m, h, drho):
+    for k in prange(active.size):
+        i = active[k]
         boundary_particle(K.wendland_f_2d, i, pos, vel, start, mid, nbr, m, h, drho)
 
 
@@ -362,8 +363,9 @@ def summation_density_2d_wendland(pos, start, nbr, n_fluid, n_total, m, h, rho_b
 
 
 @njit(parallel=True, cache=True)
-def boundary_pass_2d_muller(pos, vel, start, mid, nbr, n_fluid, n_total, m, h, drho):
-    for i in prange(n_fluid, n_total):
+def boundary_pass_2d_muller(pos, vel, start, mid, nbr, active, m, h, drho):
+    for k in prange(active.size):
+        i = active[k]
         boundary_particle(K.muller_f_2d, i, pos, vel, start, mid, nbr, m, h, drho)
 
 
@@ -374,8 +376,9 @@ def summation_density_2d_muller(pos, start, nbr, n_fluid, n_total, m, h, rho_bas
 
 
 @njit(parallel=True, cache=True)
-def boundary_pass_3d_wendland(pos, vel, start, mid, nbr, n_fluid, n_total, m, h, drho):
-    for i in prange(n_fluid, n_total):
+def boundary_pass_3d_wendland(pos, vel, start, mid, nbr, active, m, h, drho):
+    for k in prange(active.size):
+        i = active[k]
         boundary_particle(K.wendland_f_3d, i, pos, vel, start, mid, nbr, m, h, drho)
 
 
@@ -386,8 +389,9 @@ def summation_density_3d_wendland(pos, start, nbr, n_fluid, n_total, m, h, rho_b
 
 
 @njit(parallel=True, cache=True)
-def boundary_pass_3d_muller(pos, vel, start, mid, nbr, n_fluid, n_total, m, h, drho):
-    for i in prange(n_fluid, n_total):
+def boundary_pass_3d_muller(pos, vel, start, mid, nbr, active, m, h, drho):
+    for k in prange(active.size):
+        i = active[k]
         boundary_particle(K.muller_f_3d, i, pos, vel, start, mid, nbr, m, h, drho)
 
 
@@ -423,7 +427,7 @@ def fluid_driver(dim: int, kernel: str, pressure_form: str, viscosity: str):
 
 
 def boundary_driver(dim: int, kernel: str):
-    """dρ/dt of boundary particles with this kernel."""
+    """dρ/dt of the active boundary particles (those with fluid neighbours) with this kernel."""
     return globals()[f"boundary_pass_{dim}d_{kernel}"]
 
 

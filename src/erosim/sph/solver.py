@@ -235,11 +235,15 @@ class SPHSolver:
                 ci[fl] = np.arange(nf)
             src = self.pos
         r2 = self.rc * self.rc
-        nb.count_neighbours(src, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, r2, self._count_f, self._count_b)
-        total = nb.offsets(self._count_f, self._count_b, self.start, self.mid)
+        nb.count_neighbours(src, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, r2,
+                            self._count_f, self._count_b)
+        total = nb.offsets(self._count_f, self._count_b, nf, self.start, self.mid)
+        total += int(self._count_b[:nf].sum())  # room for the boundary particles' (transposed) lists
         if self.nbr.size < total:
             self.nbr = np.empty(int(total * 1.2) + 64, np.int32)
-        nb.fill_neighbours(src, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, r2, self.start, self.mid, self.nbr)
+        nb.fill_neighbours(src, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, r2,
+                           self.start, self.mid, self.nbr)
+        self.active = nb.transpose_boundary(nf, self.n, self.start, self.mid, self.nbr, self._count_b)
         self.ref[:] = src[:nf]
         self.rebuilds += 1
 
@@ -264,7 +268,7 @@ class SPHSolver:
         if self._summation:
             self.drho.fill(0)
         elif self.n_boundary:
-            self._bpass(self.pos, self.vel, self.start, self.mid, self.nbr, self.n_fluid, self.n, self.m, self.h, self.drho)
+            self._bpass(self.pos, self.vel, self.start, self.mid, self.nbr, self.active, self.m, self.h, self.drho)
 
     def _norms(self) -> None:
         integrators.max_norms(self.vel, self.acc, self.n_fluid, self._v2, self._a2)
@@ -279,25 +283,22 @@ class SPHSolver:
         """Advance one step (fixed or adaptive Δt); returns the Δt used."""
         prm = self.params
         dt = prm.dt if prm.dt > 0 else self.dt_limit()
-        nf, n = self.n_fluid, self.n
+        nf = self.n_fluid
         args = (prm.rho0, self.b, self.gamma, self.pmin)
         k1, k2 = (0.5 * dt, 0.5 * dt) if self._leapfrog else (dt, 0.0)
-        integrators.kick_drift(self.pos, self.vel, self.acc, self.rho, self.rho_old, self.drho, self.p, nf,
+        integrators.kick_drift(self.pos, self.vel, self.acc, self.rho, self.rho_old, self.drho, self.p, nf, self.active,
                                k1, dt, *args, self._lo, self._hi, self._olo, self._ohi, self.ref, self._disp2)
-        if n > nf:
-            self.rho_old[nf:] = self.rho[nf:]
-            integrators.boundary_density(self.rho, self.rho_old, self.drho, self.p, nf, n, dt, *args)
         self._maybe_rebuild()
         self._evaluate()
         if self._summation:
             np.copyto(self.rho_old, self.rho)
-        integrators.correct(self.vel, self.acc, self.rho, self.rho_old, self.drho, self.p, nf, k2, dt, *args)
-        if n > nf:
-            integrators.boundary_density(self.rho, self.rho_old, self.drho, self.p, nf, n, dt, *args)
+        integrators.correct(self.vel, self.acc, self.rho, self.rho_old, self.drho, self.p, nf, self.active, k2, dt,
+                            *args, self._v2, self._a2)
+        self.vmax = math.sqrt(float(self._v2.max()))
+        self.amax = math.sqrt(float(self._a2.max()))
         self.t += dt
         self.steps += 1
         self.last_dt = dt
-        self._norms()
         if not (self.vmax <= prm.max_mach * self.c) or not math.isfinite(self.amax):
             what = "NaN/infinite values" if not math.isfinite(self.vmax) or not math.isfinite(self.amax) else (
                 f"a fluid speed of {self.vmax:.3g} m/s, above {prm.max_mach:g}× the sound speed {self.c:.3g} m/s")

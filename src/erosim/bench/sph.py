@@ -1,0 +1,92 @@
+"""``erosim bench sph``: throughput of the SPH solver on a dam break (issue 2, item 9).
+
+A fluid block of about ``particles`` particles (3-D: a cube of side L, the thesis's SC-1; 2-D: a
+column L × 2L) is released at one end of a tank 3L long (3-D: L wide, 1.5L high; 2-D: 2.5L high),
+with the solver's default settings (Wendland C2, Tait, δ-SPH, artificial viscosity, leapfrog,
+boundary-particle walls, support 2Δx in 3-D: about 30 neighbours). The solver is built and run
+for ``warmup`` steps untimed (Numba compilation and the first neighbour lists), then ``steps`` steps
+are timed, neighbour-list rebuilds and particle re-sorting included. Reported:
+
+* ``particle_steps_per_s`` = fluid particles × timed steps / wall time;
+* ``pair_interactions_per_s`` = Σ over fluid particles of neighbours within h (fluid and boundary) ×
+  steps / wall time;
+* ``neighbours_mean``, ``ms_per_step``, ``threads`` (Numba threads), ``peak_rss_mb`` (peak resident
+  memory of the process), ``cpu_s`` (process CPU time of the timed steps: on a shared machine, wall
+  time also counts the other jobs' load), ``boundary_particles``, ``rebuilds`` (during the timed steps).
+"""
+
+from __future__ import annotations
+
+import resource
+import time
+
+import numpy as np
+
+
+def dam_break_geometry(particles: int, dim: int, spacing: float):
+    """(fluid positions, domain lo, domain hi) of the benchmark's dam break."""
+    if dim == 3:
+        n = max(2, int(round(particles ** (1.0 / 3.0))))
+        counts = (n, n, n)
+        L = n * spacing
+        hi = (3.0 * L, L, 1.5 * L)
+    else:
+        n = max(2, int(round((particles / 2.0) ** 0.5)))
+        counts = (n, 2 * n)
+        L = n * spacing
+        hi = (3.0 * L, 2.5 * L)
+    axes = [(np.arange(c) + 0.5) * spacing for c in counts]
+    grids = np.meshgrid(*axes, indexing="ij")
+    fluid = np.stack([g.ravel() for g in grids], axis=1)
+    return fluid, np.zeros(dim), np.array(hi)
+
+
+def run(particles: int = 100_000, steps: int | None = None, dim: int = 3, *, warmup: int = 20,
+        precision: str = "float32", walls: str = "particles", seconds: float = 8.0) -> dict:
+    """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
+    import numba
+
+    from erosim.sph.params import SPHParams
+    from erosim.sph.solver import SPHSolver
+
+    spacing = 0.01
+    fluid, lo, hi = dam_break_geometry(int(particles), int(dim), spacing)
+    params = SPHParams(dim=int(dim), spacing=spacing, precision=precision, walls=walls)
+    t0 = time.perf_counter()
+    solver = SPHSolver(params, fluid, domain_lo=lo, domain_hi=hi)
+    build_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    for _ in range(warmup):
+        solver.step()
+    warm_s = time.perf_counter() - t0
+    if steps is None:
+        per = warm_s / max(warmup, 1)
+        steps = int(max(10, min(2000, seconds / max(per, 1e-6))))
+    r0 = solver.rebuilds
+    c0 = time.process_time()
+    t0 = time.perf_counter()
+    for _ in range(int(steps)):
+        solver.step()
+    wall = time.perf_counter() - t0
+    cpu = time.process_time() - c0
+    stats = solver.neighbour_stats()
+    nf = solver.n_fluid
+    return {
+        "particles": int(nf),
+        "boundary_particles": int(solver.n_boundary),
+        "dim": int(dim),
+        "steps": int(steps),
+        "neighbours_mean": round(stats["mean"], 2),
+        "particle_steps_per_s": nf * steps / wall,
+        "pair_interactions_per_s": nf * stats["mean"] * steps / wall,
+        "ms_per_step": 1000.0 * wall / steps,
+        "threads": int(numba.get_num_threads()),
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
+        "wall_s": round(wall, 3),
+        "cpu_s": round(cpu, 3),
+        "rebuilds": int(solver.rebuilds - r0),
+        "simulated_s": float(solver.t),
+        "build_s": round(build_s, 2),
+        "precision": precision,
+        "walls": walls,
+    }
