@@ -300,28 +300,24 @@ def lower(k, new_level, zf, lake_of, level, area, mroot, broot, cell_area,
 @njit(cache=True)
 def settle_in_lake(k, c, amount, zf, lake_of, level, area, mroot, broot, cell_area,
                    hkey, hcell, hleft, hright, hrank, hs, stack):
-    """Sediment ``amount`` (m³) settles on lake cell c; the water it displaces raises the level.
+    """Sediment ``amount`` (m³) settles on lake cell c. Returns the water it displaces (m³).
 
-    Returns water (m³) that could not stay (the lake vanished); the caller accounts for it.
+    The level is left as it is; the caller routes the displaced water (back through the fill, or
+    with an ending droplet), so lake levels never rise past their spill point by displacement.
+    If the deposit rises above the water the cell leaves the lake and its whole column is displaced.
     """
     if amount <= 0.0:
         return 0.0
     L = level[k]
     dz = amount / cell_area
     depth = L - zf[c]
-    if dz <= depth:
-        zf[c] += dz
-        mroot[k] = push(mroot[k], -zf[c], c, hkey, hcell, hleft, hright, hrank, hs, stack)
-        level[k] = L + dz / area[k]  # displaced dz·Δx² spread over A members: exact
-        return 0.0
-    # the deposit rises above the water: the cell leaves the lake, its whole column is displaced
     zf[c] += dz
+    if dz < depth:
+        mroot[k] = push(mroot[k], -zf[c], c, hkey, hcell, hleft, hright, hrank, hs, stack)
+        return dz * cell_area
     lake_of[c] = -1
     area[k] -= 1
     broot[k] = push(broot[k], zf[c], c, hkey, hcell, hleft, hright, hrank, hs, stack)
-    if area[k] > 0:
-        level[k] = L + depth / area[k]
-        return 0.0
     return depth * cell_area
 
 
@@ -407,7 +403,27 @@ def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level,
             level[k] = L + V / (area[k] * cell_area)
             B[B_TO_LAKES] += V
             V = 0.0
-            break
+            if S <= 0.0:
+                break
+            # spent: the rest of the sediment settles where the particle entered; the water it
+            # displaces goes round the fill once more (it may reach the spill point)
+            kc = lake_of[c]
+            if kc < 0:
+                zf[c] += S / cell_area
+                B[B_DEPOSITED] += S
+                S = 0.0
+                break
+            V = settle_in_lake(kc, c, S, zf, lake_of, level, area, mroot, broot, cell_area,
+                               hkey, hcell, hleft, hright, hrank, hs, stack)
+            B[B_DEPOSITED] += S
+            B[B_TO_LAKES] -= V
+            S = 0.0
+            k = kc
+            if V <= 0.0 or area[k] == 0:
+                B[B_RESID] += V  # the lake vanished under its own sediment: the drop ends
+                V = 0.0
+                break
+            continue
         level[k] = e
         V -= need
         B[B_TO_LAKES] += need
@@ -422,17 +438,6 @@ def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level,
         mroot[k] = push(mroot[k], -zf[b], b, hkey, hcell, hleft, hright, hrank, hs, stack)
         _push_neighbours(k, b, nx, ny, zf, lake_of, level, broot, sea_level, edge_key,
                          hkey, hcell, hleft, hright, hrank, hs, stack)
-    # spent: the rest of the sediment settles on the lake bed where the particle entered
-    k = lake_of[c]
-    if S > 0.0:
-        if k >= 0:
-            extra = settle_in_lake(k, c, S, zf, lake_of, level, area, mroot, broot, cell_area,
-                                   hkey, hcell, hleft, hright, hrank, hs, stack)
-            B[B_TO_LAKES] -= extra
-            B[B_RESID] += extra
-        else:
-            zf[c] += S / cell_area
-        B[B_DEPOSITED] += S
     return SPENT, c, 0.0, 0.0
 
 

@@ -1,0 +1,163 @@
+"""HY-2 lakes: exact fill-to-spill, flat levels, merging, draining at the map edge (HY-8)."""
+
+import numpy as np
+import pytest
+from skimage.morphology import reconstruction
+
+from erosim.hydrology import pools
+from erosim.hydrology.model import HydrologyModel
+from erosim.hydrology.params import HydrologyParams, VegetationParams
+from erosim.terrain.heightmap import Heightmap
+
+
+def _model(z, cell=1.0, **kw):
+    p = HydrologyParams(length_scale=0.0, **kw)
+    m = HydrologyModel(Heightmap(z=np.asarray(z, float), cell_size=cell), p,
+                       VegetationParams(enabled=False), seed=3)
+    m._rebuild()
+    return m
+
+
+def _flood(m, iy, ix, V, S=0.0):
+    ny, nx = m.z.shape
+    P = m.P
+    return pools.flood(iy * nx + ix, V, S, nx, ny, m.z.reshape(-1), m.lake_of, m.level, m.area,
+                       m.mroot, m.broot, m.budget, P[14], P[15], P[11], P[16], m.hkey, m.hcell,
+                       m.hleft, m.hright, m.hrank, m.hs, m.stack, m.walk)
+
+
+def _filled(z):
+    """Depression-filled surface (morphological reconstruction by erosion), open map edges."""
+    seed = z.copy()
+    seed[1:-1, 1:-1] = z.max()
+    return reconstruction(seed, z, method="erosion")
+
+
+def _two_basins():
+    """Two square pits (floors 0 m and 2 m) in a 10 m plateau, joined by a 5 m saddle."""
+    z = np.full((20, 30), 10.0)
+    z[5:15, 3:13] = 2.0  # west basin, 100 cells
+    z[5:15, 17:27] = 0.0  # east basin, 100 cells
+    z[9:11, 13:17] = 5.0  # saddle
+    return z
+
+
+def test_volume_goes_into_lake_exactly():
+    z = _two_basins()
+    m = _model(z)
+    res, _c, V, _S = _flood(m, 8, 20, 300.0)  # east basin: 300 m³ over 100 m² -> 3 m deep
+    assert res == pools.SPENT and V == 0.0
+    d = m.lake_depth()
+    # exact to rounding: the level solves A·(L − z)·Δx² = V
+    assert d[8, 20] == pytest.approx(3.0, rel=1e-12)
+    assert d.sum() == pytest.approx(300.0, rel=1e-12)
+    # flat: one level over every wet cell
+    wet = d > 0
+    assert np.ptp((z + d)[wet]) < 1e-12
+
+
+def test_fill_to_spill_then_overflow_into_the_next_basin():
+    z = _two_basins()
+    m = _model(z)
+    # west basin holds 100 m² × 3 m = 300 m³ up to the saddle (5 m): 350 m³ overflows 50 m³
+    res, cell, V, _S = _flood(m, 8, 8, 350.0)
+    assert res == pools.DRAIN
+    iy, ix = divmod(cell, z.shape[1])
+    assert ix == 17 and 8 <= iy <= 11  # the drain: first east-basin cell past the flat saddle
+    d = m.lake_depth()
+    level = (z + d)[8, 8]
+    assert level == pytest.approx(5.0 - 0.001 * (5.0 - z[iy, ix]), abs=1e-9)  # seed's slow drainage
+    released = 300.0 - d.sum()
+    assert V == pytest.approx(50.0 + released, rel=1e-12)  # what overflowed is what the drop carries
+    # never above the spill level given by a morphological fill of the terrain
+    assert np.all(z + d <= _filled(z) + 1e-9)
+
+
+def test_lakes_merge_when_the_levels_meet():
+    z = _two_basins()
+    m = _model(z)
+    _flood(m, 8, 20, 500.0)  # east basin up to the saddle height 5 m (100 m² × 5 m)
+    _flood(m, 8, 8, 300.0)  # west basin up to 5 m
+    res, _c, V, _S = _flood(m, 8, 8, 208.0)  # both + the 8 saddle cells: 208 m² × 1 m
+    assert res == pools.SPENT
+    d = m.lake_depth()
+    wet = d > 0
+    assert np.ptp((z + d)[wet]) < 1e-9  # one flat lake
+    assert (z + d)[8, 8] == pytest.approx(6.0, rel=1e-9)
+    assert len(np.unique(m.lake_of[m.lake_of >= 0])) == 1
+
+
+def test_lake_touching_the_open_edge_drains_off_the_map():
+    """HY-8: no wall at the map edge; a lake that reaches it spills off the world."""
+    z = np.full((10, 10), 10.0)
+    z[3:7, 0:6] = 1.0  # a pit open to the west edge at 1 m
+    z[3:7, 0] = 4.0  # its rim on the edge column is 4 m
+    m = _model(z)
+    res, _c, V, _S = _flood(m, 5, 3, 1000.0)
+    assert res == pools.LEFT
+    d = m.lake_depth()
+    assert (z + d)[5, 3] == pytest.approx(4.0, abs=1e-9)  # filled to the edge cell, no higher
+    assert m.budget[pools.B_LEFT] == pytest.approx(1000.0 - d.sum(), rel=1e-12)
+
+
+def test_sea_level_takes_the_water():
+    z = np.full((12, 12), 10.0)
+    z[4:8, 4:8] = 2.0
+    z[5, 8:] = 3.0  # a channel from the pit to the east edge, 3 m
+    z[5, 11] = -5.0  # below the sea
+    m = _model(z, sea_level=0.0)
+    res, _c, _V, _S = _flood(m, 5, 5, 1000.0)
+    assert res == pools.LEFT
+    # full at the channel height 3 m, then one drainage step toward the sea (seed: r = 0.001)
+    assert (z + m.lake_depth())[5, 5] == pytest.approx(3.0 - 0.001 * 3.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_random_floods_never_exceed_the_filled_surface(seed):
+    rng = np.random.default_rng(seed)
+    from scipy import ndimage
+
+    z = ndimage.gaussian_filter(rng.random((40, 40)) * 20.0, 2.0)
+    m = _model(z)
+    for _ in range(300):
+        iy, ix = rng.integers(1, 39, size=2)
+        if m.lake_of[iy * 40 + ix] < 0:
+            ix = int(ix)
+        res, cell, V, S = _flood(m, int(iy), int(ix), float(rng.random() * 5.0))
+    d = m.lake_depth()
+    surf = m.z + d
+    # tolerance: the seed's drainage step may leave a lake up to 0.1 % of (level − drain) lower,
+    # never higher; rounding of the exact solve is ~1e-12 m
+    assert np.all(surf <= _filled(m.z) + 1e-9)
+    # flat lakes: within each lake one level
+    for k in np.unique(m.lake_of[m.lake_of >= 0]):
+        cells = (m.lake_of == k).reshape(z.shape) & (d > 0)
+        if cells.any():
+            assert np.ptp(surf[cells]) < 1e-9
+    # water exchanged equals water stored
+    assert m.budget[pools.B_TO_LAKES] == pytest.approx(d.sum(), rel=1e-10)
+
+
+def test_heaps_meld_in_order():
+    n = 200
+    hkey = np.zeros(n)
+    hcell = np.zeros(n, np.int64)
+    hleft = np.zeros(n, np.int64)
+    hright = np.zeros(n, np.int64)
+    hrank = np.zeros(n, np.int64)
+    hs = np.array([0, -1, 0, 0], np.int64)
+    stack = np.zeros(128, np.int64)
+    rng = np.random.default_rng(0)
+    keys = rng.random(150)
+    a = b = -1
+    for i, k in enumerate(keys):
+        if i % 2:
+            a = pools.push(a, k, i, hkey, hcell, hleft, hright, hrank, hs, stack)
+        else:
+            b = pools.push(b, k, i, hkey, hcell, hleft, hright, hrank, hs, stack)
+    r = pools.merge(a, b, hkey, hleft, hright, hrank, stack)
+    out = []
+    while r >= 0:
+        out.append(hkey[r])
+        r = pools.pop(r, hkey, hleft, hright, hrank, hs, stack)
+    assert out == sorted(keys)
