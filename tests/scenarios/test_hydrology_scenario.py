@@ -1,0 +1,137 @@
+"""The ``hydrology`` scenario end to end: outputs, report, resume, DEM input, clear errors."""
+
+import json
+
+import numpy as np
+import pytest
+
+from erosim.cli import cli
+from erosim.core.errors import ConfigError, InputError
+from erosim.io import heightmaps as hio
+from erosim.io.runfolder import RunFolder
+from erosim.scenarios import loader
+from erosim.simulation import hydrology_run
+from erosim.terrain.heightmap import Heightmap
+
+SMALL = ["terrain.size=48", "terrain.cell_size=40.0", "run.cycles=6", "run.frames=3",
+         "hydrology.cycle_droplets=20000"]
+
+
+def _run(tmp_path, overrides=(), name="run", preset=None):
+    sc = loader.load("hydrology", list(SMALL) + list(overrides), preset=preset)
+    out = RunFolder(tmp_path / name)
+    summary = hydrology_run.run(sc, out, progress=False)
+    return out.path, summary
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    path, _ = _run(tmp_path_factory.mktemp("hy"))
+    return path
+
+
+def test_run_folder_holds_every_output(folder):
+    for name in hydrology_run.MAPS:
+        assert (folder / "maps" / f"{name}.tif").is_file()
+    for name in ("height.png", "height.r16", "mask_stream.png", "mask_lake_depth.png",
+                 "mask_erosion.png", "mask_deposition.png", "mask_vegetation.png"):
+        assert (folder / "maps" / name).is_file()
+    for name in ("hillshade_before.png", "hillshade_after.png", "hydrology.png", "evolution.gif"):
+        assert (folder / "figures" / name).is_file()
+    assert (folder / "scenario.toml").is_file() and (folder / "checkpoint" / "state.npz").is_file()
+
+
+def test_report_budgets_and_ranges(folder):
+    rep = json.loads((folder / "report.json").read_text())
+    wb, sb = rep["water_budget"], rep["sediment_budget"]
+    for key in ("rained", "in_lakes", "evaporated", "left_edges", "closure_rel"):
+        assert key in wb
+    for key in ("eroded", "deposited", "carried_off", "closure_rel"):
+        assert key in sb
+    # the four terms close by themselves (float64 accumulators): 1e-9 is the stated bar
+    assert abs(wb["rained"] - wb["in_lakes"] - wb["evaporated"] - wb["left_edges"]) <= 1e-9 * wb["rained"]
+    assert abs(sb["eroded"] - sb["deposited"] - sb["carried_off"]) <= 1e-9 * sb["eroded"]
+    lo, hi = rep["outputs"]["heightmap_16bit"]["height_range"]
+    # the 16-bit heightmap re-scales to the final heights within half a quantisation step
+    z = hio.read(folder / "maps" / "height.tif").z
+    back = hio.read(folder / "maps" / "height.png", height_range=(lo, hi)).z
+    assert np.max(np.abs(back - z)) <= 0.5 * (hi - lo) / 65535 + 1e-3  # + float32 GeoTIFF rounding
+
+
+def test_resume_repeats_the_uninterrupted_run(tmp_path):
+    full, _ = _run(tmp_path, ["run.cycles=6", "run.frames=0"], name="full")
+    half, _ = _run(tmp_path, ["run.cycles=3", "run.frames=0"], name="half")
+    # continue the 3-cycle run to 6 cycles from its checkpoint
+    sc = loader.load(half / "scenario.toml", ["run.cycles=6"])
+    hydrology_run.run(sc, RunFolder(half, resume=True), resume=True, progress=False)
+    a = hio.read(full / "maps" / "height.tif").z
+    b = hio.read(half / "maps" / "height.tif").z
+    assert np.array_equal(a, b)
+    ra = json.loads((full / "report.json").read_text())["water_budget"]
+    rb = json.loads((half / "report.json").read_text())["water_budget"]
+    assert ra["rained"] == rb["rained"] and ra["in_lakes"] == rb["in_lakes"]
+
+
+def test_dem_file_input_keeps_its_crs(tmp_path):
+    from scipy import ndimage
+
+    rng = np.random.default_rng(3)
+    z = 300.0 + 200.0 * ndimage.gaussian_filter(rng.random((40, 40)), 4.0)
+    crs = 'PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]],PROJECTION["Transverse_Mercator"],PARAMETER["latitude_of_origin",0],PARAMETER["central_meridian",15],PARAMETER["scale_factor",0.9996],PARAMETER["false_easting",500000],PARAMETER["false_northing",0],UNIT["metre",1],AUTHORITY["EPSG","32633"]]'
+    dem = Heightmap(z=z, cell_size=30.0, crs=crs, transform=(30.0, 0.0, 400000.0, 0.0, -30.0, 5000000.0))
+    hio.write(tmp_path / "dem.tif", dem)
+    path, _ = _run(tmp_path, [f"terrain.file={tmp_path / 'dem.tif'}"], name="dem")
+    out = hio.read(path / "maps" / "lake_depth.tif")
+    assert out.crs and "32633" in out.crs
+    assert out.transform == pytest.approx(dem.transform)
+    assert out.shape == (40, 40)
+
+
+def test_seed_preset_runs(tmp_path):
+    path, summary = _run(tmp_path, ["terrain.size=48", "terrain.cell_size=40.0"],
+                         name="seed", preset="simplehydrology-2020")
+    text = (path / "scenario.toml").read_text()
+    assert "length_scale = 0.0" in text and "pit_flood = false" in text
+    assert summary["water_closure_rel"] < 1e-9
+
+
+def test_nan_only_dem_is_a_clear_error(tmp_path):
+    np.save(tmp_path / "nan.npy", np.full((20, 20), np.nan))
+    with pytest.raises(InputError, match="no valid height"):
+        _run(tmp_path, [f"terrain.file={tmp_path / 'nan.npy'}"], name="nan")
+
+
+def test_wrong_raw_size_is_a_clear_error(tmp_path):
+    (tmp_path / "bad.r16").write_bytes(b"\x00\x01" * 1001)
+    with pytest.raises(InputError, match="(?i)raw"):
+        _run(tmp_path, [f"terrain.file={tmp_path / 'bad.r16'}"], name="raw")
+
+
+def test_negative_cell_size_is_a_clear_error():
+    with pytest.raises(ConfigError, match="terrain.cell_size"):
+        loader.load("hydrology", ["terrain.cell_size=-5"])
+
+
+def test_unknown_presets_are_clear_errors():
+    with pytest.raises(ConfigError, match="no preset 'simplehydrology'"):
+        loader.load("hydrology", preset="simplehydrology")
+    with pytest.raises(ConfigError, match="Unknown terrain preset"):
+        loader.load("hydrology", ["terrain.preset=volcano"])
+    with pytest.raises(ConfigError, match="hydrology.frction"):
+        loader.load("hydrology", ["hydrology.frction=0.2"])
+
+
+def test_cli_run_with_set(tmp_path, cli_runner):
+    res = cli_runner.invoke(cli, ["--quiet", "run", "hydrology", *sum((["--set", s] for s in SMALL), []),
+                                  "--set", "run.cycles=2", "--out", str(tmp_path / "cli")])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "cli" / "maps" / "height.tif").is_file()
+
+
+def test_demo_folder_guard(tmp_path):
+    keep = tmp_path / "mine"
+    keep.mkdir()
+    (keep / "notes.txt").write_text("precious")
+    with pytest.raises(ConfigError, match="did not write"):
+        hydrology_run._clear_demo_folder(keep)
+    assert (keep / "notes.txt").is_file()
