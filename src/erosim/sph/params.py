@@ -99,6 +99,10 @@ class SPHParams(Section):
     reorder_every: int = param(
         1, ge=1, unit="1", doc="re-sort particles by cell every this many neighbour-list rebuilds (memory locality)"
     )
+    parallel_min_particles: int = param(
+        5000, ge=0, unit="1",
+        doc="below this many fluid particles the solver runs on one thread (waking threads costs more than it saves)",
+    )
     max_mach: float = param(
         1.0, gt=0, unit="1", doc="stop as unstable when a fluid particle is faster than max_mach·c"
     )

@@ -280,7 +280,21 @@ class SPHSolver:
         return integrators.step_limit(self.params.cfl, self.hs, self.c, self.vmax, self.amax, self.nu)
 
     def step(self) -> float:
-        """Advance one step (fixed or adaptive Δt); returns the Δt used."""
+        """Advance one step (fixed or adaptive Δt); returns the Δt used.
+
+        Small systems run on one thread (``parallel_min_particles``); the result does not depend on
+        the thread count (per-particle sums run in a fixed order; reductions are maxima).
+        """
+        if self.n_fluid >= self.params.parallel_min_particles:
+            return self._step()
+        prev = numba.get_num_threads()
+        numba.set_num_threads(1)
+        try:
+            return self._step()
+        finally:
+            numba.set_num_threads(prev)
+
+    def _step(self) -> float:
         prm = self.params
         dt = prm.dt if prm.dt > 0 else self.dt_limit()
         nf = self.n_fluid
