@@ -121,35 +121,39 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
     sea = P[P_SEA]
     steps = 0
     maxsteps = int(P[P_MAXSTEPS])
+    inv_dx = 1.0 / dx
+    inv_v0 = 1.0 / v0
+    acc_num = P[P_ACC] / P[P_DENS]
+    evap = 0.0  # evaporated volume, added to the budget on exit
+    speed = math.sqrt(vx * vx + vy * vy)
     while True:
         ix = int(x + 0.5)
         iy = int(y + 0.5)
         c = iy * nx + ix
         mark(track, nx, ny, x, y, m)
         gx, gy = gradient(z2, x, y)
-        gx /= dx
-        gy /= dx
-        inv = 1.0 / math.sqrt(1.0 + gx * gx + gy * gy)
-        vrel = V / v0
+        gx *= inv_dx
+        gy *= inv_dx
+        vrel = V * inv_v0
+        scale = acc_num / (vrel * math.sqrt(1.0 + gx * gx + gy * gy))
         s = stream[c]
         fe = P[P_FRIC] * (1.0 - 0.5 * s)
         ee = P[P_EVAP] * (1.0 - 0.2 * s)
-        scale = P[P_ACC] / (vrel * P[P_DENS])
-        ax = -gx * inv * scale
-        ay = -gy * inv * scale
+        ax = -gx * scale
+        ay = -gy * scale
         amag = math.sqrt(ax * ax + ay * ay)
         nsub = 1
         if maxstep > 0.0:
-            dist = (math.sqrt(vx * vx + vy * vy) + dt * amag) * dt / dx
+            dist = (speed + dt * amag) * dt * inv_dx
             if dist > maxstep:
                 nsub = min(int(math.ceil(dist / maxstep)), 1024)
-        h = dt / nsub
+        h = dt if nsub == 1 else dt / nsub
         vx += h * ax
         vy += h * ay
         x0 = x
         y0 = y
-        x += h * vx / dx
-        y += h * vy / dx
+        x += h * vx * inv_dx
+        y += h * vy * inv_dx
         damp = 1.0 - h * fe
         vx *= damp
         vy *= damp
@@ -158,6 +162,7 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
             B[B_LEFT] += V
             B[B_CARRIED] += S
             B[B_STEPS] += steps
+            B[B_EVAP] += evap
             return LEFT, x0, y0, vx, vy, 0.0, 0.0
         jx = int(x + 0.5)
         jy = int(y + 0.5)
@@ -166,15 +171,18 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
             B[B_LEFT] += V
             B[B_CARRIED] += S
             B[B_STEPS] += steps
+            B[B_EVAP] += evap
             return LEFT, x, y, vx, vy, 0.0, 0.0
         if (stream[cn] > 0.5 and amag < P[P_AMIN]) or lake_of[cn] >= 0:
             B[B_STEPS] += steps
+            B[B_EVAP] += evap
             return STOP, x, y, vx, vy, V, S
         speed = math.sqrt(vx * vx + vy * vy)
         if speed * h < P[P_PIT]:
             pit, at_min = walk_down(cn, 2 * m + 1, zf, lake_of, level, sea, nx, ny)
             if at_min:
                 B[B_STEPS] += steps
+                B[B_EVAP] += evap
                 return STOP, float(pit % nx), float(pit // nx), vx, vy, V, S
         # mass transfer at the old position
         drop = (bilinear(z2, x0, y0) - bilinear(z2, x, y)) * nsub
@@ -194,8 +202,9 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
                 B[B_DEPOSITED] -= moved
             S += moved
         vn = V * (1.0 - h * ee)
-        B[B_EVAP] += V - vn
+        evap += V - vn
         V = vn
         if V < vmin or steps >= maxsteps:
             B[B_STEPS] += steps
+            B[B_EVAP] += evap
             return ENDED, x, y, vx, vy, V, S
