@@ -171,3 +171,15 @@ def test_bad_input_maps_are_clear_errors():
         HydrologyModel(Heightmap(z=z, cell_size=CELL), rain=np.zeros_like(z))
     with pytest.raises(InputError, match="erodibility map holds negative"):
         HydrologyModel(Heightmap(z=z, cell_size=CELL), erodibility=-np.ones_like(z))
+
+
+def test_sea_takes_water_and_sediment_and_budgets_close():
+    z = _bumpy(48, seed=6) - 25.0  # the low ring of the bowl lies below the sea
+    m = _model(z, sea_level=0.0)
+    m.run(6)
+    wb, sb = m.water_budget(), m.sediment_budget()
+    assert wb["left_edges"] > 0 and sb["carried_off"] > 0
+    assert wb["closure_rel"] < 1e-9 and sb["closure_rel"] < 1e-9
+    assert wb["in_lakes_tracked"] == pytest.approx(wb["in_lakes"], rel=1e-9, abs=1e-6)
+    # no lake below the sea: sea cells are outside the world
+    assert not np.any((m.lake_depth() > 0) & (m.z < 0.0) & (m.z + m.lake_depth() <= 0.0))

@@ -333,6 +333,10 @@ def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level,
     # entered the lake (the seed deletes it; settling keeps the sediment budget closed)
     dep = 0.9 * S
     k = lake_of[c]
+    if k < 0 and zf[c] < sea_level:  # the sea takes it
+        B[B_LEFT] += V
+        B[B_CARRIED] += S
+        return LEFT, c, 0.0, 0.0
     if k < 0:
         if dep > 0.0:  # dry cell: settle first, then the new lake starts at the raised bed
             zf[c] += dep / cell_area
@@ -379,7 +383,7 @@ def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level,
                 continue
         L = level[k]
         sea = (not offmap) and lake_of[b] < 0 and zf[b] < sea_level
-        if offmap or e < L or (sea and e <= L):
+        if offmap or sea or e < L:
             # drain: lower the level slowly toward the drain's surface, the particle moves there
             if offmap:
                 edge_cell = -b - 2
@@ -387,7 +391,7 @@ def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level,
                 if target > L:
                     target = L
             else:
-                target = e
+                target = min(e, L)  # a lake below the sea level does not rise toward it
             new_level = (1.0 - drainage) * L + drainage * target
             rel = lower(k, new_level, zf, lake_of, level, area, mroot, broot, cell_area,
                         hkey, hcell, hleft, hright, hrank, hs, stack)
