@@ -16,7 +16,9 @@ A run: build the terrain (``[terrain]``), optional rain / hardness maps, then
 
 from __future__ import annotations
 
+import contextlib
 import shutil
+import signal
 import time
 from pathlib import Path
 
@@ -28,6 +30,27 @@ from erosim.io.runfolder import RunFolder
 from erosim.simulation.loop import Every, drive
 
 MAPS = ("height_initial", "height", "lake_depth", "stream", "erosion", "deposition", "vegetation")
+
+
+@contextlib.contextmanager
+def _cycle_is_atomic():
+    """Hold Ctrl-C until the current cycle is complete, so a checkpoint never sees half a cycle."""
+    pressed = []
+
+    def handler(signum, frame):
+        pressed.append(signum)
+
+    try:
+        old = signal.signal(signal.SIGINT, handler)
+    except ValueError:  # not the main thread: nothing to defer
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if pressed:
+        raise KeyboardInterrupt
 
 
 def _inputs(cfg, shape):
@@ -125,7 +148,8 @@ def run(scenario, out: RunFolder, *, resume: bool = False, progress: bool = True
         schedules.append(ev)
 
     def advance() -> float:
-        model.cycle()
+        with _cycle_is_atomic():
+            model.cycle()
         return float(model.cycles)
 
     def save_ckpt() -> None:
