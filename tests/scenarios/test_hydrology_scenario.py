@@ -135,3 +135,21 @@ def test_demo_folder_guard(tmp_path):
     with pytest.raises(ConfigError, match="did not write"):
         hydrology_run._clear_demo_folder(keep)
     assert (keep / "notes.txt").is_file()
+
+
+def test_rain_and_hardness_map_files(tmp_path):
+    rain = np.zeros((48, 48))
+    rain[:, :12] = 1.0
+    hard = np.ones((48, 48))  # unerodible rock everywhere
+    np.save(tmp_path / "rain.npy", rain)
+    np.save(tmp_path / "hard.npy", hard)
+    path, _ = _run(tmp_path, [f"inputs.rain_map={tmp_path / 'rain.npy'}",
+                              f"inputs.hardness_map={tmp_path / 'hard.npy'}", "vegetation.enabled=false"],
+                   name="maps")
+    rep = json.loads((path / "report.json").read_text())
+    assert rep["sediment_budget"]["eroded"] == 0.0  # rock does not erode
+    stream = hio.read(path / "maps" / "stream.tif").z
+    assert stream[:, :10].mean() > stream[:, 30:].mean()
+    np.save(tmp_path / "small.npy", np.ones((5, 5)))
+    with pytest.raises(InputError, match="same size"):
+        _run(tmp_path, [f"inputs.hardness_map={tmp_path / 'small.npy'}"], name="bad")
