@@ -139,6 +139,13 @@ def run(scenario, out: RunFolder, *, resume: bool = False, progress: bool = True
         state, _meta = ckpt.load(out.path / "checkpoint")
         model.load_state(state)
     write_resolved(scenario, out)
+    ratio = model.ell / model.cell_size
+    if ratio > 8:
+        out.warn(
+            f"hydrology.length_scale ({model.ell:g} m) spans {ratio:.0f} cells of {model.cell_size:g} m: "
+            "droplet footprints are large and the run is slow; set terrain.cell_size to the DEM's "
+            "real cell size or lower hydrology.length_scale."
+        )
     frames: list = []
     schedules = []
     if cfg.run.frames > 0:
