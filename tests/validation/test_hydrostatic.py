@@ -29,7 +29,7 @@ def _check(result, out):
 
 def test_coarse_tank_at_rest(tmp_path):
     """H/16 (256 particles), 0.6 s of settling, held to the issue's own bounds (2 % pressure RMS,
-    1 % density); measured 1.9 % and 0.49 % on 2026-11-22."""
+    1 % density); measured 0.74 % and 0.48 % on 2026-11-22 (H/40: 0.59 % and 0.49 %)."""
     result = hs.run("coarse", tmp_path / "hs", progress=False)
     _check(result, tmp_path / "hs")
     assert result["particles_outside"] == 0
