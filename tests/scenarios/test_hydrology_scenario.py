@@ -13,8 +13,13 @@ from erosim.scenarios import loader
 from erosim.simulation import hydrology_run
 from erosim.terrain.heightmap import Heightmap
 
-SMALL = ["terrain.size=48", "terrain.cell_size=40.0", "run.cycles=6", "run.frames=3",
-         "hydrology.cycle_droplets=20000"]
+SMALL = [
+    "terrain.size=48",
+    "terrain.cell_size=40.0",
+    "run.cycles=6",
+    "run.frames=3",
+    "hydrology.cycle_droplets=20000",
+]
 
 
 def _run(tmp_path, overrides=(), name="run", preset=None):
@@ -33,8 +38,15 @@ def folder(tmp_path_factory):
 def test_run_folder_holds_every_output(folder):
     for name in hydrology_run.MAPS:
         assert (folder / "maps" / f"{name}.tif").is_file()
-    for name in ("height.png", "height.r16", "mask_stream.png", "mask_lake_depth.png",
-                 "mask_erosion.png", "mask_deposition.png", "mask_vegetation.png"):
+    for name in (
+        "height.png",
+        "height.r16",
+        "mask_stream.png",
+        "mask_lake_depth.png",
+        "mask_erosion.png",
+        "mask_deposition.png",
+        "mask_vegetation.png",
+    ):
         assert (folder / "maps" / name).is_file()
     for name in ("hillshade_before.png", "hillshade_after.png", "hydrology.png", "evolution.gif"):
         assert (folder / "figures" / name).is_file()
@@ -49,7 +61,10 @@ def test_report_budgets_and_ranges(folder):
     for key in ("eroded", "deposited", "carried_off", "closure_rel"):
         assert key in sb
     # the four terms close by themselves (float64 accumulators): 1e-9 is the stated bar
-    assert abs(wb["rained"] - wb["in_lakes"] - wb["evaporated"] - wb["left_edges"]) <= 1e-9 * wb["rained"]
+    assert (
+        abs(wb["rained"] - wb["in_lakes"] - wb["evaporated"] - wb["left_edges"])
+        <= 1e-9 * wb["rained"]
+    )
     assert abs(sb["eroded"] - sb["deposited"] - sb["carried_off"]) <= 1e-9 * sb["eroded"]
     lo, hi = rep["outputs"]["heightmap_16bit"]["height_range"]
     # the 16-bit heightmap re-scales to the final heights within half a quantisation step
@@ -77,8 +92,12 @@ def test_dem_file_input_keeps_its_crs(tmp_path):
 
     rng = np.random.default_rng(3)
     z = 300.0 + 200.0 * ndimage.gaussian_filter(rng.random((40, 40)), 4.0)
-    crs = 'PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]],PROJECTION["Transverse_Mercator"],PARAMETER["latitude_of_origin",0],PARAMETER["central_meridian",15],PARAMETER["scale_factor",0.9996],PARAMETER["false_easting",500000],PARAMETER["false_northing",0],UNIT["metre",1],AUTHORITY["EPSG","32633"]]'
-    dem = Heightmap(z=z, cell_size=30.0, crs=crs, transform=(30.0, 0.0, 400000.0, 0.0, -30.0, 5000000.0))
+    from rasterio.crs import CRS
+
+    crs = CRS.from_epsg(32633).to_wkt()
+    dem = Heightmap(
+        z=z, cell_size=30.0, crs=crs, transform=(30.0, 0.0, 400000.0, 0.0, -30.0, 5000000.0)
+    )
     hio.write(tmp_path / "dem.tif", dem)
     path, _ = _run(tmp_path, [f"terrain.file={tmp_path / 'dem.tif'}"], name="dem")
     out = hio.read(path / "maps" / "lake_depth.tif")
@@ -88,8 +107,12 @@ def test_dem_file_input_keeps_its_crs(tmp_path):
 
 
 def test_seed_preset_runs(tmp_path):
-    path, summary = _run(tmp_path, ["terrain.size=48", "terrain.cell_size=40.0"],
-                         name="seed", preset="simplehydrology-2020")
+    path, summary = _run(
+        tmp_path,
+        ["terrain.size=48", "terrain.cell_size=40.0"],
+        name="seed",
+        preset="simplehydrology-2020",
+    )
     text = (path / "scenario.toml").read_text()
     assert "length_scale = 0.0" in text and "pit_flood = false" in text
     assert summary["water_closure_rel"] < 1e-9
@@ -122,8 +145,19 @@ def test_unknown_presets_are_clear_errors():
 
 
 def test_cli_run_with_set(tmp_path, cli_runner):
-    res = cli_runner.invoke(cli, ["--quiet", "run", "hydrology", *sum((["--set", s] for s in SMALL), []),
-                                  "--set", "run.cycles=2", "--out", str(tmp_path / "cli")])
+    res = cli_runner.invoke(
+        cli,
+        [
+            "--quiet",
+            "run",
+            "hydrology",
+            *sum((["--set", s] for s in SMALL), []),
+            "--set",
+            "run.cycles=2",
+            "--out",
+            str(tmp_path / "cli"),
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert (tmp_path / "cli" / "maps" / "height.tif").is_file()
 
@@ -143,9 +177,15 @@ def test_rain_and_hardness_map_files(tmp_path):
     hard = np.ones((48, 48))  # unerodible rock everywhere
     np.save(tmp_path / "rain.npy", rain)
     np.save(tmp_path / "hard.npy", hard)
-    path, _ = _run(tmp_path, [f"inputs.rain_map={tmp_path / 'rain.npy'}",
-                              f"inputs.hardness_map={tmp_path / 'hard.npy'}", "vegetation.enabled=false"],
-                   name="maps")
+    path, _ = _run(
+        tmp_path,
+        [
+            f"inputs.rain_map={tmp_path / 'rain.npy'}",
+            f"inputs.hardness_map={tmp_path / 'hard.npy'}",
+            "vegetation.enabled=false",
+        ],
+        name="maps",
+    )
     rep = json.loads((path / "report.json").read_text())
     assert rep["sediment_budget"]["eroded"] == 0.0  # rock does not erode
     stream = hio.read(path / "maps" / "stream.tif").z

@@ -25,8 +25,12 @@ def _bumpy(n=64, seed=0):
 def _model(z, seed=1, veg=True, **kw):
     kw.setdefault("length_scale", ELL)
     kw.setdefault("cycle_droplets", 4000)
-    return HydrologyModel(Heightmap(z=z, cell_size=CELL), HydrologyParams(**kw),
-                          VegetationParams(enabled=veg, spawn=200.0, spread=0.2), seed=seed)
+    return HydrologyModel(
+        Heightmap(z=z, cell_size=CELL),
+        HydrologyParams(**kw),
+        VegetationParams(enabled=veg, spawn=200.0, spread=0.2),
+        seed=seed,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -145,8 +149,13 @@ def test_rain_map_steers_where_water_falls():
     z = _bumpy(48, seed=2)
     rain = np.zeros_like(z)
     rain[:, :10] = 1.0
-    m = HydrologyModel(Heightmap(z=z, cell_size=CELL), HydrologyParams(length_scale=ELL, cycle_droplets=4000),
-                       VegetationParams(enabled=False), seed=1, rain=rain)
+    m = HydrologyModel(
+        Heightmap(z=z, cell_size=CELL),
+        HydrologyParams(length_scale=ELL, cycle_droplets=4000),
+        VegetationParams(enabled=False),
+        seed=1,
+        rain=rain,
+    )
     m.run(3)
     assert m.stream[:, :8].mean() > 5 * m.stream[:, 30:].mean()
 
@@ -155,8 +164,13 @@ def test_hard_rock_does_not_erode():
     z = _bumpy(48, seed=2)
     erod = np.ones_like(z)
     erod[:, 24:] = 0.0
-    m = HydrologyModel(Heightmap(z=z, cell_size=CELL), HydrologyParams(length_scale=ELL, cycle_droplets=4000),
-                       VegetationParams(enabled=False), seed=1, erodibility=erod)
+    m = HydrologyModel(
+        Heightmap(z=z, cell_size=CELL),
+        HydrologyParams(length_scale=ELL, cycle_droplets=4000),
+        VegetationParams(enabled=False),
+        seed=1,
+        erodibility=erod,
+    )
     m.run(3)
     # erosion needs a footprint cell of the soft half; the 2-cell footprint reaches one column over
     assert m.erosion()[:, 26:].max() == 0.0

@@ -12,8 +12,12 @@ from erosim.terrain.heightmap import Heightmap
 
 def _model(z, cell=1.0, **kw):
     p = HydrologyParams(length_scale=0.0, **kw)
-    m = HydrologyModel(Heightmap(z=np.asarray(z, float), cell_size=cell), p,
-                       VegetationParams(enabled=False), seed=3)
+    m = HydrologyModel(
+        Heightmap(z=np.asarray(z, float), cell_size=cell),
+        p,
+        VegetationParams(enabled=False),
+        seed=3,
+    )
     m._rebuild()
     return m
 
@@ -21,9 +25,32 @@ def _model(z, cell=1.0, **kw):
 def _flood(m, iy, ix, V, S=0.0):
     ny, nx = m.z.shape
     P = m.P
-    return pools.flood(iy * nx + ix, V, S, nx, ny, m.z.reshape(-1), m.lake_of, m.level, m.area,
-                       m.mroot, m.broot, m.budget, P[14], P[15], P[11], P[16], m.hkey, m.hcell,
-                       m.hleft, m.hright, m.hrank, m.hs, m.stack, m.walk)
+    return pools.flood(
+        iy * nx + ix,
+        V,
+        S,
+        nx,
+        ny,
+        m.z.reshape(-1),
+        m.lake_of,
+        m.level,
+        m.area,
+        m.mroot,
+        m.broot,
+        m.budget,
+        P[14],
+        P[15],
+        P[11],
+        P[16],
+        m.hkey,
+        m.hcell,
+        m.hleft,
+        m.hright,
+        m.hrank,
+        m.hs,
+        m.stack,
+        m.walk,
+    )
 
 
 def _filled(z):
@@ -68,7 +95,9 @@ def test_fill_to_spill_then_overflow_into_the_next_basin():
     level = (z + d)[8, 8]
     assert level == pytest.approx(5.0 - 0.001 * (5.0 - z[iy, ix]), abs=1e-9)  # seed's slow drainage
     released = 300.0 - d.sum()
-    assert V == pytest.approx(50.0 + released, rel=1e-12)  # what overflowed is what the drop carries
+    assert V == pytest.approx(
+        50.0 + released, rel=1e-12
+    )  # what overflowed is what the drop carries
     # never above the spill level given by a morphological fill of the terrain
     assert np.all(z + d <= _filled(z) + 1e-9)
 

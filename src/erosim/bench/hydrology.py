@@ -21,7 +21,9 @@ import time
 import warnings
 
 
-def run(size: int = 256, droplets: int | None = None, spinup: int | None = None, seed: int = 1) -> dict:
+def run(
+    size: int = 256, droplets: int | None = None, spinup: int | None = None, seed: int = 1
+) -> dict:
     """Benchmark one map size; returns the JSON-able result."""
     from numba import NumbaWarning
 

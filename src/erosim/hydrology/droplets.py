@@ -15,7 +15,8 @@ The droplet ends when V < V_min, or leaves the world (map edge, sea: its water a
 or stops for HY-2 flood: it enters a lake, or it is in a strong stream (> 0.5) with |a| below
 0.01 ℓ/s², or (``pit_flood``, an erosim addition) it moves less than ℓ/2 per sub-step and a
 steepest-descent walk of at most 2·ℓ/Δx + 1 cells from its cell reaches a local minimum: it
-floods at that minimum (instead of oscillating in the depression until it evaporates). Every visited cell's footprint is marked in ``track`` (HY-4). Lake cells are never
+floods at that minimum (instead of oscillating in the depression until it evaporates).
+Every visited cell's footprint is marked in ``track`` (HY-4). Lake cells are never
 eroded or filled by descent (their water level bookkeeping stays exact, see ``pools``).
 
 Sediment is kept as an amount (m³) — the seed's ``sediment /= (1 − dt·evap)`` rescaling is left

@@ -108,16 +108,51 @@ def _unit(state):
 
 
 @njit(cache=True)
-def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P,
-            hkey, hcell, hleft, hright, hrank, hs, stack):
+def _settle(
+    c,
+    V,
+    S,
+    zf,
+    lake_of,
+    level,
+    area,
+    mroot,
+    broot,
+    B,
+    P,
+    hkey,
+    hcell,
+    hleft,
+    hright,
+    hrank,
+    hs,
+    stack,
+):
     """A droplet ends at cell c: its volume counts as evaporated, its sediment settles there."""
     B[B_RESID] += V
     if S <= 0.0:
         return
     k = lake_of[c]
     if k >= 0:
-        extra = settle_in_lake(k, c, S, zf, lake_of, level, area, mroot, broot, P[P_CA],
-                               hkey, hcell, hleft, hright, hrank, hs, stack)
+        extra = settle_in_lake(
+            k,
+            c,
+            S,
+            zf,
+            lake_of,
+            level,
+            area,
+            mroot,
+            broot,
+            P[P_CA],
+            hkey,
+            hcell,
+            hleft,
+            hright,
+            hrank,
+            hs,
+            stack,
+        )
         B[B_TO_LAKES] -= extra
         B[B_RESID] += extra
         B[B_DEPOSITED] += S
@@ -129,9 +164,35 @@ def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P,
 
 
 @njit(cache=True)
-def run_droplets(first, count, seed, z2, stream, roots, erod, lake_of, track, level, area, mroot,
-                 broot, hkey, hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, now,
-                 margin, lake_cap):
+def run_droplets(
+    first,
+    count,
+    seed,
+    z2,
+    stream,
+    roots,
+    erod,
+    lake_of,
+    track,
+    level,
+    area,
+    mroot,
+    broot,
+    hkey,
+    hcell,
+    hleft,
+    hright,
+    hrank,
+    hs,
+    stack,
+    walk,
+    rain_cdf,
+    B,
+    P,
+    now,
+    margin,
+    lake_cap,
+):
     """Droplets ``first`` … ``first + count − 1``; returns how many ran (fewer when the heap pool
     or the lake table needs a rebuild first — the caller rebuilds and continues).
 
@@ -178,19 +239,61 @@ def run_droplets(first, count, seed, z2, stream, roots, erod, lake_of, track, le
             if at_min:  # spilled into a depression: it floods there without descending
                 status = 2
             else:
-                status, x, y, vx, vy, V, S = descend(x, y, vx, vy, V, S, z2, zf, sf, rf, ef,
-                                                     lake_of, level, track, B, P)
+                status, x, y, vx, vy, V, S = descend(
+                    x, y, vx, vy, V, S, z2, zf, sf, rf, ef, lake_of, level, track, B, P
+                )
             if status == LEFT:
                 break
             c = int(y + 0.5) * nx + int(x + 0.5)
             if status == ENDED or not lakes_on:
-                _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P,
-                        hkey, hcell, hleft, hright, hrank, hs, stack)
+                _settle(
+                    c,
+                    V,
+                    S,
+                    zf,
+                    lake_of,
+                    level,
+                    area,
+                    mroot,
+                    broot,
+                    B,
+                    P,
+                    hkey,
+                    hcell,
+                    hleft,
+                    hright,
+                    hrank,
+                    hs,
+                    stack,
+                )
                 break
             t0 = now(ts)
-            res, cell, V, S = flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea,
-                                    edge, ca, drainage, hkey, hcell, hleft, hright, hrank, hs, stack,
-                                    walk)
+            res, cell, V, S = flood(
+                c,
+                V,
+                S,
+                nx,
+                ny,
+                zf,
+                lake_of,
+                level,
+                area,
+                mroot,
+                broot,
+                B,
+                sea,
+                edge,
+                ca,
+                drainage,
+                hkey,
+                hcell,
+                hleft,
+                hright,
+                hrank,
+                hs,
+                stack,
+                walk,
+            )
             B[B_FLOOD_NS] += now(ts) - t0
             B[B_FLOODS] += 1
             if res != DRAIN:
@@ -203,8 +306,26 @@ def run_droplets(first, count, seed, z2, stream, roots, erod, lake_of, track, le
             vy = 0.0
             rounds -= 1
             if rounds <= 0:
-                _settle(cell, V, S, zf, lake_of, level, area, mroot, broot, B, P,
-                        hkey, hcell, hleft, hright, hrank, hs, stack)
+                _settle(
+                    cell,
+                    V,
+                    S,
+                    zf,
+                    lake_of,
+                    level,
+                    area,
+                    mroot,
+                    broot,
+                    B,
+                    P,
+                    hkey,
+                    hcell,
+                    hleft,
+                    hright,
+                    hrank,
+                    hs,
+                    stack,
+                )
                 break
     return count
 
@@ -217,21 +338,47 @@ def _check_map(name: str, arr, shape) -> np.ndarray:
             "give a map of the same size as the terrain."
         )
     if not np.isfinite(a).all() or (a < 0).any():
-        raise InputError(f"The {name} map holds negative or non-finite values; use finite values >= 0.")
+        raise InputError(
+            f"The {name} map holds negative or non-finite values; use finite values >= 0."
+        )
     return np.ascontiguousarray(a)
 
 
 class HydrologyModel:
     """Heightmap + stream, lakes and trees, advanced one cycle at a time (HY-3)."""
 
-    STATE_KEYS = ("z", "z0", "stream", "cover", "trees", "lake_of", "level", "budget",
-                  "droplets", "cycles", "area", "mroot", "broot", "hs", "hkey", "hcell", "hleft",
-                  "hright", "hrank")
+    STATE_KEYS = (
+        "z",
+        "z0",
+        "stream",
+        "cover",
+        "trees",
+        "lake_of",
+        "level",
+        "budget",
+        "droplets",
+        "cycles",
+        "area",
+        "mroot",
+        "broot",
+        "hs",
+        "hkey",
+        "hcell",
+        "hleft",
+        "hright",
+        "hrank",
+    )
 
-    def __init__(self, terrain: Heightmap, params: HydrologyParams | None = None,
-                 veg: VegetationParams | None = None, seed: int = 0,
-                 rain: np.ndarray | None = None, erodibility: np.ndarray | None = None,
-                 timing: bool = False):
+    def __init__(
+        self,
+        terrain: Heightmap,
+        params: HydrologyParams | None = None,
+        veg: VegetationParams | None = None,
+        seed: int = 0,
+        rain: np.ndarray | None = None,
+        erodibility: np.ndarray | None = None,
+        timing: bool = False,
+    ):
         self.p = params or HydrologyParams()
         self.veg = veg or VegetationParams()
         self.seed = int(seed)
@@ -249,13 +396,19 @@ class HydrologyModel:
         self.cover = np.zeros((ny, nx))  # tree cover within the root radius (HY-5)
         self.trees = np.zeros((ny, nx), np.uint8)
         self.track = np.zeros(n, np.uint8)
-        self.erod = np.ones((ny, nx)) if erodibility is None else _check_map("erodibility", erodibility, (ny, nx))
+        self.erod = (
+            np.ones((ny, nx))
+            if erodibility is None
+            else _check_map("erodibility", erodibility, (ny, nx))
+        )
         if rain is None:
             self.rain_cdf = np.zeros(0)
         else:
             r = _check_map("rain", rain, (ny, nx)).ravel()
             if r.sum() <= 0:
-                raise InputError("The rain map is zero everywhere; give positive values where rain falls.")
+                raise InputError(
+                    "The rain map is zero everywhere; give positive values where rain falls."
+                )
             self.rain_cdf = np.cumsum(r)
         self.lake_of = np.full(n, -1, np.int64)
         self.per_cycle = droplets_per_cycle(self.p, (ny, nx), self.cell_size)
@@ -293,10 +446,29 @@ class HydrologyModel:
         while True:
             old = self.level[: max(int(self.hs[HS_NLAKES]), 1)].copy()
             lake_before = self.lake_of.copy()
-            k = pools.rebuild(nx, ny, zf, self.lake_of, old, self.P[P_SEA], self.P[P_EDGE], self.level,
-                              self.area, self.mroot, self.broot, self.hkey, self.hcell, self.hleft,
-                              self.hright, self.hrank, self.hs, self.stack, self.stamp, self.order,
-                              self.start)
+            k = pools.rebuild(
+                nx,
+                ny,
+                zf,
+                self.lake_of,
+                old,
+                self.P[P_SEA],
+                self.P[P_EDGE],
+                self.level,
+                self.area,
+                self.mroot,
+                self.broot,
+                self.hkey,
+                self.hcell,
+                self.hleft,
+                self.hright,
+                self.hrank,
+                self.hs,
+                self.stack,
+                self.stamp,
+                self.order,
+                self.start,
+            )
             if self.hkey.shape[0] - self.hs[HS_BUMP] >= 2 * self.margin:
                 self.n_lakes = k
                 self._built = True
@@ -315,11 +487,33 @@ class HydrologyModel:
             self._rebuild()
         while todo > 0:
             done = run_droplets(
-                self.droplets, todo, self.seed, self.z, self.stream, self.cover, self.erod,
-                self.lake_of, self.track, self.level, self.area, self.mroot, self.broot, self.hkey,
-                self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk,
-                self.rain_cdf, self.budget, self.P, _now_real if self.timing else _now_none,
-                self.margin, self.lake_cap,
+                self.droplets,
+                todo,
+                self.seed,
+                self.z,
+                self.stream,
+                self.cover,
+                self.erod,
+                self.lake_of,
+                self.track,
+                self.level,
+                self.area,
+                self.mroot,
+                self.broot,
+                self.hkey,
+                self.hcell,
+                self.hleft,
+                self.hright,
+                self.hrank,
+                self.hs,
+                self.stack,
+                self.walk,
+                self.rain_cdf,
+                self.budget,
+                self.P,
+                _now_real if self.timing else _now_none,
+                self.margin,
+                self.lake_cap,
             )
             self.droplets += done
             todo -= done
@@ -328,8 +522,19 @@ class HydrologyModel:
         streams.update(self.stream, self.track, self.p.stream_rate)
         if self.veg.enabled:
             rng = np.random.default_rng([self.seed & 0xFFFFFFFF, self.cycles, 0x5EED])
-            vegetation.step(self.trees, self.cover, self.z, self.cell_size, self.ell, self.lake_of,
-                            self.level, self.P[P_SEA], self.stream, self.veg, rng)
+            vegetation.step(
+                self.trees,
+                self.cover,
+                self.z,
+                self.cell_size,
+                self.ell,
+                self.lake_of,
+                self.level,
+                self.P[P_SEA],
+                self.stream,
+                self.veg,
+                rng,
+            )
         self.cycles += 1
 
     def run(self, cycles: int) -> None:
@@ -353,7 +558,9 @@ class HydrologyModel:
 
     def vegetation(self) -> np.ndarray:
         """Root density ρ_r in [0, 1] (zero on lakes and sea): what holds the soil (HY-5)."""
-        return vegetation.root_density(self.cover, self.veg, (self.lake_depth() > 0) | self.sea_mask())
+        return vegetation.root_density(
+            self.cover, self.veg, (self.lake_depth() > 0) | self.sea_mask()
+        )
 
     def water_budget(self) -> dict:
         B = self.budget
@@ -390,7 +597,9 @@ class HydrologyModel:
             "carried_off": carried,
             "closure_rel": closure,
             "terrain_change": change,
-            "terrain_change_rel_error": abs(change - (deposited - eroded)) / eroded if eroded > 0 else 0.0,
+            "terrain_change_rel_error": abs(change - (deposited - eroded)) / eroded
+            if eroded > 0
+            else 0.0,
         }
 
     def stats(self) -> dict:
@@ -416,20 +625,34 @@ class HydrologyModel:
         k = max(int(self.hs[HS_NLAKES]), 1)
         used = int(self.hs[HS_BUMP])
         return {
-            "z": self.z, "z0": self.z0, "stream": self.stream, "cover": self.cover,
-            "trees": self.trees, "lake_of": self.lake_of, "level": self.level[:k].copy(),
-            "budget": self.budget, "droplets": np.int64(self.droplets), "cycles": np.int64(self.cycles),
-            "area": self.area[:k].copy(), "mroot": self.mroot[:k].copy(), "broot": self.broot[:k].copy(),
-            "hs": self.hs.copy(), "hkey": self.hkey[:used].copy(), "hcell": self.hcell[:used].copy(),
-            "hleft": self.hleft[:used].copy(), "hright": self.hright[:used].copy(),
-            "hrank": self.hrank[:used].copy(), "built": np.int64(self._built),
+            "z": self.z,
+            "z0": self.z0,
+            "stream": self.stream,
+            "cover": self.cover,
+            "trees": self.trees,
+            "lake_of": self.lake_of,
+            "level": self.level[:k].copy(),
+            "budget": self.budget,
+            "droplets": np.int64(self.droplets),
+            "cycles": np.int64(self.cycles),
+            "area": self.area[:k].copy(),
+            "mroot": self.mroot[:k].copy(),
+            "broot": self.broot[:k].copy(),
+            "hs": self.hs.copy(),
+            "hkey": self.hkey[:used].copy(),
+            "hcell": self.hcell[:used].copy(),
+            "hleft": self.hleft[:used].copy(),
+            "hright": self.hright[:used].copy(),
+            "hrank": self.hrank[:used].copy(),
+            "built": np.int64(self._built),
         }
 
     def load_state(self, st: dict) -> None:
         missing = [k for k in self.STATE_KEYS if k not in st]
         if missing or np.shape(st["z"]) != self.z.shape:
             raise InputError(
-                "The checkpoint does not match this hydrology run (missing or differently sized maps); "
+                "The checkpoint does not match this hydrology run (missing or differently "
+                "sized maps); "
                 "start the run again without --resume."
             )
         for name in ("z", "z0", "stream", "cover", "trees", "lake_of", "budget"):

@@ -27,12 +27,14 @@ Adding water (priority-flood in increasing surface order, Barnes et al. 2014, do
 the particle still has volume, look at the lowest boundary entry e. If e < L it is a drain (the lake
 is full): lower L toward it as the seed does, hand the released water to the particle and move the
 particle there. Otherwise raise L toward e; if the volume runs out first, L rises by V/(A·Δx²) and
-the particle is spent; else L = e, the cell joins the lake (or, if it is another lake's surface at the
-same level, the two lakes merge) and its neighbours are pushed. Keys are re-validated when they
-reach the top of a heap (terrain changes by erosion), and every cycle the heaps are rebuilt from
-``lake_of`` and ``level`` (:func:`rebuild`), so staleness never outlives a cycle and a checkpoint
-needs only those maps. The cost per droplet is O(log n) plus O(log n) per cell the lake gains or
-loses — independent of the lake's area — instead of the seed's O(area) per flood iteration.
+the particle is spent; else L = e, the cell joins the lake (or, if it is another lake's
+surface at the same level, the two lakes merge) and its neighbours are pushed. Keys are
+re-validated when they reach the top of a heap (terrain changes by erosion), and every
+``rebuild_every`` cycles the heaps are rebuilt from ``lake_of`` and ``level`` (:func:`rebuild`),
+so a stale key (an outlet eroded lower) is corrected within those cycles; checkpoints hold the
+heaps themselves, so a resumed run is bit-identical. The cost per droplet is O(log n) plus
+O(log n) per cell the lake gains or loses — independent of the lake's area — instead of the
+seed's O(area) per flood iteration.
 
 Volumes: the particle's volume V is in m³ (a seed unit volume is ℓ³/volume_factor, see
 :mod:`erosim.hydrology.params`), lake storage is Σ depth·Δx², so the seed's volume_factor is built
@@ -188,8 +190,25 @@ def walk_down(c, max_walk, zf, lake_of, level, sea_level, nx, ny):
 
 
 @njit(cache=True)
-def _push_neighbours(k, c, nx, ny, zf, lake_of, level, broot, sea_level, edge_key,
-                     hkey, hcell, hleft, hright, hrank, hs, stack):
+def _push_neighbours(
+    k,
+    c,
+    nx,
+    ny,
+    zf,
+    lake_of,
+    level,
+    broot,
+    sea_level,
+    edge_key,
+    hkey,
+    hcell,
+    hleft,
+    hright,
+    hrank,
+    hs,
+    stack,
+):
     iy = c // nx
     ix = c - iy * nx
     edge = False
@@ -208,15 +227,43 @@ def _push_neighbours(k, c, nx, ny, zf, lake_of, level, broot, sea_level, edge_ke
             n = jy * nx + jx
             if lake_of[n] == k:
                 continue
-            broot[k] = push(broot[k], surface(n, zf, lake_of, level, sea_level), n,
-                            hkey, hcell, hleft, hright, hrank, hs, stack)
+            broot[k] = push(
+                broot[k],
+                surface(n, zf, lake_of, level, sea_level),
+                n,
+                hkey,
+                hcell,
+                hleft,
+                hright,
+                hrank,
+                hs,
+                stack,
+            )
     if edge:
         broot[k] = push(broot[k], edge_key, -(c + 2), hkey, hcell, hleft, hright, hrank, hs, stack)
 
 
 @njit(cache=True)
-def new_lake(c, nx, ny, zf, lake_of, level, area, mroot, broot, sea_level, edge_key,
-             hkey, hcell, hleft, hright, hrank, hs, stack):
+def new_lake(
+    c,
+    nx,
+    ny,
+    zf,
+    lake_of,
+    level,
+    area,
+    mroot,
+    broot,
+    sea_level,
+    edge_key,
+    hkey,
+    hcell,
+    hleft,
+    hright,
+    hrank,
+    hs,
+    stack,
+):
     """A one-cell lake at c with level h[c] (no water yet)."""
     k = hs[HS_NLAKES]
     hs[HS_NLAKES] = k + 1
@@ -225,8 +272,25 @@ def new_lake(c, nx, ny, zf, lake_of, level, area, mroot, broot, sea_level, edge_
     lake_of[c] = k
     mroot[k] = push(-1, -zf[c], c, hkey, hcell, hleft, hright, hrank, hs, stack)
     broot[k] = -1
-    _push_neighbours(k, c, nx, ny, zf, lake_of, level, broot, sea_level, edge_key,
-                     hkey, hcell, hleft, hright, hrank, hs, stack)
+    _push_neighbours(
+        k,
+        c,
+        nx,
+        ny,
+        zf,
+        lake_of,
+        level,
+        broot,
+        sea_level,
+        edge_key,
+        hkey,
+        hcell,
+        hleft,
+        hright,
+        hrank,
+        hs,
+        stack,
+    )
     return k
 
 
@@ -267,8 +331,24 @@ def _merge_lakes(a, b, lake_of, area, mroot, broot, hkey, hcell, hleft, hright, 
 
 
 @njit(cache=True)
-def lower(k, new_level, zf, lake_of, level, area, mroot, broot, cell_area,
-          hkey, hcell, hleft, hright, hrank, hs, stack):
+def lower(
+    k,
+    new_level,
+    zf,
+    lake_of,
+    level,
+    area,
+    mroot,
+    broot,
+    cell_area,
+    hkey,
+    hcell,
+    hleft,
+    hright,
+    hrank,
+    hs,
+    stack,
+):
     """Lower lake k to ``new_level``; members above it fall dry. Returns the water released (m³)."""
     L = level[k]
     released = 0.0
@@ -298,8 +378,25 @@ def lower(k, new_level, zf, lake_of, level, area, mroot, broot, cell_area,
 
 
 @njit(cache=True)
-def settle_in_lake(k, c, amount, zf, lake_of, level, area, mroot, broot, cell_area,
-                   hkey, hcell, hleft, hright, hrank, hs, stack):
+def settle_in_lake(
+    k,
+    c,
+    amount,
+    zf,
+    lake_of,
+    level,
+    area,
+    mroot,
+    broot,
+    cell_area,
+    hkey,
+    hcell,
+    hleft,
+    hright,
+    hrank,
+    hs,
+    stack,
+):
     """Sediment ``amount`` (m³) settles on lake cell c. Returns the water it displaces (m³).
 
     The level is left as it is; the caller routes the displaced water (back through the fill, or
@@ -322,12 +419,37 @@ def settle_in_lake(k, c, amount, zf, lake_of, level, area, mroot, broot, cell_ar
 
 
 @njit(cache=True)
-def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level, edge_key,
-          cell_area, drainage, hkey, hcell, hleft, hright, hrank, hs, stack, walk):
+def flood(
+    c,
+    V,
+    S,
+    nx,
+    ny,
+    zf,
+    lake_of,
+    level,
+    area,
+    mroot,
+    broot,
+    B,
+    sea_level,
+    edge_key,
+    cell_area,
+    drainage,
+    hkey,
+    hcell,
+    hleft,
+    hright,
+    hrank,
+    hs,
+    stack,
+    walk,
+):
     """HY-2 for a particle of volume V (m³) and sediment S (m³) at cell c (see module docstring).
 
     Returns (result, cell, V, S): SPENT (V went into the lake, S settled on its bed), DRAIN (the
-    particle is at ``cell``, a drain, with V and the kept 10 % of S) or LEFT (drained off the world).
+    particle is at ``cell``, a drain, with V and the kept 10 % of S) or LEFT (drained off the
+    world).
     """
     # the seed keeps 10 % of the sediment when the particle drains on; the rest settles where it
     # entered the lake (the seed deletes it; settling keeps the sediment budget closed)
@@ -343,11 +465,46 @@ def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level,
             B[B_DEPOSITED] += dep
             S -= dep
             dep = 0.0
-        k = new_lake(c, nx, ny, zf, lake_of, level, area, mroot, broot, sea_level, edge_key,
-                     hkey, hcell, hleft, hright, hrank, hs, stack)
+        k = new_lake(
+            c,
+            nx,
+            ny,
+            zf,
+            lake_of,
+            level,
+            area,
+            mroot,
+            broot,
+            sea_level,
+            edge_key,
+            hkey,
+            hcell,
+            hleft,
+            hright,
+            hrank,
+            hs,
+            stack,
+        )
     if dep > 0.0:
-        extra = settle_in_lake(k, c, dep, zf, lake_of, level, area, mroot, broot, cell_area,
-                               hkey, hcell, hleft, hright, hrank, hs, stack)
+        extra = settle_in_lake(
+            k,
+            c,
+            dep,
+            zf,
+            lake_of,
+            level,
+            area,
+            mroot,
+            broot,
+            cell_area,
+            hkey,
+            hcell,
+            hleft,
+            hright,
+            hrank,
+            hs,
+            stack,
+        )
         B[B_DEPOSITED] += dep
         B[B_TO_LAKES] -= extra
         V += extra
@@ -393,8 +550,24 @@ def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level,
             else:
                 target = min(e, L)  # a lake below the sea level does not rise toward it
             new_level = (1.0 - drainage) * L + drainage * target
-            rel = lower(k, new_level, zf, lake_of, level, area, mroot, broot, cell_area,
-                        hkey, hcell, hleft, hright, hrank, hs, stack)
+            rel = lower(
+                k,
+                new_level,
+                zf,
+                lake_of,
+                level,
+                area,
+                mroot,
+                broot,
+                cell_area,
+                hkey,
+                hcell,
+                hleft,
+                hright,
+                hrank,
+                hs,
+                stack,
+            )
             B[B_TO_LAKES] -= rel
             V += rel
             if offmap or sea:
@@ -417,8 +590,25 @@ def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level,
                 B[B_DEPOSITED] += S
                 S = 0.0
                 break
-            V = settle_in_lake(kc, c, S, zf, lake_of, level, area, mroot, broot, cell_area,
-                               hkey, hcell, hleft, hright, hrank, hs, stack)
+            V = settle_in_lake(
+                kc,
+                c,
+                S,
+                zf,
+                lake_of,
+                level,
+                area,
+                mroot,
+                broot,
+                cell_area,
+                hkey,
+                hcell,
+                hleft,
+                hright,
+                hrank,
+                hs,
+                stack,
+            )
             B[B_DEPOSITED] += S
             B[B_TO_LAKES] -= V
             S = 0.0
@@ -434,20 +624,59 @@ def flood(c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, sea_level,
         broot[k] = pop(top, hkey, hleft, hright, hrank, hs, stack)
         j = lake_of[b]
         if j >= 0:
-            k = _merge_lakes(k, j, lake_of, area, mroot, broot, hkey, hcell, hleft, hright, hrank,
-                             stack, walk)
+            k = _merge_lakes(
+                k, j, lake_of, area, mroot, broot, hkey, hcell, hleft, hright, hrank, stack, walk
+            )
             continue
         lake_of[b] = k
         area[k] += 1
         mroot[k] = push(mroot[k], -zf[b], b, hkey, hcell, hleft, hright, hrank, hs, stack)
-        _push_neighbours(k, b, nx, ny, zf, lake_of, level, broot, sea_level, edge_key,
-                         hkey, hcell, hleft, hright, hrank, hs, stack)
+        _push_neighbours(
+            k,
+            b,
+            nx,
+            ny,
+            zf,
+            lake_of,
+            level,
+            broot,
+            sea_level,
+            edge_key,
+            hkey,
+            hcell,
+            hleft,
+            hright,
+            hrank,
+            hs,
+            stack,
+        )
     return SPENT, c, 0.0, 0.0
 
 
 @njit(cache=True)
-def rebuild(nx, ny, zf, lake_of, level_old, sea_level, edge_key, level, area, mroot, broot,
-            hkey, hcell, hleft, hright, hrank, hs, stack, stamp, order, start):
+def rebuild(
+    nx,
+    ny,
+    zf,
+    lake_of,
+    level_old,
+    sea_level,
+    edge_key,
+    level,
+    area,
+    mroot,
+    broot,
+    hkey,
+    hcell,
+    hleft,
+    hright,
+    hrank,
+    hs,
+    stack,
+    stamp,
+    order,
+    start,
+):
     """Renumber live lakes 0..K−1 (raster order of first cell) and rebuild both heaps of each.
 
     ``level`` receives the renumbered levels. Returns K. Heap node pool and scratch arrays are
@@ -510,11 +739,22 @@ def rebuild(nx, ny, zf, lake_of, level_old, sea_level, edge_key, level, area, mr
                     if lake_of[m] == k or stamp[m] == k:
                         continue
                     stamp[m] = k
-                    broot[k] = push(broot[k], surface(m, zf, lake_of, level, sea_level), m,
-                                    hkey, hcell, hleft, hright, hrank, hs, stack)
+                    broot[k] = push(
+                        broot[k],
+                        surface(m, zf, lake_of, level, sea_level),
+                        m,
+                        hkey,
+                        hcell,
+                        hleft,
+                        hright,
+                        hrank,
+                        hs,
+                        stack,
+                    )
             if edge:
-                broot[k] = push(broot[k], edge_key, -(c + 2), hkey, hcell, hleft, hright, hrank,
-                                hs, stack)
+                broot[k] = push(
+                    broot[k], edge_key, -(c + 2), hkey, hcell, hleft, hright, hrank, hs, stack
+                )
     return K
 
 

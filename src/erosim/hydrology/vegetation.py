@@ -51,23 +51,36 @@ def _wet(iy, ix, z, lake_of, level, sea_level):
 def _add_cover(cover, iy, ix, offsets, sign):
     dy, dx, w = offsets
     ny, nx = cover.shape
-    for oy, ox in zip(dy, dx):
+    for oy, ox in zip(dy, dx, strict=True):
         ty, tx = iy + oy, ix + ox
         ok = (ty >= 0) & (ty < ny) & (tx >= 0) & (tx < nx)
         np.add.at(cover, (ty[ok], tx[ok]), sign * w)
 
 
-def step(trees: np.ndarray, cover: np.ndarray, z: np.ndarray, cell_size: float, ell: float,
-         lake_of: np.ndarray, level: np.ndarray, sea_level: float, stream: np.ndarray,
-         p: VegetationParams, rng: np.random.Generator) -> None:
+def step(
+    trees: np.ndarray,
+    cover: np.ndarray,
+    z: np.ndarray,
+    cell_size: float,
+    ell: float,
+    lake_of: np.ndarray,
+    level: np.ndarray,
+    sea_level: float,
+    stream: np.ndarray,
+    p: VegetationParams,
+    rng: np.random.Generator,
+) -> None:
     """One vegetation cycle; updates ``trees`` (uint8) and ``cover`` (float64) in place."""
     ny, nx = trees.shape
     offsets = disc_offsets(p.root_radius * ell / cell_size)
     flat = np.flatnonzero(trees)
     iy, ix = np.divmod(flat, nx)
     # death: in water, in a strong stream, or at random
-    dead = (_wet(iy, ix, z, lake_of, level, sea_level) | (stream[iy, ix] > p.max_stream)
-            | (rng.random(flat.size) < p.death))
+    dead = (
+        _wet(iy, ix, z, lake_of, level, sea_level)
+        | (stream[iy, ix] > p.max_stream)
+        | (rng.random(flat.size) < p.death)
+    )
     if dead.any():
         trees[iy[dead], ix[dead]] = 0
         _add_cover(cover, iy[dead], ix[dead], offsets, -1.0)
@@ -84,9 +97,13 @@ def step(trees: np.ndarray, cover: np.ndarray, z: np.ndarray, cell_size: float, 
     draw = rng.random(ty.size)
     inside = (ty >= 0) & (ty < ny) & (tx >= 0) & (tx < nx)
     ty, tx, draw = ty[inside], tx[inside], draw[inside]
-    ok = ((trees[ty, tx] == 0) & ~_wet(ty, tx, z, lake_of, level, sea_level)
-          & (stream[ty, tx] < p.max_stream) & (_normal_z(z, ty, tx, cell_size) >= p.min_normal_z)
-          & (draw > np.minimum(1.0, p.root_strength * cover[ty, tx])))
+    ok = (
+        (trees[ty, tx] == 0)
+        & ~_wet(ty, tx, z, lake_of, level, sea_level)
+        & (stream[ty, tx] < p.max_stream)
+        & (_normal_z(z, ty, tx, cell_size) >= p.min_normal_z)
+        & (draw > np.minimum(1.0, p.root_strength * cover[ty, tx]))
+    )
     ty, tx = ty[ok], tx[ok]
     if ty.size:
         # one tree per cell even when two candidates land on the same one
@@ -96,7 +113,9 @@ def step(trees: np.ndarray, cover: np.ndarray, z: np.ndarray, cell_size: float, 
         _add_cover(cover, ty, tx, offsets, 1.0)
 
 
-def root_density(cover: np.ndarray, p: VegetationParams, water: np.ndarray | None = None) -> np.ndarray:
+def root_density(
+    cover: np.ndarray, p: VegetationParams, water: np.ndarray | None = None
+) -> np.ndarray:
     """ρ_r = min(1, strength·cover), zero on water when ``water`` is given (the output map)."""
     rho = np.clip(p.root_strength * cover, 0.0, 1.0)
     if water is not None:

@@ -19,7 +19,8 @@ from erosim.scenarios.schema_common import TerrainSection
 
 class Inputs(Section):
     rain_map: str | None = param(
-        None, doc="raster of relative rain (any heightmap format, same size as the terrain); none = uniform"
+        None,
+        doc="raster of relative rain (a heightmap format, terrain-sized); none = uniform",
     )
     hardness_map: str | None = param(
         None, doc="hardness raster in [0, 1] (GeoTIFF, PNG, .npy); erosion × (1 − hardness)"

@@ -73,16 +73,18 @@ def build_model(cfg, *, timing: bool = False):
 
     terrain = build_terrain(cfg.terrain, cfg.seed)
     rain, erod = _inputs(cfg, terrain.shape)
-    model = HydrologyModel(terrain, cfg.hydrology, cfg.vegetation, cfg.seed, rain=rain,
-                           erodibility=erod, timing=timing)
+    model = HydrologyModel(
+        terrain, cfg.hydrology, cfg.vegetation, cfg.seed, rain=rain, erodibility=erod, timing=timing
+    )
     return terrain, model
 
 
 def _picture(model):
     from erosim.viz.maps import hydrology_map
 
-    return hydrology_map(model.z, model.cell_size, model.stream, model.lake_depth(),
-                         vegetation=model.vegetation())
+    return hydrology_map(
+        model.z, model.cell_size, model.stream, model.lake_depth(), vegetation=model.vegetation()
+    )
 
 
 def write_outputs(model, terrain, out: RunFolder) -> dict:
@@ -102,7 +104,11 @@ def write_outputs(model, terrain, out: RunFolder) -> dict:
     info: dict = {"maps": {}, "masks": {}}
     for name, arr in maps.items():
         hio.write(out.maps / f"{name}.tif", np.ascontiguousarray(arr), like=terrain)
-        info["maps"][name] = {"path": f"maps/{name}.tif", "min": float(arr.min()), "max": float(arr.max())}
+        info["maps"][name] = {
+            "path": f"maps/{name}.tif",
+            "min": float(arr.min()),
+            "max": float(arr.max()),
+        }
     png = hio.write(out.maps / "height.png", model.z, like=terrain)
     raw = hio.write(out.maps / "height.r16", model.z, like=terrain)
     info["heightmap_16bit"] = {
@@ -142,7 +148,8 @@ def run(scenario, out: RunFolder, *, resume: bool = False, progress: bool = True
     ratio = model.ell / model.cell_size
     if ratio > 8:
         out.warn(
-            f"hydrology.length_scale ({model.ell:g} m) spans {ratio:.0f} cells of {model.cell_size:g} m: "
+            f"hydrology.length_scale ({model.ell:g} m) spans {ratio:.0f} cells of "
+            f"{model.cell_size:g} m: "
             "droplet footprints are large and the run is slow; set terrain.cell_size to the DEM's "
             "real cell size or lower hydrology.length_scale."
         )
@@ -163,9 +170,18 @@ def run(scenario, out: RunFolder, *, resume: bool = False, progress: bool = True
         ckpt.save(out.checkpoint, model.state(), {"kind": "hydrology", "cycles": model.cycles})
 
     t0 = time.perf_counter()
-    drive(advance, start=float(model.cycles), total=float(cfg.run.cycles), schedules=schedules,
-          checkpoint=save_ckpt, checkpoint_wall_s=cfg.run.checkpoint_interval, label=scenario.name,
-          unit="cycles", progress=progress, steps_done=model.cycles)
+    drive(
+        advance,
+        start=float(model.cycles),
+        total=float(cfg.run.cycles),
+        schedules=schedules,
+        checkpoint=save_ckpt,
+        checkpoint_wall_s=cfg.run.checkpoint_interval,
+        label=scenario.name,
+        unit="cycles",
+        progress=progress,
+        steps_done=model.cycles,
+    )
     wall = time.perf_counter() - t0
     info = write_outputs(model, terrain, out)
     if frames:
@@ -176,13 +192,20 @@ def run(scenario, out: RunFolder, *, resume: bool = False, progress: bool = True
         info["animation"] = "figures/evolution.gif"
     wb, sb = model.water_budget(), model.sediment_budget()
     stats = model.stats()
-    stats["droplets_per_s"] = (model.per_cycle * cfg.run.cycles) / wall if wall > 0 and not resume else None
+    stats["droplets_per_s"] = (
+        (model.per_cycle * cfg.run.cycles) / wall if wall > 0 and not resume else None
+    )
     report = {
         "kind": "hydrology",
         "scenario": scenario.name,
         "preset": scenario.preset,
-        "terrain": {"shape": list(terrain.shape), "cell_size_m": terrain.cell_size,
-                    "crs": terrain.crs, "z_min": float(model.z0.min()), "z_max": float(model.z0.max())},
+        "terrain": {
+            "shape": list(terrain.shape),
+            "cell_size_m": terrain.cell_size,
+            "crs": terrain.crs,
+            "z_min": float(model.z0.min()),
+            "z_max": float(model.z0.max()),
+        },
         "water_budget": wb,
         "sediment_budget": sb,
         "statistics": stats,
@@ -210,7 +233,8 @@ def _clear_demo_folder(out: Path) -> None:
     entries = list(out.iterdir())
     if entries and not ((out / "report.json").exists() or (out / "scenario.toml").exists()):
         raise ConfigError(
-            f"Demo output '{out}' holds files erosim did not write; pass an empty or new --out folder."
+            f"Demo output '{out}' holds files erosim did not write; "
+            "pass an empty or new --out folder."
         )
     shutil.rmtree(out)
 
@@ -227,7 +251,9 @@ def demo(out: Path, progress: bool = True) -> dict:
     summary = run(scenario, folder, progress=progress)
     summary["total_s"] = round(time.perf_counter() - t0, 1)
     summary["open_first"] = str(out / "figures" / "hydrology.png")
-    summary["then"] = (f"{out}/figures/hillshade_before.png vs hillshade_after.png, "
-                       f"{out}/figures/evolution.gif; engine exports in {out}/maps/ "
-                       "(height.png/.r16 + mask_*.png); budgets in report.json")
+    summary["then"] = (
+        f"{out}/figures/hillshade_before.png vs hillshade_after.png, "
+        f"{out}/figures/evolution.gif; engine exports in {out}/maps/ "
+        "(height.png/.r16 + mask_*.png); budgets in report.json"
+    )
     return summary
