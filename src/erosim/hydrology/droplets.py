@@ -74,6 +74,9 @@ def footprint_start(x, m):
 
 @njit(cache=True)
 def mark(track, nx, ny, x, y, m):
+    if m == 1:  # the seed's case: the droplet's own cell
+        track[int(y + 0.5) * nx + int(x + 0.5)] = 1
+        return
     i0 = footprint_start(x, m)
     j0 = footprint_start(y, m)
     for j in range(max(j0, 0), min(j0 + m, ny)):
@@ -87,6 +90,12 @@ def transfer(zf, lake_of, nx, ny, x, y, m, amount, cell_area):
 
     Returns the amount actually moved (0 when every footprint cell is a lake cell).
     """
+    if m == 1:
+        c = int(y + 0.5) * nx + int(x + 0.5)
+        if lake_of[c] >= 0:
+            return 0.0
+        zf[c] -= amount / cell_area
+        return amount
     i0 = footprint_start(x, m)
     j0 = footprint_start(y, m)
     cnt = 0
@@ -132,6 +141,7 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
         iy = int(y + 0.5)
         c = iy * nx + ix
         mark(track, nx, ny, x, y, m)
+        h0 = bilinear(z2, x, y)
         gx, gy = gradient(z2, x, y)
         gx *= inv_dx
         gy *= inv_dx
@@ -186,7 +196,7 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
                 B[B_EVAP] += evap
                 return STOP, float(pit % nx), float(pit // nx), vx, vy, V, S
         # mass transfer at the old position
-        drop = (bilinear(z2, x0, y0) - bilinear(z2, x, y)) * nsub
+        drop = (h0 - bilinear(z2, x, y)) * nsub  # terrain unchanged since h0 was sampled
         ceq = P[P_CAP] * vrel * speed * drop if drop > 0.0 else 0.0
         hold = 1.0 - P[P_ROOT] * roots[c]
         if hold < 0.0:
