@@ -190,3 +190,19 @@ def test_heaps_meld_in_order():
         out.append(hkey[r])
         r = pools.pop(r, hkey, hleft, hright, hrank, hs, stack)
     assert out == sorted(keys)
+
+
+@pytest.mark.parametrize("side", [10, 120])
+def test_adding_water_to_a_lake_does_no_per_cell_work(side):
+    """The seed floods the whole lake for every droplet; here a droplet that only raises a lake's
+    level touches no heap at all, whatever the lake's area (cost O(1), not O(area))."""
+    z = np.full((side + 4, side + 4), 100.0)
+    z[2:-2, 2:-2] = 0.0
+    m = _model(z)
+    _flood(m, side // 2, side // 2, float(side * side) * 10.0)  # 10 m deep, far below the rim
+    used = (m.hs[pools.HS_BUMP], m.hs[pools.HS_FREE])
+    for _ in range(100):
+        res, _c, _V, _S = _flood(m, side // 2, side // 2, 1.0)
+        assert res == pools.SPENT
+    assert (m.hs[pools.HS_BUMP], m.hs[pools.HS_FREE]) == used
+    assert m.lake_depth()[side // 2, side // 2] == pytest.approx(10.0 + 100.0 / side**2, rel=1e-12)
