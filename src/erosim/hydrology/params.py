@@ -14,7 +14,8 @@ maps to physical units as
 Defaults differ from the seed where its values made droplets slow and long-lived on steep
 physical terrain (friction 0.5 /s, evaporation 0.003 /s, ``cycle_droplets`` 1000, sub-steps of at
 most one cell, and ``pit_flood``: a droplet that comes to rest in a pit floods there at once instead
-of oscillating until it evaporates). The ``simplehydrology-2020`` preset restores the seed's.
+of oscillating until it evaporates; trees: 10 seedlings per cycle, spread 0.03). The
+``simplehydrology-2020`` preset restores the seed's.
 
 With ℓ fixed in metres the same terrain at 256² or 512² cells (same extent) runs the same
 physics; ``length_scale = 0`` takes ℓ = one cell, the seed's own convention (used by the
@@ -97,10 +98,10 @@ class VegetationParams(Section):
 
     enabled: bool = param(True, doc="grow trees")
     spawn: float = param(
-        2.0, ge=0, unit="1", doc="random seedlings per cycle per (256 ℓ)² (seed 1)"
+        10.0, ge=0, unit="1", doc="random seedlings per cycle per (256 ℓ)² (seed 1)"
     )
     spread: float = param(
-        0.02, ge=0, le=1, unit="1", doc="chance per tree and cycle to seed a neighbour (seed 1/50)"
+        0.03, ge=0, le=1, unit="1", doc="chance per tree and cycle to seed a neighbour (seed 1/50)"
     )
     spread_radius: float = param(4.0, ge=0, unit="ℓ", doc="how far a tree seeds (seed 4 cells)")
     death: float = param(
