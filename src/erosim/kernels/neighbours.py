@@ -119,6 +119,16 @@ def counting_sort(particle_cell, ncell, cell_start, cell_index):
 
 
 @njit(parallel=True, cache=True)
+def gather_sorted(pos, cell_index, spos):
+    """spos[s] = pos[cell_index[s]] (positions in cell order)."""
+    n, d = pos.shape
+    for s in prange(n):
+        j = cell_index[s]
+        for a in range(d):
+            spos[s, a] = pos[j, a]
+
+
+@njit(parallel=True, cache=True)
 def neighbour_cells(cell_key, ncell, table_key, table_cell, shift, bits, dim, out):
     """out[c, :] = ids of the 3^dim cells around cell c (−1 where empty)."""
     for c in prange(ncell):
@@ -140,11 +150,18 @@ def neighbour_cells(cell_key, ncell, table_key, table_cell, shift, bits, dim, ou
 
 
 @njit(parallel=True, cache=True)
-def count_neighbours(pos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start, cell_index, r2max, count_f, count_b):
-    """Pass 1: number of fluid and boundary neighbours within sqrt(r2max) of particles 0 … n_query−1."""
+def count_neighbours(pos, spos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start, cell_index, r2max,
+                     count_f, count_b):
+    """Pass 1: number of fluid and boundary neighbours within sqrt(r2max) of particles 0 … n_query−1.
+
+    ``spos`` holds the positions in cell order (spos[s] = pos[cell_index[s]]): a contiguous scan.
+    """
     d = pos.shape[1]
     kn = cell_nbrs.shape[1]
     for i in prange(n_query):
+        x0 = pos[i, 0]
+        x1 = pos[i, 1]
+        x2 = pos[i, d - 1]
         c = particle_cell[i]
         cf = 0
         cb = 0
@@ -153,17 +170,19 @@ def count_neighbours(pos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start
             if cc < 0:
                 continue
             for s in range(cell_start[cc], cell_start[cc + 1]):
-                j = cell_index[s]
-                if j == i:
-                    continue
-                r2 = 0.0
-                for a in range(d):
-                    t = pos[i, a] - pos[j, a]
+                t = x0 - spos[s, 0]
+                r2 = t * t
+                t = x1 - spos[s, 1]
+                r2 += t * t
+                if d == 3:
+                    t = x2 - spos[s, 2]
                     r2 += t * t
                 if r2 < r2max:
+                    j = cell_index[s]
                     if j < n_fluid:
-                        cf += 1
-                    elif i < n_fluid:
+                        if j != i:
+                            cf += 1
+                    else:
                         cb += 1
         count_f[i] = cf
         count_b[i] = cb
@@ -180,11 +199,15 @@ def offsets(count_f, count_b, n_query, start, mid):
 
 
 @njit(parallel=True, cache=True)
-def fill_neighbours(pos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start, cell_index, r2max, start, mid, nbr):
+def fill_neighbours(pos, spos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start, cell_index, r2max,
+                    start, mid, nbr):
     """Pass 2: write the neighbour indices counted by :func:`count_neighbours`."""
     d = pos.shape[1]
     kn = cell_nbrs.shape[1]
     for i in prange(n_query):
+        x0 = pos[i, 0]
+        x1 = pos[i, 1]
+        x2 = pos[i, d - 1]
         c = particle_cell[i]
         pf = start[i]
         pb = mid[i]
@@ -193,20 +216,105 @@ def fill_neighbours(pos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start,
             if cc < 0:
                 continue
             for s in range(cell_start[cc], cell_start[cc + 1]):
-                j = cell_index[s]
-                if j == i:
-                    continue
-                r2 = 0.0
-                for a in range(d):
-                    t = pos[i, a] - pos[j, a]
+                t = x0 - spos[s, 0]
+                r2 = t * t
+                t = x1 - spos[s, 1]
+                r2 += t * t
+                if d == 3:
+                    t = x2 - spos[s, 2]
                     r2 += t * t
                 if r2 < r2max:
+                    j = cell_index[s]
                     if j < n_fluid:
-                        nbr[pf] = j
-                        pf += 1
-                    elif i < n_fluid:
+                        if j != i:
+                            nbr[pf] = j
+                            pf += 1
+                    else:
                         nbr[pb] = j
                         pb += 1
+
+
+@njit(cache=True)
+def capacities(count_f, count_b, n_query, cstart):
+    """Slots per particle for a one-pass rebuild: last counts + 25 % + 2; returns the total."""
+    cstart[0] = 0
+    for i in range(n_query):
+        c = count_f[i] + count_b[i]
+        cstart[i + 1] = cstart[i] + c + 2 + c // 4
+    return cstart[n_query]
+
+
+@njit(parallel=True, cache=True)
+def fill_capped(pos, spos, n_fluid, particle_cell, cell_nbrs, cell_start, cell_index, r2max, cstart, nbr,
+                count_f, count_b):
+    """One-pass list build into per-particle slots [cstart[i], cstart[i+1]): fluid neighbours from the
+    front, boundary ones from the back. Returns the number of particles whose slots overflowed
+    (then the caller falls back to count + fill); the counts are exact either way."""
+    d = pos.shape[1]
+    kn = cell_nbrs.shape[1]
+    over = 0
+    for i in prange(n_fluid):
+        x0 = pos[i, 0]
+        x1 = pos[i, 1]
+        x2 = pos[i, d - 1]
+        c = particle_cell[i]
+        pf = cstart[i]
+        pb = cstart[i + 1]
+        cf = 0
+        cb = 0
+        for k in range(kn):
+            cc = cell_nbrs[c, k]
+            if cc < 0:
+                continue
+            for s in range(cell_start[cc], cell_start[cc + 1]):
+                t = x0 - spos[s, 0]
+                r2 = t * t
+                t = x1 - spos[s, 1]
+                r2 += t * t
+                if d == 3:
+                    t = x2 - spos[s, 2]
+                    r2 += t * t
+                if r2 < r2max:
+                    j = cell_index[s]
+                    if j < n_fluid:
+                        if j != i:
+                            if pf < pb:
+                                nbr[pf] = j
+                            pf += 1
+                            cf += 1
+                    else:
+                        pb -= 1
+                        if pb >= pf:
+                            nbr[pb] = j
+                        cb += 1
+        count_f[i] = cf
+        count_b[i] = cb
+        if cf + cb > cstart[i + 1] - cstart[i]:
+            over += 1
+    return over
+
+
+@njit(cache=True)
+def compact(cstart, count_f, count_b, n_fluid, start, mid, nbr, tmp):
+    """Squeeze the slots of :func:`fill_capped` into CSR lists (fluid part, then boundary part in
+    scan order — the same lists :func:`count_neighbours` + :func:`fill_neighbours` make)."""
+    w = 0
+    for i in range(n_fluid):
+        s0 = cstart[i]
+        s1 = cstart[i + 1]
+        cb = count_b[i]
+        for k in range(cb):
+            tmp[k] = nbr[s1 - 1 - k]
+        start[i] = w
+        for k in range(count_f[i]):
+            nbr[w] = nbr[s0 + k]
+            w += 1
+        mid[i] = w
+        for k in range(cb):
+            nbr[w] = tmp[k]
+            w += 1
+    start[n_fluid] = w
+    return w
 
 
 @njit(cache=True)
@@ -268,6 +376,7 @@ class _Grid:
         self.cell_key = np.empty(n, np.int64)
         self.cell_start = np.empty(n + 1, np.int64)
         self.cell_index = np.empty(n, np.int64)
+        self.spos = None
         self.cell_nbrs = np.empty((0, 3**self.dim), np.int32)
 
     def ensure_cells(self, ncell: int) -> None:
@@ -305,6 +414,9 @@ def build_grid(grid: _Grid, pos: np.ndarray, cell: float) -> int:
     renumber_cells(grid.particle_cell, rank)
     counting_sort(grid.particle_cell, ncell, grid.cell_start, grid.cell_index)
     grid.ensure_cells(ncell)
+    if grid.spos is None or grid.spos.shape != pos.shape or grid.spos.dtype != pos.dtype:
+        grid.spos = np.empty_like(pos)
+    gather_sorted(pos, grid.cell_index, grid.spos)
     neighbour_cells(grid.cell_key, ncell, grid.table_key, grid.table_cell, grid.shift, grid.bits, d, grid.cell_nbrs)
     return ncell
 
@@ -330,11 +442,11 @@ def find_neighbours(pos, radius: float, n_fluid: int | None = None):
     build_grid(grid, pos, float(radius))
     cf = np.empty(n, np.int64)
     cb = np.empty(n, np.int64)
-    count_neighbours(pos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, cf, cb)
+    count_neighbours(pos, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, cf, cb)
     start = np.empty(n + 1, np.int64)
     mid = np.empty(n, np.int64)
     total = offsets(cf, cb, nf, start, mid)
     nbr = np.empty(total + int(cb[:nf].sum()), np.int64)
-    fill_neighbours(pos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, start, mid, nbr)
+    fill_neighbours(pos, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, start, mid, nbr)
     transpose_boundary(nf, n, start, mid, nbr, np.empty(max(n - nf, 1), np.int64))
     return start, mid, nbr

@@ -16,8 +16,14 @@ from numba import njit
 
 @njit(inline="always", cache=True)
 def tait(rho, rho0, b, gamma):
-    """Tait: p = B((ρ/ρ₀)^γ − 1)."""
-    return b * ((rho / rho0) ** gamma - 1.0)
+    """Tait: p = B((ρ/ρ₀)^γ − 1) (γ = 7 and 1 by multiplication, which is several times faster than pow)."""
+    x = rho / rho0
+    if gamma == 7.0:
+        x2 = x * x
+        return b * (x2 * x2 * x2 * x - 1.0)
+    if gamma == 1.0:
+        return b * (x - 1.0)
+    return b * (x**gamma - 1.0)
 
 
 @njit(inline="always", cache=True)

@@ -50,9 +50,7 @@ def pterm_symmetric(pi, pj, rhoi, rhoj):
 @njit(inline="always", cache=True)
 def visc_artificial(vdotr, r2, f, lapw, rhoi, rhoj, kv, eps2):
     """Monaghan Π (SPH-6b), kv = 2αh_s c: returns (c_r, c_v) = (−Π f, 0)."""
-    if vdotr >= 0.0:
-        return 0.0, 0.0
-    return kv * vdotr * f / ((rhoi + rhoj) * (r2 + eps2)), 0.0
+    return kv * min(vdotr, 0.0) * f / ((rhoi + rhoj) * (r2 + eps2)), 0.0  # branch-free: 0 when separating
 
 
 @njit(inline="always", cache=True)
@@ -236,113 +234,116 @@ def summation_particle(w, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho
 # ---------------------------------------------------------------- drivers, one per variant
 # (listed out so Numba can cache each; the body above is shared)
 
+# reciprocal approximations and fused multiply-add only: NaN/inf semantics stay IEEE (NaN detection)
+_FAST = {"arcp", "contract"}
 
-@njit(parallel=True, cache=True)
+
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_2d(K.wendland_f_2d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_2d(K.wendland_f_2d, K.wendland_lap_2d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_2d(K.wendland_f_2d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_2d(K.wendland_f_2d, K.wendland_lap_2d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_2d(K.muller_f_2d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_2d(K.muller_f_2d, K.muller_lap_2d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_2d(K.muller_f_2d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_2d(K.muller_f_2d, K.muller_lap_2d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_3d(K.wendland_f_3d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_3d(K.wendland_f_3d, K.wendland_lap_3d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_3d(K.wendland_f_3d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_3d(K.wendland_f_3d, K.wendland_lap_3d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_3d(K.muller_f_3d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_3d(K.muller_f_3d, K.muller_lap_3d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_3d(K.muller_f_3d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
                           kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
     for i in prange(n_fluid):
         fluid_particle_3d(K.muller_f_3d, K.muller_lap_3d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,

@@ -154,6 +154,10 @@ class SPHSolver:
         self.start = np.empty(n + 1, np.int64)
         self.mid = np.empty(n, np.int64)
         self.nbr = np.empty(0, np.int32)
+        self._cstart = np.empty(nf + 1, np.int64)
+        self._tmp = np.empty(64, np.int32)
+        self._have_counts = False
+        self._tcount = np.empty(max(1, n - nf), np.int64)
         self.rc = self.h * (1.0 + prm.skin)
 
         self._rebuild(reorder=True)
@@ -231,19 +235,39 @@ class SPHSolver:
                     arr[:nf] = arr[:nf][perm]
                 self.acc[:] = self.acc[perm]
                 self.ids[:] = self.ids[perm]
+                self._count_f[:nf] = self._count_f[:nf][perm]
+                self._count_b[:nf] = self._count_b[:nf][perm]
                 grid.particle_cell[:nf] = grid.particle_cell[:nf][perm]
                 ci[fl] = np.arange(nf)
             src = self.pos
         r2 = self.rc * self.rc
-        nb.count_neighbours(src, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, r2,
-                            self._count_f, self._count_b)
-        total = nb.offsets(self._count_f, self._count_b, nf, self.start, self.mid)
-        total += int(self._count_b[:nf].sum())  # room for the boundary particles' (transposed) lists
-        if self.nbr.size < total:
-            self.nbr = np.empty(int(total * 1.2) + 64, np.int32)
-        nb.fill_neighbours(src, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, r2,
-                           self.start, self.mid, self.nbr)
-        self.active = nb.transpose_boundary(nf, self.n, self.start, self.mid, self.nbr, self._count_b)
+        done = False
+        if self._have_counts:
+            # one pass into slots sized by the last counts, then compact (falls back when a slot overflows)
+            cap_total = nb.capacities(self._count_f, self._count_b, nf, self._cstart)
+            need = int(cap_total) + int(self._count_b[:nf].sum()) * 2 + 64
+            if self.nbr.size < need:
+                self.nbr = np.empty(int(need * 1.2), np.int32)
+            over = nb.fill_capped(src, grid.spos, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start,
+                                  grid.cell_index, r2, self._cstart, self.nbr, self._count_f, self._count_b)
+            if over == 0:
+                tmp = self._tmp if self._tmp.size >= int(self._count_b[:nf].max(initial=0)) else np.empty(
+                    int(self._count_b[:nf].max(initial=0)) * 2 + 16, np.int32)
+                self._tmp = tmp
+                nb.compact(self._cstart, self._count_f, self._count_b, nf, self.start, self.mid, self.nbr, tmp)
+                total = int(self.start[nf]) + int(self._count_b[:nf].sum())
+                done = total <= self.nbr.size
+        if not done:
+            nb.count_neighbours(src, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start,
+                                grid.cell_index, r2, self._count_f, self._count_b)
+            total = nb.offsets(self._count_f, self._count_b, nf, self.start, self.mid)
+            total += int(self._count_b[:nf].sum())  # room for the boundary particles' (transposed) lists
+            if self.nbr.size < total:
+                self.nbr = np.empty(int(total * 1.2) + 64, np.int32)
+            nb.fill_neighbours(src, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start,
+                               grid.cell_index, r2, self.start, self.mid, self.nbr)
+            self._have_counts = True
+        self.active = nb.transpose_boundary(nf, self.n, self.start, self.mid, self.nbr, self._tcount)
         self.ref[:] = src[:nf]
         self.rebuilds += 1
 
