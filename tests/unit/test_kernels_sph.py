@@ -61,7 +61,9 @@ def test_wendland_gradient_is_the_derivative_of_w(dim):
 def test_muller_constants_match_spec_sph2():
     """The seed's 3-D formulas (SPEC SPH-2) at one radius, and the 2-D constants (normalised)."""
     r, h = 0.3, 0.5
-    assert kernel_w(np.array([r]), h, 3, "muller")[0] == pytest.approx(315 / (64 * math.pi * h**9) * (h * h - r * r) ** 3)
+    assert kernel_w(np.array([r]), h, 3, "muller")[0] == pytest.approx(
+        315 / (64 * math.pi * h**9) * (h * h - r * r) ** 3
+    )
     assert kernel_w(np.array([r]), h, 2, "muller")[0] == pytest.approx(4 / (math.pi * h**8) * (h * h - r * r) ** 3)
     g3 = kernel_grad(np.array([[r, 0, 0]]), h, "muller")[0, 0]
     assert g3 == pytest.approx(-45 / (math.pi * h**6) * (h - r) ** 2)

@@ -23,10 +23,10 @@ def _brute(pos, radius, n_fluid):
 def test_identical_to_brute_force_with_sparse_far_apart_clusters(dim):
     rng = np.random.default_rng(11)
     parts = [
-        rng.random((300, dim)),                      # a dense block
-        rng.random((120, dim)) * 0.2 + 5000.0,       # a cluster 5 km away
-        rng.random((40, dim)) * 0.05 - 3000.0,       # a small cluster on the other side
-        np.array([[0.5] * dim, [0.5] * dim]),        # two particles at the same place
+        rng.random((300, dim)),  # a dense block
+        rng.random((120, dim)) * 0.2 + 5000.0,  # a cluster 5 km away
+        rng.random((40, dim)) * 0.05 - 3000.0,  # a small cluster on the other side
+        np.array([[0.5] * dim, [0.5] * dim]),  # two particles at the same place
     ]
     pos = np.vstack(parts)
     n_fluid = 330  # the rest play boundary particles
@@ -34,8 +34,8 @@ def test_identical_to_brute_force_with_sparse_far_apart_clusters(dim):
     start, mid, nbr = nb.find_neighbours(pos, radius, n_fluid)
     ref = _brute(pos, radius, n_fluid)
     for i, (fl, bd) in enumerate(ref):
-        assert sorted(nbr[start[i]:mid[i]].tolist()) == fl, i
-        assert sorted(nbr[mid[i]:start[i + 1]].tolist()) == bd, i
+        assert sorted(nbr[start[i] : mid[i]].tolist()) == fl, i
+        assert sorted(nbr[mid[i] : start[i + 1]].tolist()) == bd, i
 
 
 def test_points_on_cell_borders_and_exact_radius():
@@ -47,7 +47,7 @@ def test_points_on_cell_borders_and_exact_radius():
     start, mid, nbr = nb.find_neighbours(pos, radius)
     ref = _brute(pos, radius, len(pos))
     for i, (fl, _) in enumerate(ref):
-        assert sorted(nbr[start[i]:mid[i]].tolist()) == fl
+        assert sorted(nbr[start[i] : mid[i]].tolist()) == fl
 
 
 def test_memory_grows_with_particles_not_domain():

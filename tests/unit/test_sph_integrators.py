@@ -24,7 +24,7 @@ def _oscillate(scheme: str, dt: float, steps: int):
     x0 = np.array([[1.0, 0.0], [0.0, 0.5], [0.3, -0.2]])
     pos = x0.copy()
     vel = np.zeros_like(pos)
-    acc = -OMEGA**2 * pos
+    acc = -(OMEGA**2) * pos
     n = len(pos)
     rho = np.full(n, 1000.0)
     rho_old = rho.copy()
@@ -39,9 +39,10 @@ def _oscillate(scheme: str, dt: float, steps: int):
     k1, k2 = (0.5 * dt, 0.5 * dt) if scheme == "leapfrog" else (dt, 0.0)
     energy = []
     for _ in range(steps):
-        integrators.kick_drift(pos, vel, acc, rho, rho_old, drho, p, n, active, k1, dt, 1000.0, 1.0, 7.0, 0.0,
-                               lo, hi, olo, olo, ref, buf)
-        acc[:] = -OMEGA**2 * pos  # the "force pass"
+        integrators.kick_drift(
+            pos, vel, acc, rho, rho_old, drho, p, n, active, k1, dt, 1000.0, 1.0, 7.0, 0.0, lo, hi, olo, olo, ref, buf
+        )
+        acc[:] = -(OMEGA**2) * pos  # the "force pass"
         integrators.correct(vel, acc, rho, rho_old, drho, p, n, active, k2, dt, 1000.0, 1.0, 7.0, 0.0, v2, a2)
         energy.append(0.5 * (vel**2).sum() + 0.5 * OMEGA**2 * (pos**2).sum())
     return np.array(energy), 0.5 * OMEGA**2 * (x0**2).sum()

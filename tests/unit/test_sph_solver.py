@@ -24,11 +24,20 @@ def _blob(dim, seed=0):
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-@pytest.mark.parametrize("variant", [
-    {},
-    {"pressure_form": "symmetric", "viscosity": "laminar", "mu": 0.05, "kernel": "muller", "integrator": "symplectic-euler"},
-    {"density": "summation", "eos": "linear"},
-])
+@pytest.mark.parametrize(
+    "variant",
+    [
+        {},
+        {
+            "pressure_form": "symmetric",
+            "viscosity": "laminar",
+            "mu": 0.05,
+            "kernel": "muller",
+            "integrator": "symplectic-euler",
+        },
+        {"density": "summation", "eos": "linear"},
+    ],
+)
 def test_pair_forces_conserve_linear_momentum(dim, variant):
     """No gravity, walls far away: Σ m v stays constant (pair forces are antisymmetric)."""
     pos, vel = _blob(dim)
@@ -125,8 +134,13 @@ def test_fluid_outside_the_domain_is_refused():
     with pytest.raises(ConfigError, match="outside the domain"):
         SPHSolver(SPHParams(dim=2, spacing=DX), pos + 0.5, domain_lo=[0, 0], domain_hi=[0.2, 0.2])
     with pytest.raises(ConfigError, match="inside obstacle"):
-        SPHSolver(SPHParams(dim=2, spacing=DX), pos, domain_lo=[0, 0], domain_hi=[0.2, 0.2],
-                  obstacles=[([0.0, 0.0], [0.03, 0.03])])
+        SPHSolver(
+            SPHParams(dim=2, spacing=DX),
+            pos,
+            domain_lo=[0, 0],
+            domain_hi=[0.2, 0.2],
+            obstacles=[([0.0, 0.0], [0.03, 0.03])],
+        )
 
 
 def test_gravity_with_wrong_length_is_refused():
@@ -155,7 +169,9 @@ def test_result_does_not_depend_on_thread_count():
         prev = numba.get_num_threads()
         numba.set_num_threads(threads)
         try:
-            s = SPHSolver(SPHParams(dim=2, spacing=DX, parallel_min_particles=0), pos, domain_lo=[0, 0], domain_hi=[0.3, 0.2])
+            s = SPHSolver(
+                SPHParams(dim=2, spacing=DX, parallel_min_particles=0), pos, domain_lo=[0, 0], domain_hi=[0.3, 0.2]
+            )
             for _ in range(30):
                 s.step()
             runs.append(s.fluid_positions())

@@ -41,8 +41,16 @@ def dam_break_geometry(particles: int, dim: int, spacing: float):
     return fluid, np.zeros(dim), np.array(hi)
 
 
-def run(particles: int = 100_000, steps: int | None = None, dim: int = 3, *, warmup: int = 20,
-        precision: str = "float32", walls: str = "particles", seconds: float = 8.0) -> dict:
+def run(
+    particles: int = 100_000,
+    steps: int | None = None,
+    dim: int = 3,
+    *,
+    warmup: int = 20,
+    precision: str = "float32",
+    walls: str = "particles",
+    seconds: float = 8.0,
+) -> dict:
     """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
     import numba
 

@@ -150,8 +150,9 @@ def neighbour_cells(cell_key, ncell, table_key, table_cell, shift, bits, dim, ou
 
 
 @njit(parallel=True, cache=True)
-def count_neighbours(pos, spos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start, cell_index, r2max,
-                     count_f, count_b):
+def count_neighbours(
+    pos, spos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start, cell_index, r2max, count_f, count_b
+):
     """Pass 1: number of fluid and boundary neighbours within sqrt(r2max) of particles 0 … n_query−1.
 
     ``spos`` holds the positions in cell order (spos[s] = pos[cell_index[s]]): a contiguous scan.
@@ -199,8 +200,9 @@ def offsets(count_f, count_b, n_query, start, mid):
 
 
 @njit(parallel=True, cache=True)
-def fill_neighbours(pos, spos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start, cell_index, r2max,
-                    start, mid, nbr):
+def fill_neighbours(
+    pos, spos, n_fluid, n_query, particle_cell, cell_nbrs, cell_start, cell_index, r2max, start, mid, nbr
+):
     """Pass 2: write the neighbour indices counted by :func:`count_neighbours`."""
     d = pos.shape[1]
     kn = cell_nbrs.shape[1]
@@ -245,8 +247,9 @@ def capacities(count_f, count_b, n_query, cstart):
 
 
 @njit(parallel=True, cache=True)
-def fill_capped(pos, spos, n_fluid, particle_cell, cell_nbrs, cell_start, cell_index, r2max, cstart, nbr,
-                count_f, count_b):
+def fill_capped(
+    pos, spos, n_fluid, particle_cell, cell_nbrs, cell_start, cell_index, r2max, cstart, nbr, count_f, count_b
+):
     """One-pass list build into per-particle slots [cstart[i], cstart[i+1]): fluid neighbours from the
     front, boundary ones from the back. Returns the number of particles whose slots overflowed
     (then the caller falls back to count + fill); the counts are exact either way."""
@@ -442,11 +445,26 @@ def find_neighbours(pos, radius: float, n_fluid: int | None = None):
     build_grid(grid, pos, float(radius))
     cf = np.empty(n, np.int64)
     cb = np.empty(n, np.int64)
-    count_neighbours(pos, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, cf, cb)
+    count_neighbours(
+        pos, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, cf, cb
+    )
     start = np.empty(n + 1, np.int64)
     mid = np.empty(n, np.int64)
     total = offsets(cf, cb, nf, start, mid)
     nbr = np.empty(total + int(cb[:nf].sum()), np.int64)
-    fill_neighbours(pos, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, radius**2, start, mid, nbr)
+    fill_neighbours(
+        pos,
+        grid.spos,
+        nf,
+        nf,
+        grid.particle_cell,
+        grid.cell_nbrs,
+        grid.cell_start,
+        grid.cell_index,
+        radius**2,
+        start,
+        mid,
+        nbr,
+    )
     transpose_boundary(nf, n, start, mid, nbr, np.empty(max(n - nf, 1), np.int64))
     return start, mid, nbr

@@ -19,7 +19,8 @@ radius, h_s = h/2 the smoothing length used in ν, δ and ε.
 
 The variants are scalar Numba functions passed to the per-particle bodies; the parallel loop drivers
 below are one small cached function per combination (Numba cannot cache a driver that takes functions
-as arguments, so each combination is spelled out; :func:`fluid_driver` picks one by name): ``gradf(r, h)``, ``lap(r, h)`` (from :mod:`erosim.kernels.sph_kernels`),
+as arguments, so each combination is spelled out; :func:`fluid_driver` picks one by name):
+``gradf(r, h)``, ``lap(r, h)`` (from :mod:`erosim.kernels.sph_kernels`),
 ``pterm(p_i, p_j, ρ_i, ρ_j)`` and ``visc(v·r, r², f, L, ρ_i, ρ_j, k_visc, ε²) -> (c_r, c_v)`` where
 the viscous acceleration is m_j (c_r r_ij + c_v v_ij).
 """
@@ -69,8 +70,32 @@ def no_lap(r, h):
 
 
 @njit(inline="always")
-def fluid_particle_3d(gradf, lap, pterm, visc, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                      kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_particle_3d(
+    gradf,
+    lap,
+    pterm,
+    visc,
+    i,
+    pos,
+    vel,
+    rho,
+    p,
+    start,
+    mid,
+    nbr,
+    m,
+    h,
+    kv,
+    eps2,
+    kdiff,
+    eta2,
+    kh,
+    gx,
+    gy,
+    gz,
+    acc,
+    drho,
+):
     """3-D: acceleration and dρ/dt of fluid particle i (see the module docstring)."""
     h2 = h * h
     xi = pos[i, 0]
@@ -133,8 +158,32 @@ def fluid_particle_3d(gradf, lap, pterm, visc, i, pos, vel, rho, p, start, mid, 
 
 
 @njit(inline="always")
-def fluid_particle_2d(gradf, lap, pterm, visc, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                      kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_particle_2d(
+    gradf,
+    lap,
+    pterm,
+    visc,
+    i,
+    pos,
+    vel,
+    rho,
+    p,
+    start,
+    mid,
+    nbr,
+    m,
+    h,
+    kv,
+    eps2,
+    kdiff,
+    eta2,
+    kh,
+    gx,
+    gy,
+    gz,
+    acc,
+    drho,
+):
     """2-D: acceleration and dρ/dt of fluid particle i (``gz`` unused)."""
     h2 = h * h
     xi = pos[i, 0]
@@ -239,115 +288,531 @@ _FAST = {"arcp", "contract"}
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_2d_wendland_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_2d_wendland_wcsph_artificial(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_2d(K.wendland_f_2d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_2d(
+            K.wendland_f_2d,
+            no_lap,
+            pterm_wcsph,
+            visc_artificial,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_2d_wendland_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_2d_wendland_wcsph_laminar(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_2d(K.wendland_f_2d, K.wendland_lap_2d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_2d(
+            K.wendland_f_2d,
+            K.wendland_lap_2d,
+            pterm_wcsph,
+            visc_laminar,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_2d_wendland_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_2d_wendland_symmetric_artificial(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_2d(K.wendland_f_2d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_2d(
+            K.wendland_f_2d,
+            no_lap,
+            pterm_symmetric,
+            visc_artificial,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_2d_wendland_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_2d_wendland_symmetric_laminar(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_2d(K.wendland_f_2d, K.wendland_lap_2d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_2d(
+            K.wendland_f_2d,
+            K.wendland_lap_2d,
+            pterm_symmetric,
+            visc_laminar,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_2d_muller_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_2d_muller_wcsph_artificial(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_2d(K.muller_f_2d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_2d(
+            K.muller_f_2d,
+            no_lap,
+            pterm_wcsph,
+            visc_artificial,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_2d_muller_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_2d_muller_wcsph_laminar(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_2d(K.muller_f_2d, K.muller_lap_2d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_2d(
+            K.muller_f_2d,
+            K.muller_lap_2d,
+            pterm_wcsph,
+            visc_laminar,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_2d_muller_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_2d_muller_symmetric_artificial(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_2d(K.muller_f_2d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_2d(
+            K.muller_f_2d,
+            no_lap,
+            pterm_symmetric,
+            visc_artificial,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_2d_muller_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_2d_muller_symmetric_laminar(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_2d(K.muller_f_2d, K.muller_lap_2d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_2d(
+            K.muller_f_2d,
+            K.muller_lap_2d,
+            pterm_symmetric,
+            visc_laminar,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_3d_wendland_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_3d_wendland_wcsph_artificial(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_3d(K.wendland_f_3d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_3d(
+            K.wendland_f_3d,
+            no_lap,
+            pterm_wcsph,
+            visc_artificial,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_3d_wendland_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_3d_wendland_wcsph_laminar(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_3d(K.wendland_f_3d, K.wendland_lap_3d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_3d(
+            K.wendland_f_3d,
+            K.wendland_lap_3d,
+            pterm_wcsph,
+            visc_laminar,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_3d_wendland_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_3d_wendland_symmetric_artificial(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_3d(K.wendland_f_3d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_3d(
+            K.wendland_f_3d,
+            no_lap,
+            pterm_symmetric,
+            visc_artificial,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_3d_wendland_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_3d_wendland_symmetric_laminar(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_3d(K.wendland_f_3d, K.wendland_lap_3d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_3d(
+            K.wendland_f_3d,
+            K.wendland_lap_3d,
+            pterm_symmetric,
+            visc_laminar,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_3d_muller_wcsph_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_3d_muller_wcsph_artificial(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_3d(K.muller_f_3d, no_lap, pterm_wcsph, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_3d(
+            K.muller_f_3d,
+            no_lap,
+            pterm_wcsph,
+            visc_artificial,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_3d_muller_wcsph_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_3d_muller_wcsph_laminar(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_3d(K.muller_f_3d, K.muller_lap_3d, pterm_wcsph, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_3d(
+            K.muller_f_3d,
+            K.muller_lap_3d,
+            pterm_wcsph,
+            visc_laminar,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_3d_muller_symmetric_artificial(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_3d_muller_symmetric_artificial(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_3d(K.muller_f_3d, no_lap, pterm_symmetric, visc_artificial, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_3d(
+            K.muller_f_3d,
+            no_lap,
+            pterm_symmetric,
+            visc_artificial,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
-def fluid_pass_3d_muller_symmetric_laminar(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+def fluid_pass_3d_muller_symmetric_laminar(
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+):
     for i in prange(n_fluid):
-        fluid_particle_3d(K.muller_f_3d, K.muller_lap_3d, pterm_symmetric, visc_laminar, i, pos, vel, rho, p, start, mid, nbr, m, h,
-                          kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho)
+        fluid_particle_3d(
+            K.muller_f_3d,
+            K.muller_lap_3d,
+            pterm_symmetric,
+            visc_laminar,
+            i,
+            pos,
+            vel,
+            rho,
+            p,
+            start,
+            mid,
+            nbr,
+            m,
+            h,
+            kv,
+            eps2,
+            kdiff,
+            eta2,
+            kh,
+            gx,
+            gy,
+            gz,
+            acc,
+            drho,
+        )
 
 
 @njit(parallel=True, cache=True)
@@ -403,22 +868,22 @@ def summation_density_3d_muller(pos, start, nbr, n_fluid, n_total, m, h, rho_bas
 
 
 _FLUID = {
-    (2, 'wendland', 'wcsph', 'artificial'): fluid_pass_2d_wendland_wcsph_artificial,
-    (2, 'wendland', 'wcsph', 'laminar'): fluid_pass_2d_wendland_wcsph_laminar,
-    (2, 'wendland', 'symmetric', 'artificial'): fluid_pass_2d_wendland_symmetric_artificial,
-    (2, 'wendland', 'symmetric', 'laminar'): fluid_pass_2d_wendland_symmetric_laminar,
-    (2, 'muller', 'wcsph', 'artificial'): fluid_pass_2d_muller_wcsph_artificial,
-    (2, 'muller', 'wcsph', 'laminar'): fluid_pass_2d_muller_wcsph_laminar,
-    (2, 'muller', 'symmetric', 'artificial'): fluid_pass_2d_muller_symmetric_artificial,
-    (2, 'muller', 'symmetric', 'laminar'): fluid_pass_2d_muller_symmetric_laminar,
-    (3, 'wendland', 'wcsph', 'artificial'): fluid_pass_3d_wendland_wcsph_artificial,
-    (3, 'wendland', 'wcsph', 'laminar'): fluid_pass_3d_wendland_wcsph_laminar,
-    (3, 'wendland', 'symmetric', 'artificial'): fluid_pass_3d_wendland_symmetric_artificial,
-    (3, 'wendland', 'symmetric', 'laminar'): fluid_pass_3d_wendland_symmetric_laminar,
-    (3, 'muller', 'wcsph', 'artificial'): fluid_pass_3d_muller_wcsph_artificial,
-    (3, 'muller', 'wcsph', 'laminar'): fluid_pass_3d_muller_wcsph_laminar,
-    (3, 'muller', 'symmetric', 'artificial'): fluid_pass_3d_muller_symmetric_artificial,
-    (3, 'muller', 'symmetric', 'laminar'): fluid_pass_3d_muller_symmetric_laminar,
+    (2, "wendland", "wcsph", "artificial"): fluid_pass_2d_wendland_wcsph_artificial,
+    (2, "wendland", "wcsph", "laminar"): fluid_pass_2d_wendland_wcsph_laminar,
+    (2, "wendland", "symmetric", "artificial"): fluid_pass_2d_wendland_symmetric_artificial,
+    (2, "wendland", "symmetric", "laminar"): fluid_pass_2d_wendland_symmetric_laminar,
+    (2, "muller", "wcsph", "artificial"): fluid_pass_2d_muller_wcsph_artificial,
+    (2, "muller", "wcsph", "laminar"): fluid_pass_2d_muller_wcsph_laminar,
+    (2, "muller", "symmetric", "artificial"): fluid_pass_2d_muller_symmetric_artificial,
+    (2, "muller", "symmetric", "laminar"): fluid_pass_2d_muller_symmetric_laminar,
+    (3, "wendland", "wcsph", "artificial"): fluid_pass_3d_wendland_wcsph_artificial,
+    (3, "wendland", "wcsph", "laminar"): fluid_pass_3d_wendland_wcsph_laminar,
+    (3, "wendland", "symmetric", "artificial"): fluid_pass_3d_wendland_symmetric_artificial,
+    (3, "wendland", "symmetric", "laminar"): fluid_pass_3d_wendland_symmetric_laminar,
+    (3, "muller", "wcsph", "artificial"): fluid_pass_3d_muller_wcsph_artificial,
+    (3, "muller", "wcsph", "laminar"): fluid_pass_3d_muller_wcsph_laminar,
+    (3, "muller", "symmetric", "artificial"): fluid_pass_3d_muller_symmetric_artificial,
+    (3, "muller", "symmetric", "laminar"): fluid_pass_3d_muller_symmetric_laminar,
 }
 
 

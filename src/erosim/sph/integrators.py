@@ -45,8 +45,29 @@ def _chunk(n, c):
 
 
 @njit(parallel=True, cache=True)
-def kick_drift(pos, vel, acc, rho, rho_old, drho, p, n_fluid, active, dt_kick, dt, rho0, b, gamma, pmin,
-               lo, hi, olo, ohi, ref, out_disp2):
+def kick_drift(
+    pos,
+    vel,
+    acc,
+    rho,
+    rho_old,
+    drho,
+    p,
+    n_fluid,
+    active,
+    dt_kick,
+    dt,
+    rho0,
+    b,
+    gamma,
+    pmin,
+    lo,
+    hi,
+    olo,
+    ohi,
+    ref,
+    out_disp2,
+):
     """Fluid: v += dt_kick·a; r += dt·v; walls; predictor ρ* = ρ + dt·D (ρ kept in rho_old); p = EOS(ρ*).
     Active boundary particles: the same predictor, ρ* ≥ ρ₀. out_disp2[c] = max |r − ref|² over chunk c.
     """

@@ -35,7 +35,10 @@ class SPHParams(Section):
     dim: Literal[2, 3] = param(3, unit="1", doc="space dimension: 2 or 3")
     spacing: float = param(0.01, gt=0, unit="m", doc="initial particle spacing Δx (mass = ρ₀Δx^dim)")
     h_factor: float = param(
-        2.0, ge=1.2, le=4.0, unit="1",
+        2.0,
+        ge=1.2,
+        le=4.0,
+        unit="1",
         doc="kernel support radius h = h_factor·spacing; default 2.0 in 3-D (about 30 neighbours), "
         "3.0 in 2-D (about 28; Wendland's gradient is then consistent to 0.3 % on a lattice, 2.6 % at 2.6)",
     )
@@ -47,12 +50,17 @@ class SPHParams(Section):
         "continuity", doc="'continuity' (dρ/dt, with δ-SPH diffusion) or 'summation' (ρ = Σ m W, SPH-3)"
     )
     density_diffusion: float = param(
-        0.1, ge=0, le=1, unit="1",
+        0.1,
+        ge=0,
+        le=1,
+        unit="1",
         doc="δ of the δ-SPH density diffusion (Molteni & Colagrossi 2009) in 'continuity' mode; 0 = off",
     )
     eos: Literal["tait", "linear"] = param("tait", doc="equation of state: 'tait' (SPH-4b) or 'linear' (SPH-4a)")
     sound_speed: float = param(
-        0.0, ge=0, unit="m/s",
+        0.0,
+        ge=0,
+        unit="m/s",
         doc="numerical sound speed c; 0 = auto: 10·sqrt(2·|g|·H) with H the fluid's initial height (≥ 10·u_max)",
     )
     gamma: float = param(7.0, ge=1, le=10, unit="1", doc="Tait exponent γ")
@@ -64,7 +72,8 @@ class SPHParams(Section):
     )
     pressure_floor: Literal["zero", "none"] = param(
         "zero",
-        doc="'zero' clamps negative pressure to 0 (stable free surfaces); 'none' keeps tension (unstable at free surfaces)",
+        doc="'zero' clamps negative pressure to 0 (stable free surfaces); "
+        "'none' keeps tension (unstable at free surfaces)",
     )
     viscosity: Literal["artificial", "laminar"] = param(
         "artificial", doc="'artificial' (Monaghan Π, SPH-6b) or 'laminar' (μ∇²v, SPH-6a)"
@@ -78,10 +87,10 @@ class SPHParams(Section):
         "leapfrog", doc="'leapfrog' (kick-drift-kick, SPH-10) or 'symplectic-euler' (seed 001)"
     )
     dt: float = param(0.0, ge=0, unit="s", doc="fixed time step; 0 = adaptive from the CFL, force and viscous limits")
-    cfl: float = param(0.2, gt=0, le=1, unit="1", doc="Courant number of the adaptive step (and of the fixed-step check)")
-    precision: Literal["float32", "float64"] = param(
-        "float64", doc="floating point type of the particle fields"
+    cfl: float = param(
+        0.2, gt=0, le=1, unit="1", doc="Courant number of the adaptive step (and of the fixed-step check)"
     )
+    precision: Literal["float32", "float64"] = param("float64", doc="floating point type of the particle fields")
     initial_pressure: Literal["hydrostatic", "zero"] = param(
         "hydrostatic",
         doc="start-up density: 'hydrostatic' sets ρ from p = ρ₀|g|(H − z) below the fluid's top H; 'zero' starts at ρ₀",
@@ -93,19 +102,22 @@ class SPHParams(Section):
     )
     wall_layers: int = param(3, ge=1, le=6, unit="1", doc="layers of boundary particles laid by walls='particles'")
     skin: float = param(
-        0.15, ge=0, le=1, unit="1",
+        0.15,
+        ge=0,
+        le=1,
+        unit="1",
         doc="Verlet skin of the neighbour list as a fraction of h (lists rebuilt when a particle moved skin/2)",
     )
     reorder_every: int = param(
         1, ge=1, unit="1", doc="re-sort particles by cell every this many neighbour-list rebuilds (memory locality)"
     )
     parallel_min_particles: int = param(
-        5000, ge=0, unit="1",
+        5000,
+        ge=0,
+        unit="1",
         doc="below this many fluid particles the solver runs on one thread (waking threads costs more than it saves)",
     )
-    max_mach: float = param(
-        1.0, gt=0, unit="1", doc="stop as unstable when a fluid particle is faster than max_mach·c"
-    )
+    max_mach: float = param(1.0, gt=0, unit="1", doc="stop as unstable when a fluid particle is faster than max_mach·c")
 
     @model_validator(mode="before")
     @classmethod

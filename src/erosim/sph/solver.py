@@ -31,7 +31,9 @@ _STATE_SCALARS = ("t", "steps", "c", "b", "gamma", "m", "rebuilds", "vmax", "ama
 def _as_points(a, dim: int, what: str) -> np.ndarray:
     a = np.asarray(a, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != dim:
-        raise ConfigError(f"{what} must be an (n, {dim}) array of positions, got shape {a.shape}; check the scenario's dimension.")
+        raise ConfigError(
+            f"{what} must be an (n, {dim}) array of positions, got shape {a.shape}; check the scenario's dimension."
+        )
     if not np.all(np.isfinite(a)):
         raise ConfigError(f"{what} contains NaN or infinite coordinates; check the scenario geometry.")
     return a
@@ -40,8 +42,18 @@ def _as_points(a, dim: int, what: str) -> np.ndarray:
 class SPHSolver:
     """Weakly compressible SPH in 2-D or 3-D; see :mod:`erosim.sph` for the interface."""
 
-    def __init__(self, params: SPHParams, fluid_pos, *, boundary_pos=None, domain_lo, domain_hi,
-                 obstacles=(), fluid_vel=None, seed: int = 0):
+    def __init__(
+        self,
+        params: SPHParams,
+        fluid_pos,
+        *,
+        boundary_pos=None,
+        domain_lo,
+        domain_hi,
+        obstacles=(),
+        fluid_vel=None,
+        seed: int = 0,
+    ):
         self.params = prm = params
         self.dim = d = int(prm.dim)
         self.seed = int(seed)
@@ -52,7 +64,10 @@ class SPHSolver:
         self.lo = np.asarray(domain_lo, np.float64).reshape(d)
         self.hi = np.asarray(domain_hi, np.float64).reshape(d)
         if np.any(self.hi <= self.lo):
-            raise ConfigError(f"The domain box is empty (lo = {self.lo.tolist()}, hi = {self.hi.tolist()}); make every hi larger than lo.")
+            raise ConfigError(
+                f"The domain box is empty (lo = {self.lo.tolist()}, hi = {self.hi.tolist()}); "
+                "make every hi larger than lo."
+            )
         obs = [(np.asarray(a, np.float64).reshape(d), np.asarray(b, np.float64).reshape(d)) for a, b in obstacles]
         self.olo = np.array([o[0] for o in obs], np.float64).reshape(len(obs), d)
         self.ohi = np.array([o[1] for o in obs], np.float64).reshape(len(obs), d)
@@ -62,14 +77,16 @@ class SPHSolver:
         if outside.any():
             k = int(np.argmax(outside))
             raise ConfigError(
-                f"{int(outside.sum())} fluid particles lie outside the domain box {self.lo.tolist()}–{self.hi.tolist()} "
-                f"(first at {fluid[k].round(6).tolist()}); move the fluid block inside the domain or enlarge the domain."
+                f"{int(outside.sum())} fluid particles lie outside the domain box "
+                f"{self.lo.tolist()}–{self.hi.tolist()} (first at {fluid[k].round(6).tolist()}); "
+                "move the fluid block inside the domain or enlarge the domain."
             )
         for k in range(len(obs)):
             inside = np.all((fluid > self.olo[k]) & (fluid < self.ohi[k]), axis=1)
             if inside.any():
                 raise ConfigError(
-                    f"{int(inside.sum())} fluid particles lie inside obstacle {k} ({self.olo[k].tolist()}–{self.ohi[k].tolist()}); "
+                    f"{int(inside.sum())} fluid particles lie inside obstacle {k} "
+                    f"({self.olo[k].tolist()}–{self.ohi[k].tolist()}); "
                     "move the fluid block or the obstacle."
                 )
 
@@ -94,7 +111,9 @@ class SPHSolver:
         self.hs = 0.5 * self.h
         vel0 = np.zeros_like(fluid) if fluid_vel is None else _as_points(fluid_vel, d, "fluid velocities")
         if vel0.shape != fluid.shape:
-            raise ConfigError("fluid velocities must have one row per fluid particle; check the scenario's initial velocity.")
+            raise ConfigError(
+                "fluid velocities must have one row per fluid particle; check the scenario's initial velocity."
+            )
         v0max = float(np.sqrt((vel0**2).sum(axis=1)).max())
         up = -g / gnorm if gnorm > 0 else np.eye(d)[-1]
         height = fluid @ up
@@ -104,7 +123,10 @@ class SPHSolver:
         else:
             c = max(10.0 * math.sqrt(2.0 * gnorm * self.fluid_height), 10.0 * v0max)
             if c <= 0:
-                raise ConfigError("Cannot choose a sound speed without gravity or motion; set sph.sound_speed (m/s), e.g. 10× the fastest expected flow speed.")
+                raise ConfigError(
+                    "Cannot choose a sound speed without gravity or motion; set sph.sound_speed (m/s), "
+                    "e.g. 10× the fastest expected flow speed."
+                )
         self.c = float(c)
         b, gam = eos_mod.eos_constants(prm.eos, prm.rho0, self.c, prm.gamma, prm.stiffness)
         self.b, self.gamma = float(b), float(gam)
@@ -192,13 +214,13 @@ class SPHSolver:
         self.m = self.params.rho0 / float(kernel_w(r[r < h], h, d, self.params.kernel).sum())
         # constant part of the boundary particles' density: themselves and their boundary neighbours
         if self.n_boundary:
-            bpos = self.pos[self.n_fluid:].astype(np.float64)
+            bpos = self.pos[self.n_fluid :].astype(np.float64)
             st, _, lst = nb.find_neighbours(bpos, h)
             w0 = float(kernel_w(np.zeros(1), h, d, self.params.kernel)[0])
             i_idx = np.repeat(np.arange(bpos.shape[0]), np.diff(st))
             rr = np.sqrt(((bpos[i_idx] - bpos[lst]) ** 2).sum(axis=1))
             sums = np.bincount(i_idx, weights=kernel_w(rr, h, d, self.params.kernel), minlength=bpos.shape[0])
-            self.rho_base[self.n_fluid:] = self.m * (w0 + sums)
+            self.rho_base[self.n_fluid :] = self.m * (w0 + sums)
 
     def _hydrostatic_start(self, up: np.ndarray, gnorm: float) -> None:
         """ρ from p = ρ₀|g|(H − z) below the fluid's top H (boundary particles: at least ρ₀)."""
@@ -209,7 +231,7 @@ class SPHSolver:
         rho = eos_mod.density_for_pressure(prm.rho0 * gnorm * depth, prm.rho0, self.b, self.gamma)
         if not self._summation:
             self.rho[:] = rho
-        self.rho[self.n_fluid:] = np.maximum(self.rho[self.n_fluid:], prm.rho0)
+        self.rho[self.n_fluid :] = np.maximum(self.rho[self.n_fluid :], prm.rho0)
 
     def _pressure_all(self) -> None:
         prm = self.params
@@ -224,7 +246,10 @@ class SPHSolver:
         try:
             nb.build_grid(grid, src, self.rc)
         except ValueError as exc:
-            raise ConfigError(f"The particles spread too far for the neighbour grid ({exc}); enlarge sph.spacing or shrink the domain.") from None
+            raise ConfigError(
+                f"The particles spread too far for the neighbour grid ({exc}); "
+                "enlarge sph.spacing or shrink the domain."
+            ) from None
         if reorder:
             ci = grid.cell_index[: self.n]
             fl = ci < nf
@@ -248,24 +273,62 @@ class SPHSolver:
             need = int(cap_total) + int(self._count_b[:nf].sum()) * 2 + 64
             if self.nbr.size < need:
                 self.nbr = np.empty(int(need * 1.2), np.int32)
-            over = nb.fill_capped(src, grid.spos, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start,
-                                  grid.cell_index, r2, self._cstart, self.nbr, self._count_f, self._count_b)
+            over = nb.fill_capped(
+                src,
+                grid.spos,
+                nf,
+                grid.particle_cell,
+                grid.cell_nbrs,
+                grid.cell_start,
+                grid.cell_index,
+                r2,
+                self._cstart,
+                self.nbr,
+                self._count_f,
+                self._count_b,
+            )
             if over == 0:
-                tmp = self._tmp if self._tmp.size >= int(self._count_b[:nf].max(initial=0)) else np.empty(
-                    int(self._count_b[:nf].max(initial=0)) * 2 + 16, np.int32)
+                tmp = (
+                    self._tmp
+                    if self._tmp.size >= int(self._count_b[:nf].max(initial=0))
+                    else np.empty(int(self._count_b[:nf].max(initial=0)) * 2 + 16, np.int32)
+                )
                 self._tmp = tmp
                 nb.compact(self._cstart, self._count_f, self._count_b, nf, self.start, self.mid, self.nbr, tmp)
                 total = int(self.start[nf]) + int(self._count_b[:nf].sum())
                 done = total <= self.nbr.size
         if not done:
-            nb.count_neighbours(src, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start,
-                                grid.cell_index, r2, self._count_f, self._count_b)
+            nb.count_neighbours(
+                src,
+                grid.spos,
+                nf,
+                nf,
+                grid.particle_cell,
+                grid.cell_nbrs,
+                grid.cell_start,
+                grid.cell_index,
+                r2,
+                self._count_f,
+                self._count_b,
+            )
             total = nb.offsets(self._count_f, self._count_b, nf, self.start, self.mid)
             total += int(self._count_b[:nf].sum())  # room for the boundary particles' (transposed) lists
             if self.nbr.size < total:
                 self.nbr = np.empty(int(total * 1.2) + 64, np.int32)
-            nb.fill_neighbours(src, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start,
-                               grid.cell_index, r2, self.start, self.mid, self.nbr)
+            nb.fill_neighbours(
+                src,
+                grid.spos,
+                nf,
+                nf,
+                grid.particle_cell,
+                grid.cell_nbrs,
+                grid.cell_start,
+                grid.cell_index,
+                r2,
+                self.start,
+                self.mid,
+                self.nbr,
+            )
             self._have_counts = True
         self.active = nb.transpose_boundary(nf, self.n, self.start, self.mid, self.nbr, self._tcount)
         self.ref[:] = src[:nf]
@@ -284,11 +347,32 @@ class SPHSolver:
         g = self.g
         gz = g[2] if self.dim == 3 else 0.0
         if self._summation:
-            self._sumpass(self.pos, self.start, self.nbr, self.n_fluid, self.n, self.m, self.h, self.rho_base, prm.rho0, self.rho)
+            self._sumpass(
+                self.pos, self.start, self.nbr, self.n_fluid, self.n, self.m, self.h, self.rho_base, prm.rho0, self.rho
+            )
             self._pressure_all()
-        self._pass(self.pos, self.vel, self.rho, self.p,
-                   self.start, self.mid, self.nbr, self.n_fluid, self.m, self.h, self.kv, self.eps2,
-                   self.kdiff, self.eps2, self.kh, g[0], g[1], gz, self.acc, self.drho)
+        self._pass(
+            self.pos,
+            self.vel,
+            self.rho,
+            self.p,
+            self.start,
+            self.mid,
+            self.nbr,
+            self.n_fluid,
+            self.m,
+            self.h,
+            self.kv,
+            self.eps2,
+            self.kdiff,
+            self.eps2,
+            self.kh,
+            g[0],
+            g[1],
+            gz,
+            self.acc,
+            self.drho,
+        )
         if self._summation:
             self.drho.fill(0)
         elif self.n_boundary:
@@ -324,22 +408,56 @@ class SPHSolver:
         nf = self.n_fluid
         args = (prm.rho0, self.b, self.gamma, self.pmin)
         k1, k2 = (0.5 * dt, 0.5 * dt) if self._leapfrog else (dt, 0.0)
-        integrators.kick_drift(self.pos, self.vel, self.acc, self.rho, self.rho_old, self.drho, self.p, nf, self.active,
-                               k1, dt, *args, self._lo, self._hi, self._olo, self._ohi, self.ref, self._disp2)
+        integrators.kick_drift(
+            self.pos,
+            self.vel,
+            self.acc,
+            self.rho,
+            self.rho_old,
+            self.drho,
+            self.p,
+            nf,
+            self.active,
+            k1,
+            dt,
+            *args,
+            self._lo,
+            self._hi,
+            self._olo,
+            self._ohi,
+            self.ref,
+            self._disp2,
+        )
         self._maybe_rebuild()
         self._evaluate()
         if self._summation:
             np.copyto(self.rho_old, self.rho)
-        integrators.correct(self.vel, self.acc, self.rho, self.rho_old, self.drho, self.p, nf, self.active, k2, dt,
-                            *args, self._v2, self._a2)
+        integrators.correct(
+            self.vel,
+            self.acc,
+            self.rho,
+            self.rho_old,
+            self.drho,
+            self.p,
+            nf,
+            self.active,
+            k2,
+            dt,
+            *args,
+            self._v2,
+            self._a2,
+        )
         self.vmax = math.sqrt(float(self._v2.max()))
         self.amax = math.sqrt(float(self._a2.max()))
         self.t += dt
         self.steps += 1
         self.last_dt = dt
         if not (self.vmax <= prm.max_mach * self.c) or not math.isfinite(self.amax):
-            what = "NaN/infinite values" if not math.isfinite(self.vmax) or not math.isfinite(self.amax) else (
-                f"a fluid speed of {self.vmax:.3g} m/s, above {prm.max_mach:g}× the sound speed {self.c:.3g} m/s")
+            what = (
+                "NaN/infinite values"
+                if not math.isfinite(self.vmax) or not math.isfinite(self.amax)
+                else (f"a fluid speed of {self.vmax:.3g} m/s, above {prm.max_mach:g}× the sound speed {self.c:.3g} m/s")
+            )
             raise InstabilityError(
                 f"The SPH fluid went unstable at step {self.steps} (t = {self.t:.6g} s) with {what}; "
                 "use an adaptive step (sph.dt = 0) or a smaller sph.dt/sph.cfl, or raise sph.sound_speed or sph.alpha."
@@ -375,18 +493,23 @@ class SPHSolver:
 
     def boundary_positions(self) -> np.ndarray:
         """(n_boundary, dim) fixed boundary particle positions (given ones first, then walls, obstacles)."""
-        return self.pos[self.n_fluid:].astype(np.float64)
+        return self.pos[self.n_fluid :].astype(np.float64)
 
     def boundary_pressure(self) -> np.ndarray:
         """(n_boundary,) boundary particle pressures."""
-        return self.p[self.n_fluid:].astype(np.float64)
+        return self.p[self.n_fluid :].astype(np.float64)
 
     def neighbour_stats(self) -> dict:
         """Mean/min/max number of neighbours within the support h per fluid particle, and list length."""
         cnt = _count_within(self.pos, self.start, self.nbr, self.n_fluid, self.h * self.h)
         lens = np.diff(self.start[: self.n_fluid + 1])
-        return {"mean": float(cnt.mean()), "min": int(cnt.min()), "max": int(cnt.max()),
-                "list_mean": float(lens.mean()), "rebuilds": int(self.rebuilds)}
+        return {
+            "mean": float(cnt.mean()),
+            "min": int(cnt.min()),
+            "max": int(cnt.max()),
+            "list_mean": float(lens.mean()),
+            "rebuilds": int(self.rebuilds),
+        }
 
     # ------------------------------------------------------------------ checkpoints
 
@@ -400,14 +523,18 @@ class SPHSolver:
     def load_state_dict(self, state: dict) -> None:
         """Restore :meth:`state_dict`; the next steps are bit-identical to the uninterrupted run."""
         if int(np.asarray(state["n_boundary"])) != self.n_boundary or np.asarray(state["ids"]).shape[0] != self.n_fluid:
-            raise ConfigError("The checkpoint was written for a different particle set; resume with the scenario that wrote it.")
+            raise ConfigError(
+                "The checkpoint was written for a different particle set; resume with the scenario that wrote it."
+            )
         for k in _STATE_ARRAYS:
             getattr(self, k)[...] = np.asarray(state[k])
         for k in ("t", "c", "b", "gamma", "m", "vmax", "amax"):
             setattr(self, k, float(np.asarray(state[k])))
         for k in ("steps", "rebuilds"):
             setattr(self, k, int(np.asarray(state[k])))
-        self.kv = 2.0 * self.params.alpha * self.hs * self.c if self.params.viscosity == "artificial" else self.params.mu
+        self.kv = (
+            2.0 * self.params.alpha * self.hs * self.c if self.params.viscosity == "artificial" else self.params.mu
+        )
         self.kdiff = 0.0 if self._summation else 2.0 * self.params.density_diffusion * self.hs * self.c
         self.kh = self.params.rho0 / self.c**2
         # lists exactly as built at the last rebuild (from the positions then), without re-sorting
