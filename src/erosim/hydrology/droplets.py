@@ -159,6 +159,7 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
     inv_v0 = 1.0 / v0
     acc_num = P[P_ACC] / P[P_DENS]
     amin2 = P[P_AMIN] * P[P_AMIN]
+    kd = P[P_KD]
     evap = 0.0  # evaporated volume, added to the budget on exit
     speed = math.sqrt(vx * vx + vy * vy)
     while True:
@@ -226,7 +227,7 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
         if hold < 0.0:
             hold = 0.0
         diff = ceq - S
-        amt = (P[P_KD] / nsub) * hold * diff
+        amt = (kd if nsub == 1 else kd / nsub) * hold * diff
         if diff > 0.0:
             amt *= erod[c]
         if amt != 0.0:
