@@ -149,11 +149,11 @@ def test_gravity_with_wrong_length_is_refused():
 
 
 def test_neighbour_count_matches_the_support():
-    """Default support 2.1Δx in 3-D: a lattice particle has the 32 neighbours at distance ≤ 2Δx
-    (the next lattice shell is at √5 Δx > 2.1Δx); walls of boundary particles complete the
-    neighbourhood of particles next to them."""
+    """Support 2.1Δx in 3-D: a lattice particle has the 32 neighbours at distance ≤ 2Δx (the next
+    lattice shell is at √5 Δx > 2.1Δx); walls of boundary particles complete the neighbourhood of
+    particles next to them."""
     pos = _block(9, 3)
-    s = SPHSolver(SPHParams(dim=3, spacing=DX), pos, domain_lo=[0, 0, 0], domain_hi=[0.09, 0.09, 0.2])
+    s = SPHSolver(SPHParams(dim=3, spacing=DX, h_factor=2.1), pos, domain_lo=[0, 0, 0], domain_hi=[0.09, 0.09, 0.2])
     st = s.neighbour_stats()
     assert st["max"] == 32
     assert 20 < st["mean"] <= 32

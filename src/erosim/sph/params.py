@@ -35,13 +35,14 @@ class SPHParams(Section):
     dim: Literal[2, 3] = param(3, unit="1", doc="space dimension: 2 or 3")
     spacing: float = param(0.01, gt=0, unit="m", doc="initial particle spacing Δx (mass = ρ₀Δx^dim)")
     h_factor: float = param(
-        2.1,
+        2.0,
         ge=1.2,
         le=4.0,
         unit="1",
-        doc="kernel support radius h = h_factor·spacing; default 2.1 in 3-D (about 30 neighbours), 3.0 in 2-D "
-        "(about 28): there Wendland's gradient is consistent on a lattice to 0.2 % / 0.3 % "
-        "(at 2.0 in 3-D and 2.6 in 2-D to 1.8 % / 2.6 %, which shows as a 1.4 % / 2 % hydrostatic pressure error)",
+        doc="kernel support radius h = h_factor·spacing; default 2.0 in 3-D (about 30 neighbours; thesis h = 2Δx), "
+        "3.0 in 2-D (about 28). On a lattice Wendland's gradient is consistent to 1.8 % at 2.0 (3-D; 0.2 % at 2.1) "
+        "and 0.3 % at 3.0 (2-D; 2.6 % at 2.6): that error shows as hydrostatic pressure error (3-D 1.4 % at 2.0, "
+        "0.65 % at 2.1)",
     )
     rho0: float = param(1000.0, gt=0, unit="kg/m^3", doc="rest density ρ₀")
     kernel: Literal["wendland", "muller"] = param(
@@ -123,7 +124,7 @@ class SPHParams(Section):
     @model_validator(mode="before")
     @classmethod
     def _default_h_factor(cls, data):
-        """2-D default support 3Δx (3-D: 2.1Δx): Σ_j V_j x_j ∂W/∂x = −1 within 0.3 % on a lattice."""
+        """2-D default support 3Δx: Σ_j V_j x_j ∂W/∂x = −1 within 0.3 % on a lattice (2.6 % at 2.6Δx)."""
         if isinstance(data, dict) and "h_factor" not in data and data.get("dim", 3) in (2, "2"):
             data = {**data, "h_factor": 3.0}
         return data
