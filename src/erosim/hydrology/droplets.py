@@ -59,7 +59,7 @@ from erosim.hydrology.pools import (
     B_STEPS,
     walk_down,
 )
-from erosim.kernels.raster import bilinear
+from erosim.kernels.raster import _locate, _nodes, q4_shape
 
 ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
 LEFT = 1  # left the map or entered the sea: water and sediment accounted as gone
@@ -138,6 +138,18 @@ def transfer(zf, lake_of, nx, ny, x, y, m, amount, cell_area):
     return amount
 
 
+@njit(cache=True, inline="always")
+def _height(z, x, y):
+    """Height of the Q4 interpolant at (x, y), the same operations as
+    :func:`erosim.kernels.raster.bilinear` (inlined here: the call cost more than the lookup)."""
+    ny, nx = z.shape
+    i0, xi = _locate(nx, x)
+    j0, eta = _locate(ny, y)
+    i1, j1 = _nodes(nx, ny, i0, j0)
+    n1, n2, n3, n4 = q4_shape(xi, eta)
+    return n1 * z[j0, i0] + n2 * z[j0, i1] + n3 * z[j1, i1] + n4 * z[j1, i0]
+
+
 @njit(cache=True, error_model="numpy")
 def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, track, B, P):
     """Run one droplet until it ends, leaves or stops (see module docstring).
@@ -153,6 +165,11 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
     v0 = P[P_V0]
     vmin = P[P_VMIN]
     sea = P[P_SEA]
+    fric = P[P_FRIC]
+    evp = P[P_EVAP]
+    cap = P[P_CAP]
+    root = P[P_ROOT]
+    pit = P[P_PIT]
     steps = 0
     maxsteps = int(P[P_MAXSTEPS])
     inv_dx = 1.0 / dx
@@ -160,30 +177,37 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
     acc_num = P[P_ACC] / P[P_DENS]
     amin2 = P[P_AMIN] * P[P_AMIN]
     kd = P[P_KD]
+    xmax = nx - 0.5
+    ymax = ny - 0.5
     evap = 0.0  # evaporated volume, added to the budget on exit
     speed = math.sqrt(vx * vx + vy * vy)
     while True:
         ix = int(x + 0.5)
         iy = int(y + 0.5)
         c = iy * nx + ix
-        mark(track, nx, ny, x, y, m)
+        if m == 1:
+            track[c] = 1
+        else:
+            mark(track, nx, ny, x, y, m)
         h0, gx, gy = sample(z2, x, y)
         gx *= inv_dx
         gy *= inv_dx
         vrel = V * inv_v0
         scale = acc_num / (vrel * math.sqrt(1.0 + gx * gx + gy * gy))
         s = stream[c]
-        fe = P[P_FRIC] * (1.0 - 0.5 * s)
-        ee = P[P_EVAP] * (1.0 - 0.2 * s)
+        fe = fric * (1.0 - 0.5 * s)
+        ee = evp * (1.0 - 0.2 * s)
         ax = -gx * scale
         ay = -gy * scale
         a2 = ax * ax + ay * ay  # |a|², compared with squares: no square root on the hot path
         nsub = 1
+        h = dt
         if maxstep > 0.0:
             dist = (speed + dt * math.sqrt(a2)) * dt * inv_dx
             if dist > maxstep:
                 nsub = min(int(math.ceil(dist / maxstep)), 1024)
-        h = dt if nsub == 1 else dt / nsub
+                if nsub > 1:
+                    h = dt / nsub
         vx += h * ax
         vy += h * ay
         x0 = x
@@ -194,7 +218,7 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
         vx *= damp
         vy *= damp
         steps += 1
-        if x < -0.5 or y < -0.5 or x >= nx - 0.5 or y >= ny - 0.5:
+        if x < -0.5 or y < -0.5 or x >= xmax or y >= ymax:
             B[B_LEFT] += V
             B[B_CARRIED] += S
             B[B_STEPS] += steps
@@ -214,16 +238,16 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
             B[B_EVAP] += evap
             return STOP, x, y, vx, vy, V, S
         speed = math.sqrt(vx * vx + vy * vy)
-        if speed * h < P[P_PIT]:
-            pit, at_min = walk_down(cn, 2 * m + 1, zf, lake_of, level, sea, nx, ny)
+        if speed * h < pit:
+            wc, at_min = walk_down(cn, 2 * m + 1, zf, lake_of, level, sea, nx, ny)
             if at_min:
                 B[B_STEPS] += steps
                 B[B_EVAP] += evap
-                return STOP, float(pit % nx), float(pit // nx), vx, vy, V, S
+                return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S
         # mass transfer at the old position
-        drop = (h0 - bilinear(z2, x, y)) * nsub  # terrain unchanged since h0 was sampled
-        ceq = P[P_CAP] * vrel * speed * drop if drop > 0.0 else 0.0
-        hold = 1.0 - P[P_ROOT] * roots[c]
+        drop = (h0 - _height(z2, x, y)) * nsub  # terrain unchanged since h0 was sampled
+        ceq = cap * vrel * speed * drop if drop > 0.0 else 0.0
+        hold = 1.0 - root * roots[c]
         if hold < 0.0:
             hold = 0.0
         diff = ceq - S
@@ -231,7 +255,13 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
         if diff > 0.0:
             amt *= erod[c]
         if amt != 0.0:
-            moved = transfer(zf, lake_of, nx, ny, x0, y0, m, amt, ca)
+            if m == 1:
+                moved = 0.0
+                if lake_of[c] < 0:
+                    zf[c] -= amt / ca
+                    moved = amt
+            else:
+                moved = transfer(zf, lake_of, nx, ny, x0, y0, m, amt, ca)
             if moved > 0.0:
                 B[B_ERODED] += moved
             else:
