@@ -33,6 +33,8 @@ from numba import njit
 
 from erosim.core.errors import InputError
 from erosim.hydrology import pools, streams, vegetation
+from erosim.hydrology.counter_rng import splitmix64
+from erosim.hydrology.counter_rng import unit as _unit
 from erosim.hydrology.droplets import ENDED, LEFT, descend
 from erosim.hydrology.params import (
     P_CA,
@@ -89,22 +91,6 @@ def _now_real(ts):
 @njit(cache=True)
 def _now_none(ts):
     return 0
-
-
-@njit(cache=True)
-def splitmix64(x):
-    """SplitMix64 finaliser (Steele, Lea & Flood 2014): a well-mixed 64-bit hash of x."""
-    x = (x + np.uint64(0x9E3779B97F4A7C15)) & np.uint64(0xFFFFFFFFFFFFFFFF)
-    x = ((x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)) & np.uint64(0xFFFFFFFFFFFFFFFF)
-    x = ((x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)) & np.uint64(0xFFFFFFFFFFFFFFFF)
-    return x ^ (x >> np.uint64(31))
-
-
-@njit(cache=True)
-def _unit(state):
-    """Next uniform in [0, 1) and the new state."""
-    state = splitmix64(state)
-    return (state >> np.uint64(11)) * (1.0 / 9007199254740992.0), state
 
 
 @njit(cache=True)
@@ -534,6 +520,7 @@ class HydrologyModel:
                 self.stream,
                 self.veg,
                 rng,
+                self.order,  # scratch: the rebuild's order array is free between cycles
             )
         self.cycles += 1
 
