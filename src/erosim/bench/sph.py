@@ -5,7 +5,7 @@ column L × 2L) is released at one end of a tank 3L long (3-D: L wide, 1.5L high
 with the solver's default settings (Wendland C2, Tait, δ-SPH, artificial viscosity, leapfrog,
 boundary-particle walls, float64, support 2.1Δx in 3-D: about 30 neighbours). The solver is built and run
 for ``warmup`` steps untimed (Numba compilation and the first neighbour lists), then ``steps`` steps
-are timed, neighbour-list rebuilds and particle re-sorting included. The timed steps are the start
+(default: 100 to 400, enough for about ``seconds`` of timing) are timed, neighbour-list rebuilds and particle re-sorting included. The timed steps are the start
 of the collapse (few rebuilds); ``benchmarks/sph_scaling.py --flowing`` times a developed flow.
 Reported:
 
@@ -70,8 +70,10 @@ def run(
         solver.step()
     warm_s = time.perf_counter() - t0
     if steps is None:
+        # the same stage of the collapse at every size (time per step comparable across N), at least
+        # ~`seconds` of timing at small N
         per = warm_s / max(warmup, 1)
-        steps = int(max(10, min(2000, seconds / max(per, 1e-6))))
+        steps = int(max(100, min(400, seconds / max(per, 1e-6))))
     r0 = solver.rebuilds
     c0 = time.process_time()
     t0 = time.perf_counter()
