@@ -3,10 +3,12 @@
 A fluid block of about ``particles`` particles (3-D: a cube of side L, the thesis's SC-1; 2-D: a
 column L × 2L) is released at one end of a tank 3L long (3-D: L wide, 1.5L high; 2-D: 2.5L high),
 with the solver's default settings (Wendland C2, Tait, δ-SPH, artificial viscosity, leapfrog,
-boundary-particle walls, float64, support 2.1Δx in 3-D: about 30 neighbours). The solver is built and run
-for ``warmup`` steps untimed (Numba compilation and the first neighbour lists), then ``steps`` steps
-(default: 100 to 400, enough for about ``seconds`` of timing) are timed, neighbour-list rebuilds and particle re-sorting included. The timed steps are the start
-of the collapse (few rebuilds); ``benchmarks/sph_scaling.py --flowing`` times a developed flow.
+boundary-particle walls, float64, support 2Δx in 3-D: about 30 neighbours). The solver is built
+and run for ``warmup`` steps untimed (Numba compilation and the first neighbour lists), then
+``steps`` steps (default: 100 to 400, enough for about ``seconds`` of timing) are timed,
+neighbour-list rebuilds and particle re-sorting included. The timed steps are the start of the
+collapse (few rebuilds); ``benchmarks/sph_scaling.py --flowing`` times a developed flow.
+(float32 storage measured no faster: the pair loop is bound by arithmetic, not memory.)
 Reported:
 
 * ``particle_steps_per_s`` = fluid particles × timed steps / wall time;
