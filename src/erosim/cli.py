@@ -161,6 +161,7 @@ def _first_sentence(text: str) -> str:
 def list_():
     """List the scenario library."""
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     from erosim.scenarios import loader
@@ -170,7 +171,7 @@ def list_():
         data = loader.read_toml(loader.LIBRARY / f"{name}.toml")
         first = _first_sentence(str(data.get("description", "")))
         presets = ", ".join(sorted(data.get("presets", {}) or {}))
-        table.add_row(name, str(data.get("kind", "?")), presets, first)
+        table.add_row(name, str(data.get("kind", "?")), presets, escape(first))
     Console().print(table)
 
 
@@ -181,6 +182,7 @@ def list_():
 def describe(scenario, overrides, preset):
     """Explain SCENARIO: what it models, its presets and every setting with its unit."""
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     from erosim.scenarios import loader
@@ -189,12 +191,12 @@ def describe(scenario, overrides, preset):
     console = Console()
     console.print(f"[bold]{sc.name}[/bold]  (kind: {sc.kind}{', preset: ' + sc.preset if sc.preset else ''})")
     if sc.description:
-        console.print(sc.description)
+        console.print(escape(sc.description))
     if sc.presets:
         console.print("Presets: " + ", ".join(sorted(sc.presets)) + "  (use --preset NAME)")
     table = Table("setting", "value", "unit", "meaning")
     for row in sc.describe():
-        table.add_row(*row)
+        table.add_row(*(escape(cell) for cell in row))
     console.print(table)
 
 
