@@ -22,6 +22,7 @@ beyond which it is zero, the seeds' h) is ``h_factor · spacing``. Particle mass
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 from pydantic import model_validator
@@ -102,7 +103,14 @@ class SPHParams(Section):
         doc="domain walls: 'particles' lays fixed boundary particles on every face but the top "
         "(and on obstacles) plus reflection; 'reflect' only reflects velocity (SPH-11)",
     )
-    wall_layers: int = param(3, ge=1, le=6, unit="1", doc="layers of boundary particles laid by walls='particles'")
+    wall_layers: int = param(
+        0,
+        ge=0,
+        le=6,
+        unit="1",
+        doc="layers of boundary particles laid by walls='particles'; 0 = auto: ceil(h_factor − ½), the "
+        "fewest that fill the support of a fluid particle at the wall (2 at h = 2Δx, 3 at 3Δx)",
+    )
     skin: float = param(
         0.15,
         ge=0,
@@ -145,6 +153,13 @@ class SPHParams(Section):
         if self.gravity is not None:
             return tuple(float(g) for g in self.gravity)
         return tuple([0.0] * (self.dim - 1) + [-9.81])
+
+    def layers(self) -> int:
+        """Wall layers (resolves ``wall_layers = 0``): layer k lies (k − ½)Δx behind the wall, so it
+        is needed while (k − ½)Δx < h."""
+        if self.wall_layers > 0:
+            return int(self.wall_layers)
+        return max(1, math.ceil(self.h_factor - 0.5))
 
     def support(self) -> float:
         """Kernel support radius h = h_factor · spacing (m)."""

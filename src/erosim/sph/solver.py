@@ -95,9 +95,9 @@ class SPHSolver:
         if boundary_pos is not None:
             parts.append(_as_points(boundary_pos, d, "boundary positions"))
         if prm.walls == "particles":
-            parts.append(bparticles.box_walls(self.lo, self.hi, prm.spacing, prm.wall_layers))
+            parts.append(bparticles.box_walls(self.lo, self.hi, prm.spacing, prm.layers()))
             for k in range(len(obs)):
-                parts.append(bparticles.box_obstacle(self.olo[k], self.ohi[k], prm.spacing, prm.wall_layers))
+                parts.append(bparticles.box_obstacle(self.olo[k], self.ohi[k], prm.spacing, prm.layers()))
         bnd = np.concatenate(parts) if parts else np.zeros((0, d))
         self.n_fluid = nf = fluid.shape[0]
         self.n_boundary = bnd.shape[0]
