@@ -274,3 +274,155 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
             B[B_STEPS] += steps
             B[B_EVAP] += evap
             return ENDED, x, y, vx, vy, V, S
+
+
+@njit(cache=True, inline="always")
+def _corners(z, x, y):
+    """Cell of the Q4 interpolant at (x, y) (clamped to the map): (i0, j0, fx, fy) and its four
+    corner heights z1 = z[j0, i0], z2 = z[j0, i0+1], z3 = z[j0+1, i0+1], z4 = z[j0+1, i0]."""
+    ny, nx = z.shape
+    xc = min(max(x, 0.0), nx - 1.0)
+    yc = min(max(y, 0.0), ny - 1.0)
+    i0 = min(int(xc), nx - 2)
+    j0 = min(int(yc), ny - 2)
+    return i0, j0, xc - i0, yc - j0, z[j0, i0], z[j0, i0 + 1], z[j0 + 1, i0 + 1], z[j0 + 1, i0]
+
+
+@njit(cache=True, error_model="numpy")
+def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, track, B, P):
+    """:func:`descend` for the seed's case — footprint one cell (ℓ = Δx) and whole time steps
+    (``max_step`` 0) — chosen in Python by :func:`descend_variant`: the seed preset's hot loop.
+
+    The same model written for a short dependency chain from one step to the next (the loop is
+    latency bound): the terrain at the new position is sampled once, before the mass transfer,
+    and the transfer's change of one corner is added to that sample's height and gradient (the
+    Q4 interpolant is linear in its corner values) instead of sampling again after the store;
+    erosion and deposition are selected without branches; no division besides the acceleration's.
+    Results agree with :func:`descend` to rounding (the order of floating-point operations
+    differs), deterministically.
+    """
+    ny, nx = z2.shape
+    dt = P[P_DT]
+    vmin = P[P_VMIN]
+    sea = P[P_SEA]
+    cap = P[P_CAP]
+    root = P[P_ROOT]
+    pit = P[P_PIT]
+    kd = P[P_KD]
+    nwalk = 2 * int(P[P_FOOT]) + 1
+    maxsteps = int(P[P_MAXSTEPS])
+    inv_dx = 1.0 / P[P_DX]
+    inv_dx2 = inv_dx * inv_dx
+    inv_ca = 1.0 / P[P_CA]
+    inv_v0 = 1.0 / P[P_V0]
+    dtx = dt * inv_dx  # s/m: cell units per (m/s) over one step
+    acc_k = dt * P[P_ACC] / P[P_DENS] * inv_dx  # Δv = −∇z_cell · acc_k / (V/V₀ · √(1+|∇z|²))
+    amin2 = (P[P_AMIN] * dt) ** 2  # the stop test on |Δv|² = dt²·|a|²
+    fric_dt = dt * P[P_FRIC]
+    evap_dt = dt * P[P_EVAP]
+    steps = 0
+    evap = 0.0  # evaporated volume, added to the budget on exit
+    eroded = 0.0
+    deposited = 0.0
+    i0, j0, fx, fy, z1, zz2, z3, z4 = _corners(z2, x, y)
+    top = z1 + fx * (zz2 - z1)
+    h = top + fy * (z4 + fx * (z3 - z4) - top)
+    gx = (1.0 - fy) * (zz2 - z1) + fy * (z3 - z4)
+    gy = (1.0 - fx) * (z4 - z1) + fx * (z3 - zz2)
+    while True:
+        ix = int(x + 0.5)
+        iy = int(y + 0.5)
+        c = iy * nx + ix
+        track[c] = 1
+        s = stream[c]
+        vrel = V * inv_v0
+        f = acc_k / (vrel * math.sqrt(1.0 + (gx * gx + gy * gy) * inv_dx2))
+        dvx = -gx * f
+        dvy = -gy * f
+        vx += dvx
+        vy += dvy
+        x0 = x
+        y0 = y
+        x += dtx * vx
+        y += dtx * vy
+        damp = 1.0 - fric_dt * (1.0 - 0.5 * s)
+        vx *= damp
+        vy *= damp
+        steps += 1
+        if x < -0.5 or y < -0.5 or x >= nx - 0.5 or y >= ny - 0.5:
+            B[B_LEFT] += V
+            B[B_CARRIED] += S
+            B[B_STEPS] += steps
+            B[B_EVAP] += evap
+            B[B_ERODED] += eroded
+            B[B_DEPOSITED] += deposited
+            return LEFT, x0, y0, vx, vy, 0.0, 0.0
+        cn = int(y + 0.5) * nx + int(x + 0.5)
+        if zf[cn] < sea:
+            B[B_LEFT] += V
+            B[B_CARRIED] += S
+            B[B_STEPS] += steps
+            B[B_EVAP] += evap
+            B[B_ERODED] += eroded
+            B[B_DEPOSITED] += deposited
+            return LEFT, x, y, vx, vy, 0.0, 0.0
+        if (stream[cn] > 0.5 and dvx * dvx + dvy * dvy < amin2) or lake_of[cn] >= 0:
+            B[B_STEPS] += steps
+            B[B_EVAP] += evap
+            B[B_ERODED] += eroded
+            B[B_DEPOSITED] += deposited
+            return STOP, x, y, vx, vy, V, S
+        speed = math.sqrt(vx * vx + vy * vy)
+        if speed * dt < pit:
+            wc, at_min = walk_down(cn, nwalk, zf, lake_of, level, sea, nx, ny)
+            if at_min:
+                B[B_STEPS] += steps
+                B[B_EVAP] += evap
+                B[B_ERODED] += eroded
+                B[B_DEPOSITED] += deposited
+                return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S
+        # the terrain at the new position, before the transfer
+        i0, j0, fx, fy, z1, zz2, z3, z4 = _corners(z2, x, y)
+        top = z1 + fx * (zz2 - z1)
+        h1 = top + fy * (z4 + fx * (z3 - z4) - top)
+        gx = (1.0 - fy) * (zz2 - z1) + fy * (z3 - z4)
+        gy = (1.0 - fx) * (z4 - z1) + fx * (z3 - zz2)
+        # mass transfer at the old cell; erosion (diff > 0) is scaled by the erodibility
+        kh = kd * max(1.0 - root * roots[c], 0.0)
+        khe = kh * erod[c]
+        ceq = (cap * vrel * speed) * max(h - h1, 0.0)
+        diff = ceq - S
+        amt = (khe if diff > 0.0 else kh) * diff
+        if lake_of[c] < 0:  # lake cells are never eroded or filled by descent
+            dz = amt * inv_ca
+            zf[c] -= dz
+            eroded += max(amt, 0.0)
+            deposited += max(-amt, 0.0)
+            S += amt
+            # the new sample moves with the changed corner (Q4 weights of that corner)
+            di = ix - i0
+            dj = iy - j0
+            if di >= 0 and di <= 1 and dj >= 0 and dj <= 1:
+                wx = fx if di == 1 else 1.0 - fx
+                wy = fy if dj == 1 else 1.0 - fy
+                h1 -= dz * (wx * wy)
+                gx -= dz * (wy if di == 1 else -wy)
+                gy -= dz * (wx if dj == 1 else -wx)
+        h = h1
+        vn = V * (1.0 - evap_dt * (1.0 - 0.2 * s))
+        evap += V - vn
+        V = vn
+        if V < vmin or steps >= maxsteps:
+            B[B_STEPS] += steps
+            B[B_EVAP] += evap
+            B[B_ERODED] += eroded
+            B[B_DEPOSITED] += deposited
+            return ENDED, x, y, vx, vy, V, S
+
+
+def descend_variant(P):
+    """The descend kernel for the constants ``P``: :func:`descend_cell` in the seed's case
+    (footprint one cell, no sub-steps), else the general :func:`descend`."""
+    if int(P[P_FOOT]) == 1 and P[P_MAXSTEP] <= 0.0:
+        return descend_cell
+    return descend

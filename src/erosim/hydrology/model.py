@@ -35,7 +35,7 @@ from erosim.core.errors import InputError
 from erosim.hydrology import pools, streams, vegetation
 from erosim.hydrology.counter_rng import splitmix64
 from erosim.hydrology.counter_rng import unit as _unit
-from erosim.hydrology.droplets import ENDED, LEFT, descend
+from erosim.hydrology.droplets import ENDED, LEFT, descend_variant
 from erosim.hydrology.params import (
     P_CA,
     P_DRAIN,
@@ -178,12 +178,14 @@ def run_droplets(
     now,
     margin,
     lake_cap,
+    descend,
 ):
     """Droplets ``first`` … ``first + count − 1``; returns how many ran (fewer when the heap pool
     or the lake table needs a rebuild first — the caller rebuilds and continues).
 
     ``now`` is the flood timer: :func:`_now_none` normally (cached build), :func:`_now_real` in
-    the benchmark (a separate, uncached build that measures the time spent in HY-2)."""
+    the benchmark (a separate, uncached build that measures the time spent in HY-2); ``descend``
+    the HY-1 kernel (:func:`erosim.hydrology.droplets.descend_variant`)."""
     ny, nx = z2.shape
     zf = z2.reshape(-1)
     sf = stream.reshape(-1)
@@ -373,6 +375,7 @@ class HydrologyModel:
         self.ell = reference_length(self.p, self.cell_size)
         self.P = kernel_constants(self.p, self.cell_size)
         self.P[P_ROOT] = self.veg.root_strength if self.veg.enabled else 0.0
+        self._descend = descend_variant(self.P)
         self.z = np.ascontiguousarray(terrain.z, dtype=np.float64).copy()
         self.z0 = self.z.copy()
         ny, nx = self.z.shape
@@ -500,6 +503,7 @@ class HydrologyModel:
                 _now_real if self.timing else _now_none,
                 self.margin,
                 self.lake_cap,
+                self._descend,
             )
             self.droplets += done
             todo -= done
