@@ -64,7 +64,8 @@ class SPHParams(Section):
         0.0,
         ge=0,
         unit="m/s",
-        doc="numerical sound speed c; 0 = auto: 10·sqrt(2·|g|·H) with H the fluid's initial height (≥ 10·u_max)",
+        doc="numerical sound speed c; 0 = auto: 10·sqrt(2·|g|·H), H from the domain's floor to the fluid's top "
+        "(the fastest fall; c ≥ 10·u_max keeps density within 1 %), or 10× the initial speed if larger",
     )
     gamma: float = param(7.0, ge=1, le=10, unit="1", doc="Tait exponent γ")
     stiffness: float = param(

@@ -116,8 +116,9 @@ class SPHSolver:
             )
         v0max = float(np.sqrt((vel0**2).sum(axis=1)).max())
         up = -g / gnorm if gnorm > 0 else np.eye(d)[-1]
-        height = fluid @ up
-        self.fluid_height = float(height.max() - height.min()) + prm.spacing
+        # the fastest a particle can fall: from the fluid's top to the domain's lowest point
+        bottom = float(np.minimum(up * self.lo, up * self.hi).sum())
+        self.fluid_height = float((fluid @ up).max()) + 0.5 * prm.spacing - bottom
         if prm.sound_speed > 0:
             c = prm.sound_speed
         else:
