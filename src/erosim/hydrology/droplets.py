@@ -21,7 +21,11 @@ eroded or filled by descent (their water level bookkeeping stays exact, see ``po
 
 Sediment is kept as an amount (m³) — the seed's ``sediment /= (1 − dt·evap)`` rescaling is left
 out so that the sediment budget closes. Written as a Numba kernel because the droplet loop is
-sequential and per-point (no library does it).
+sequential and per-point (no library does it). Two variants, chosen in Python
+(:func:`descend_variant`): :func:`descend` (any footprint, sub-steps) and :func:`descend_cell`
+(the seed's case: one-cell footprint, whole steps), which is written for the short step-to-step
+dependency chain that bounds this loop's speed (~60 ns a step on the 2-core machine against
+~80 ns for the general kernel in the same case) and agrees with it to rounding.
 """
 
 from __future__ import annotations

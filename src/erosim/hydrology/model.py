@@ -7,8 +7,14 @@ another in a single-threaded Numba loop: each droplet sees the terrain and lakes
 left, which is the seed's semantics and makes the result independent of the thread count.
 
 Random numbers: droplet i's spawn point comes from SplitMix64 hashing of (seed, i), vegetation's
-from NumPy's PCG64 seeded with (seed, cycle): a run resumed from a checkpoint taken between
-cycles repeats the uninterrupted run bit for bit.
+from NumPy's PCG64 seeded with (seed, cycle) (the seedling count and the key of the vegetation
+kernel's SplitMix64 stream): a run resumed from a checkpoint taken between cycles repeats the
+uninterrupted run bit for bit.
+
+HY-1 runs in one of two kernels chosen once from the parameters
+(:func:`erosim.hydrology.droplets.descend_variant`): the seed's case (footprint one cell, whole
+time steps — the ``simplehydrology-2020`` preset) has its own short loop, everything else the
+general one.
 
 Budgets (float64 accumulators, m³):
 
