@@ -316,11 +316,10 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
     nwalk = 2 * int(P[P_FOOT]) + 1
     maxsteps = int(P[P_MAXSTEPS])
     inv_dx = 1.0 / P[P_DX]
-    inv_dx2 = inv_dx * inv_dx
     inv_ca = 1.0 / P[P_CA]
     inv_v0 = 1.0 / P[P_V0]
     dtx = dt * inv_dx  # s/m: cell units per (m/s) over one step
-    acc_k = dt * P[P_ACC] / P[P_DENS] * inv_dx  # Δv = −∇z_cell · acc_k / (V/V₀ · √(1+|∇z|²))
+    acc_k = dt * P[P_ACC] / P[P_DENS]  # Δv = −∇z · acc_k / (V/V₀ · √(1+|∇z|²)), ∇z in m/m
     amin2 = (P[P_AMIN] * dt) ** 2  # the stop test on |Δv|² = dt²·|a|²
     fric_dt = dt * P[P_FRIC]
     evap_dt = dt * P[P_EVAP]
@@ -331,8 +330,8 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
     i0, j0, fx, fy, z1, zz2, z3, z4 = _corners(z2, x, y)
     top = z1 + fx * (zz2 - z1)
     h = top + fy * (z4 + fx * (z3 - z4) - top)
-    gx = (1.0 - fy) * (zz2 - z1) + fy * (z3 - z4)
-    gy = (1.0 - fx) * (z4 - z1) + fx * (z3 - zz2)
+    gx = ((1.0 - fy) * inv_dx) * (zz2 - z1) + (fy * inv_dx) * (z3 - z4)  # slope (m/m)
+    gy = ((1.0 - fx) * inv_dx) * (z4 - z1) + (fx * inv_dx) * (z3 - zz2)
     while True:
         ix = int(x + 0.5)
         iy = int(y + 0.5)
@@ -340,7 +339,8 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
         track[c] = 1
         s = stream[c]
         vrel = V * inv_v0
-        f = acc_k / (vrel * math.sqrt(1.0 + (gx * gx + gy * gy) * inv_dx2))
+        kv = acc_k / vrel  # off the step-to-step chain (V is known early)
+        f = kv / math.sqrt(1.0 + gx * gx + gy * gy)
         dvx = -gx * f
         dvy = -gy * f
         vx += dvx
@@ -389,8 +389,12 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
         i0, j0, fx, fy, z1, zz2, z3, z4 = _corners(z2, x, y)
         top = z1 + fx * (zz2 - z1)
         h1 = top + fy * (z4 + fx * (z3 - z4) - top)
-        gx = (1.0 - fy) * (zz2 - z1) + fy * (z3 - z4)
-        gy = (1.0 - fx) * (z4 - z1) + fx * (z3 - zz2)
+        wy0 = (1.0 - fy) * inv_dx
+        wy1 = fy * inv_dx
+        wx0 = (1.0 - fx) * inv_dx
+        wx1 = fx * inv_dx
+        gx = wy0 * (zz2 - z1) + wy1 * (z3 - z4)
+        gy = wx0 * (z4 - z1) + wx1 * (z3 - zz2)
         # mass transfer at the old cell; erosion (diff > 0) is scaled by the erodibility
         kh = kd * max(1.0 - root * roots[c], 0.0)
         khe = kh * erod[c]
@@ -410,8 +414,10 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
                 wx = fx if di == 1 else 1.0 - fx
                 wy = fy if dj == 1 else 1.0 - fy
                 h1 -= dz * (wx * wy)
-                gx -= dz * (wy if di == 1 else -wy)
-                gy -= dz * (wx if dj == 1 else -wx)
+                wys = wy1 if dj == 1 else wy0  # the same weights over Δx: slope change
+                wxs = wx1 if di == 1 else wx0
+                gx -= dz * (wys if di == 1 else -wys)
+                gy -= dz * (wxs if dj == 1 else -wxs)
         h = h1
         vn = V * (1.0 - evap_dt * (1.0 - 0.2 * s))
         evap += V - vn
