@@ -14,6 +14,11 @@ more have fallen (default: 4 per cell) and reports
   measured with a monotonic clock around each flood call (a separate Numba build of the loop);
 * ``droplets_per_cpu_s`` — the same per second of this process's CPU time: on a shared, loaded
   machine it shows what the loop does when it has a core to itself.
+
+The droplets run one after another (the seed's order, one thread: ``threads`` 1). ``batch = N``
+(Python API only) times the opt-in batch-synchronous mode instead (``hydrology.batch = N``:
+first descents of N droplets at a time on Numba's threads, see :mod:`erosim.hydrology.batch`);
+``threads`` then reports Numba's thread count.
 """
 
 from __future__ import annotations
@@ -24,9 +29,14 @@ import warnings
 
 
 def run(
-    size: int = 256, droplets: int | None = None, spinup: int | None = None, seed: int = 1
+    size: int = 256,
+    droplets: int | None = None,
+    spinup: int | None = None,
+    seed: int = 1,
+    batch: int = 0,
 ) -> dict:
     """Benchmark one map size; returns the JSON-able result."""
+    import numba
     from numba import NumbaWarning
 
     from erosim.hydrology.pools import B_FLOOD_NS, B_STEPS
@@ -37,7 +47,8 @@ def run(
     cell = 10240.0 / size
     sc = loader.load(
         "hydrology",
-        [f"terrain.size={size}", f"terrain.cell_size={cell}", f"seed={seed}"],
+        [f"terrain.size={size}", f"terrain.cell_size={cell}", f"seed={seed}"]
+        + ([f"hydrology.batch={int(batch)}"] if batch else []),
         preset="simplehydrology-2020",
     )
     with warnings.catch_warnings():
@@ -71,6 +82,7 @@ def run(
         "steps_per_droplet": round(steps / done, 1),
         "flood_fraction": round(flood_s / wall, 4),
         "lake_fraction": round(model.stats()["lake_fraction"], 4),
-        "threads": 1,
+        "mode": f"batch {int(batch)}" if batch else "serial",
+        "threads": numba.get_num_threads() if batch else 1,
         "cpu_count": os.cpu_count(),
     }

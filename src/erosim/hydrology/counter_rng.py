@@ -27,3 +27,26 @@ def unit(state):
     """Next uniform in [0, 1) (53 bits) and the new state."""
     state = splitmix64(state)
     return (state >> np.uint64(11)) * (1.0 / 9007199254740992.0), state
+
+
+@njit(cache=True)
+def spawn_base(seed):
+    """The key of the droplets' spawn stream for a run seed."""
+    return splitmix64(np.uint64(seed) * np.uint64(0x2545F4914F6CDD1D))
+
+
+@njit(cache=True)
+def spawn_point(base, i, rain_cdf, nx, ny):
+    """Droplet i's spawn point (cell units): uniform over the map, or, with a rain map (its
+    cumulative weights ``rain_cdf``; empty = none), a cell drawn by weight and a uniform point
+    in it."""
+    st = splitmix64(base ^ np.uint64(i))
+    u1, st = unit(st)
+    u2, st = unit(st)
+    if rain_cdf.shape[0] > 0:
+        u3, st = unit(st)
+        cell = np.searchsorted(rain_cdf, u3 * rain_cdf[-1], side="right")
+        if cell >= nx * ny:
+            cell = nx * ny - 1
+        return (cell % nx) + u1 - 0.5, (cell // nx) + u2 - 0.5
+    return u1 * nx - 0.5, u2 * ny - 0.5

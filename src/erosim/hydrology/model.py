@@ -39,8 +39,22 @@ from numba import njit
 
 from erosim.core.errors import InputError
 from erosim.hydrology import pools, streams, vegetation
-from erosim.hydrology.counter_rng import splitmix64
-from erosim.hydrology.counter_rng import unit as _unit
+from erosim.hydrology.batch import (
+    PAUSED,
+    R_S,
+    R_SIZE,
+    R_STATUS,
+    R_V,
+    R_VX,
+    R_VY,
+    R_X,
+    R_Y,
+    apply_logs,
+    descend_batch,
+    work_arrays,
+)
+from erosim.hydrology.batch import check as check_batch
+from erosim.hydrology.counter_rng import spawn_base, spawn_point, splitmix64
 from erosim.hydrology.droplets import ENDED, LEFT, descend_variant
 from erosim.hydrology.params import (
     P_CA,
@@ -185,13 +199,15 @@ def run_droplets(
     margin,
     lake_cap,
     descend,
+    pre,
 ):
     """Droplets ``first`` … ``first + count − 1``; returns how many ran (fewer when the heap pool
     or the lake table needs a rebuild first — the caller rebuilds and continues).
 
     ``now`` is the flood timer: :func:`_now_none` normally (cached build), :func:`_now_real` in
     the benchmark (a separate, uncached build that measures the time spent in HY-2); ``descend``
-    the HY-1 kernel (:func:`erosim.hydrology.droplets.descend_variant`)."""
+    the HY-1 kernel (:func:`erosim.hydrology.droplets.descend_variant`); ``pre``: empty, or (batch
+    mode) the droplets' first descents done by :func:`erosim.hydrology.batch.descend_batch`."""
     ny, nx = z2.shape
     zf = z2.reshape(-1)
     sf = stream.reshape(-1)
@@ -205,33 +221,35 @@ def run_droplets(
     edge = P[P_EDGE]
     drainage = P[P_DRAIN]
     nwalk = 2 * int(P[P_FOOT]) + 1
-    base = splitmix64(np.uint64(seed) * np.uint64(0x2545F4914F6CDD1D))
+    base = spawn_base(seed)
+    has_pre = pre.shape[0] > 0
     for i in range(count):
         if hkey.shape[0] - hs[HS_BUMP] < margin or hs[HS_NLAKES] + spill + 2 >= lake_cap:
             return i
-        st = splitmix64(base ^ np.uint64(first + i))
-        u1, st = _unit(st)
-        u2, st = _unit(st)
-        if rain_cdf.shape[0] > 0:
-            u3, st = _unit(st)
-            cell = np.searchsorted(rain_cdf, u3 * rain_cdf[-1], side="right")
-            if cell >= nx * ny:
-                cell = nx * ny - 1
-            x = (cell % nx) + u1 - 0.5
-            y = (cell // nx) + u2 - 0.5
+        given = False  # first descent already done (batch mode)
+        if has_pre:
+            status = int(pre[i, R_STATUS])
+            x = pre[i, R_X]
+            y = pre[i, R_Y]
+            vx = pre[i, R_VX]
+            vy = pre[i, R_VY]
+            V = pre[i, R_V]
+            S = pre[i, R_S]
+            given = status != PAUSED
         else:
-            x = u1 * nx - 0.5
-            y = u2 * ny - 0.5
-        V = P[P_V0]
-        S = 0.0
-        vx = 0.0
-        vy = 0.0
-        B[B_RAINED] += V
+            x, y = spawn_point(base, first + i, rain_cdf, nx, ny)
+            V = P[P_V0]
+            S = 0.0
+            vx = 0.0
+            vy = 0.0
+        B[B_RAINED] += P[P_V0]
         rounds = spill
         at_min = False
         while True:
             if at_min:  # spilled into a depression: it floods there without descending
                 status = 2
+            elif given:
+                given = False
             else:
                 status, x, y, vx, vy, V, S = descend(
                     x, y, vx, vy, V, S, z2, zf, sf, rf, ef, lake_of, level, track, B, P
@@ -382,6 +400,9 @@ class HydrologyModel:
         self.P = kernel_constants(self.p, self.cell_size)
         self.P[P_ROOT] = self.veg.root_strength if self.veg.enabled else 0.0
         self._descend = descend_variant(self.P)
+        check_batch(self.p, int(self.P[P_FOOT]))
+        self._no_pre = np.zeros((0, R_SIZE))
+        self._work = work_arrays(int(self.p.batch)) if self.p.batch > 0 else None
         self.z = np.ascontiguousarray(terrain.z, dtype=np.float64).copy()
         self.z0 = self.z.copy()
         ny, nx = self.z.shape
@@ -474,16 +495,14 @@ class HydrologyModel:
             self.hs[HS_NLAKES] = old.size
             self._alloc_pool(2 * self.hkey.shape[0] + 2 * self.margin)
 
-    # ----------------------------------------------------------------------------- public API
-    def cycle(self) -> None:
-        """One cycle: droplets, then the stream map and the vegetation."""
-        todo = self.per_cycle
-        if not self._built or self.cycles % self.p.rebuild_every == 0:
-            self._rebuild()
-        while todo > 0:
+    def _run(self, first: int, count: int, pre: np.ndarray) -> None:
+        """Droplets first … first + count − 1 (their first descent already in ``pre`` in batch
+        mode), rebuilding the lake heaps whenever the pool or the lake table fills."""
+        k = 0
+        while k < count:
             done = run_droplets(
-                self.droplets,
-                todo,
+                first + k,
+                count - k,
                 self.seed,
                 self.z,
                 self.stream,
@@ -510,11 +529,34 @@ class HydrologyModel:
                 self.margin,
                 self.lake_cap,
                 self._descend,
+                pre[k:],
             )
             self.droplets += done
-            todo -= done
-            if todo > 0:
+            k += done
+            if k < count:
                 self._rebuild()  # heap pool or lake table full: compact, then go on
+
+    # ----------------------------------------------------------------------------- public API
+    def cycle(self) -> None:
+        """One cycle: droplets, then the stream map and the vegetation."""
+        if not self._built or self.cycles % self.p.rebuild_every == 0:
+            self._rebuild()
+        batch = int(self.p.batch)
+        if batch <= 0:
+            self._run(self.droplets, self.per_cycle, self._no_pre)
+        else:
+            zf = self.z.reshape(-1)
+            res, lc, ldz, bd = self._work
+            todo = self.per_cycle
+            while todo > 0:
+                nb = min(batch, todo)
+                first = self.droplets
+                descend_batch(first, nb, spawn_base(self.seed), self.z, self.stream, self.cover,
+                              self.erod, self.lake_of, self.level, self.rain_cdf, self.P, res, lc,
+                              ldz, bd)  # fmt: skip
+                apply_logs(nb, zf, self.track, res, lc, ldz, bd, self.budget)
+                self._run(first, nb, res[:nb])
+                todo -= nb
         streams.update(self.stream, self.track, self.p.stream_rate)
         if self.veg.enabled:
             rng = np.random.default_rng([self.seed & 0xFFFFFFFF, self.cycles, 0x5EED])

@@ -85,6 +85,13 @@ class HydrologyParams(Section):
         doc="a slow droplet in a pit (cell lower than its 8 neighbours) floods there; seed: off",
     )
     max_steps: int = param(20_000, ge=10, unit="1", doc="safety cap on sub-steps per descent")
+    batch: int = param(
+        0,
+        ge=0,
+        unit="droplets",
+        doc="0: droplets one after another (the seed); N: batches of N descend in parallel "
+        "against the batch-start terrain (hydrology/batch.py; one-cell footprint, max_step 0)",
+    )
     rebuild_every: int = param(
         16,
         ge=1,
