@@ -4,7 +4,10 @@ A cycle: ``droplets_per_cycle`` droplets, each spawned uniformly (or by the rain
 descend (HY-1) and flood (HY-2) alternately — at most ``spill`` floods — until its volume is
 spent; then the stream map update (HY-4) and one vegetation step (HY-5). Droplets run one after
 another in a single-threaded Numba loop: each droplet sees the terrain and lakes the previous one
-left, which is the seed's semantics and makes the result independent of the thread count.
+left, which is the seed's semantics and makes the result independent of the thread count. The
+opt-in ``hydrology.batch = N`` runs the first descents of N droplets at a time in parallel against
+the batch-start state instead (:mod:`erosim.hydrology.batch`; also independent of the thread
+count, not of N).
 
 Random numbers: droplet i's spawn point comes from SplitMix64 hashing of (seed, i), vegetation's
 from NumPy's PCG64 seeded with (seed, cycle) (the seedling count and the key of the vegetation
