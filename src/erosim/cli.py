@@ -256,14 +256,15 @@ def bench_hydrology(size, droplets, as_json):
 
 @bench.command(name="stream")
 @click.option("--particles", type=int, multiple=True, help="Particle counts (repeatable; default 1e4, 1e5, 1e6).")
+@click.option("--impacts-per-particle", type=int, default=32, show_default=True, help="Updates (move, collide, deform) a particle makes before it returns to the pool; 1 = the seed's reading.")
 @click.option("--json", "as_json", is_flag=True)
-def bench_stream(particles, as_json):
-    """Particle-stream erosion: particles per second at several counts (shows O(n))."""
+def bench_stream(particles, impacts_per_particle, as_json):
+    """Particle-stream erosion: particles and particle updates per second at several counts (shows O(n))."""
     from erosim.scenarios.kinds import resolve
 
     fn = _guard(resolve, "erosim.bench.stream:run")
     counts = list(particles) or [10_000, 100_000, 1_000_000]
-    _print_result(_guard(fn, counts), as_json)
+    _print_result(_guard(fn, counts, impacts_per_particle), as_json)
 
 
 # ---------------------------------------------------------------------------------------- convert

@@ -32,7 +32,7 @@ MIN_TIME = 1.0
 STRATA = Strata(thickness=(12.0, 5.0, 9.0, 4.0), hardness=(0.25, 0.85, 0.45, 0.7), tilt_x=0.01)
 
 
-def _emitters(particles: int) -> list[Emitter]:
+def _emitters(particles: int, steps: int = STEPS) -> list[Emitter]:
     counts = [
         particles // EMITTERS + (1 if k < particles % EMITTERS else 0) for k in range(EMITTERS)
     ]
@@ -42,7 +42,7 @@ def _emitters(particles: int) -> list[Emitter]:
             y=(k + 0.5) / EMITTERS,
             width=8 * CELL,
             particles=counts[k],
-            steps=STEPS,
+            steps=steps,
             speed=1.5 * CELL,
             max_speed=3 * CELL,
             max_angle_deg=12.0,
@@ -62,8 +62,18 @@ def _spread(values: list) -> float | None:
     return max(v) / min(v) - 1.0 if v else None
 
 
-def run(particles: list[int]) -> dict:
-    """Time streams of each particle count; returns ``{"runs": [...], ...}`` (one JSON object)."""
+def run(particles: list[int], impacts_per_particle: int = STEPS) -> dict:
+    """Time streams of each particle count; returns ``{"runs": [...], ...}`` (one JSON object).
+
+    ``impacts_per_particle`` is how many times a particle acts (moves, collides, deforms) before it
+    returns to the pool: 32 by default, like the library scenario's streams; 1 is the seed's
+    reading (ST-2: after one deformation the particle goes back to the pool), where
+    ``particles_per_s`` equals ``updates_per_s``.
+    """
+    if impacts_per_particle < 1:
+        from erosim.core.errors import ConfigError
+
+        raise ConfigError(f"--impacts-per-particle {impacts_per_particle} is not valid; give 1 or more.")
     counts = [int(n) for n in particles]
     hm = generate("hills", SIZE, CELL, 0, relief=40.0)
     d0 = hardness.strata(hm.z, CELL, STRATA)
@@ -72,7 +82,7 @@ def run(particles: list[int]) -> dict:
     for n in counts:
         walls, cpus, impacts = [], [], 0
         while not walls or (sum(walls) < MIN_TIME and len(walls) < 20):
-            s = ParticleStream(hm.z, d0, CELL, _emitters(n), 0, STRATA, pool=POOL)
+            s = ParticleStream(hm.z, d0, CELL, _emitters(n, impacts_per_particle), 0, STRATA, pool=POOL)
             t0, c0 = time.perf_counter(), time.process_time()
             s.run(batch=4096)
             walls.append(time.perf_counter() - t0)
@@ -98,7 +108,7 @@ def run(particles: list[int]) -> dict:
     return {
         "benchmark": "particle-stream (Warszawski)",
         "map": f"{SIZE}x{SIZE} cells of {CELL:g} m, strata hardness following the cut",
-        "steps_per_particle": STEPS,
+        "steps_per_particle": impacts_per_particle,
         "emitters": EMITTERS,
         "pool_per_emitter": POOL,
         "threads": 1,
