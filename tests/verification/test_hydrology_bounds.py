@@ -1,6 +1,6 @@
 """Nothing is read or written outside the map, on any edge (HY-8: "never read/write outside").
 
-The droplet, lake and cycle kernels run in a subprocess with Numba's bounds checking on
+The droplet (general, seed-case and batch), lake and cycle kernels run in a subprocess with Numba's bounds checking on
 (``NUMBA_BOUNDSCHECK=1``, a separate cache), so any out-of-range index raises IndexError. Terrains
 tilted toward each edge and a bowl whose lakes reach the edges make the droplets and lakes work
 right at the borders. Slow: the bounds-checked build compiles from scratch (~1 min).
@@ -26,9 +26,9 @@ SCRIPT = textwrap.dedent(
                 -3.0 * np.hypot(xx - n / 2, yy - n / 2) + 5.0 * rng.random((n, n))]
     for i, z in enumerate(terrains):
         for sea in (None, 20.0):
-            for ell, dx in ((40.0, 20.0), (0.0, 20.0)):
+            for ell, dx, nb in ((40.0, 20.0, 0), (0.0, 20.0, 0), (0.0, 20.0, 16)):
                 p = HydrologyParams(length_scale=ell, cycle_droplets=20000, sea_level=sea,
-                                    max_step=1.0 if ell else 0.0)
+                                    max_step=1.0 if ell else 0.0, batch=nb)
                 m = HydrologyModel(Heightmap(z=z + rng.random((n, n)), cell_size=dx), p,
                                    VegetationParams(spawn=100.0), seed=i)
                 m.run(5)

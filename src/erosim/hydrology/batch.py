@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit, prange
 
 from erosim.core.errors import ConfigError
-from erosim.hydrology.counter_rng import spawn_point
+from erosim.hydrology.counter_rng import spawn_base, spawn_point
 from erosim.hydrology.droplets import ENDED, LEFT, STOP, _corners
 from erosim.hydrology.params import (
     P_ACC,
@@ -186,7 +186,7 @@ def descend_logged(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, lev
 
 
 @njit(cache=True, parallel=True)
-def descend_batch(first, count, base, z2, stream, roots, erod, lake_of, level, rain_cdf, P, res,
+def descend_batch(first, count, seed, z2, stream, roots, erod, lake_of, level, rain_cdf, P, res,
                   lc, ldz, bd):  # fmt: skip
     """Phase 1: droplets ``first`` … ``first + count − 1`` spawn and descend in parallel against
     the current (frozen) state; results in ``res[i]``, logs in ``lc[i]``, ``ldz[i]``, budget
@@ -196,6 +196,7 @@ def descend_batch(first, count, base, z2, stream, roots, erod, lake_of, level, r
     sf = stream.reshape(-1)
     rf = roots.reshape(-1)
     ef = erod.reshape(-1)
+    base = spawn_base(seed)
     for i in prange(count):
         for k in range(B_SIZE):
             bd[i, k] = 0.0

@@ -554,7 +554,7 @@ class HydrologyModel:
             while todo > 0:
                 nb = min(batch, todo)
                 first = self.droplets
-                descend_batch(first, nb, spawn_base(self.seed), self.z, self.stream, self.cover,
+                descend_batch(first, nb, self.seed, self.z, self.stream, self.cover,
                               self.erod, self.lake_of, self.level, self.rain_cdf, self.P, res, lc,
                               ldz, bd)  # fmt: skip
                 apply_logs(nb, zf, self.track, res, lc, ldz, bd, self.budget)
