@@ -88,6 +88,7 @@ class HydrologyParams(Section):
     batch: int = param(
         0,
         ge=0,
+        le=4096,
         unit="droplets",
         doc="0: droplets one after another (the seed); N: batches of N descend in parallel "
         "against the batch-start terrain (hydrology/batch.py; one-cell footprint, max_step 0)",
