@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import sys
 from pathlib import Path
 
 import click
 
 from erosim import __version__
-from erosim.core.errors import ErosimError, Interrupted
+from erosim.core.errors import ConfigError, ErosimError, InputError, Interrupted
 
 
 class _Context:
@@ -112,12 +113,20 @@ def _run(scenario_ref, overrides, preset, out, resume, overwrite):
         if scenario_ref is None:
             raise ErosimError("Name a scenario (see `erosim list`) or a TOML file, or pass --resume DIR.")
         scenario = loader.load(scenario_ref, overrides, preset)
-        run_folder = RunFolder(Path(out) if out else default_out(scenario.name), overwrite=overwrite)
+        target = Path(out) if out else default_out(scenario.name)
+        created = not target.exists()
+        run_folder = RunFolder(target, overwrite=overwrite)
     runner = kinds.resolve(kinds.get(scenario.kind).runner)
     try:
         summary = runner(scenario, run_folder, resume=bool(resume), progress=not STATE.quiet)
     except Interrupted as exc:
         raise Interrupted(str(exc).replace("<run folder>", str(run_folder.path))) from None
+    except (ConfigError, InputError):
+        # bad input found while building the run (a NaN-only DEM, a step above the CFL limit):
+        # nothing was simulated, so a folder this command created is removed, not left half-made
+        if not resume and created:
+            shutil.rmtree(run_folder.path, ignore_errors=True)
+        raise
     return run_folder, summary
 
 
@@ -230,8 +239,8 @@ def bench():
 
 
 @bench.command(name="sph")
-@click.option("--particles", type=int, default=100_000, show_default=True, help="Fluid particles (about).")
-@click.option("--steps", type=int, default=None, help="Timed steps (default: enough for a few seconds).")
+@click.option("--particles", type=click.IntRange(min=100), default=100_000, show_default=True, help="Fluid particles (about).")
+@click.option("--steps", type=click.IntRange(min=1), default=None, help="Timed steps (default: enough for a few seconds).")
 @click.option("--dim", type=click.Choice(["2", "3"]), default="3", show_default=True)
 @click.option("--json", "as_json", is_flag=True)
 def bench_sph(particles, steps, dim, as_json):
@@ -243,8 +252,8 @@ def bench_sph(particles, steps, dim, as_json):
 
 
 @bench.command(name="hydrology")
-@click.option("--size", type=int, default=256, show_default=True, help="Map size in cells (square).")
-@click.option("--droplets", type=int, default=None, help="Droplets to time (default: enough for a few seconds).")
+@click.option("--size", type=click.IntRange(min=16), default=256, show_default=True, help="Map size in cells (square).")
+@click.option("--droplets", type=click.IntRange(min=1), default=None, help="Droplets to time (default: enough for a few seconds).")
 @click.option("--json", "as_json", is_flag=True)
 def bench_hydrology(size, droplets, as_json):
     """Hydrology (simplehydrology-2020 preset, lakes on): droplets/s and the share spent filling lakes."""
@@ -255,8 +264,8 @@ def bench_hydrology(size, droplets, as_json):
 
 
 @bench.command(name="stream")
-@click.option("--particles", type=int, multiple=True, help="Particle counts (repeatable; default 1e4, 1e5, 1e6).")
-@click.option("--impacts-per-particle", type=int, default=32, show_default=True, help="Updates (move, collide, deform) a particle makes before it returns to the pool; 1 = the seed's reading.")
+@click.option("--particles", type=click.IntRange(min=1), multiple=True, help="Particle counts (repeatable; default 1e4, 1e5, 1e6).")
+@click.option("--impacts-per-particle", type=click.IntRange(min=1), default=32, show_default=True, help="Updates (move, collide, deform) a particle makes before it returns to the pool; 1 = the seed's reading.")
 @click.option("--json", "as_json", is_flag=True)
 def bench_stream(particles, impacts_per_particle, as_json):
     """Particle-stream erosion: particles and particle updates per second at several counts (shows O(n))."""

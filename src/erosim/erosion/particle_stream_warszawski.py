@@ -635,7 +635,9 @@ class ParticleStream:
                 )
             setattr(self, name, new)
         self.impacts = int(state["impacts"])
-        self.finished = bool(state["finished"])
+        # a resumed run may ask for more particles (--set emitters.NAME.particles=...): it is only
+        # finished if every emitter has emitted its (possibly new) total
+        self.finished = bool(state["finished"]) and self.particles_emitted >= self.particles_total
 
 
 def erode(

@@ -139,6 +139,11 @@ def _set(data: dict, path: list[str], value: Any, item: str) -> None:
     node = data
     for part in path[:-1]:
         nxt = node.setdefault(part, {})
+        if isinstance(nxt, list):
+            raise ConfigError(
+                f"Override '{item}': '{part}' is a list of tables; replace it whole, "
+                f"e.g. --set '{part}=[{{...}}]', or edit the scenario file."
+            )
         if not isinstance(nxt, dict):
             raise ConfigError(f"Override '{item}': '{part}' is a value, not a table; set it directly.")
         node = nxt

@@ -278,7 +278,7 @@ def run(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: b
         "removed_volume_kernel": stream.removed_volume(),
         "max_depth": float(erosion.max()),
         "eroded_area_m2": float((erosion > 0).sum() * area),
-        "particles": stream.particles_total,
+        "particles": stream.particles_emitted,
         "impacts": stream.impacts,
         "emitters": list(cfg.emitters),
         "hardness_source": cfg.hardness.kind,
@@ -297,7 +297,7 @@ def run(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: b
     return {
         "removed_volume_m3": removed,
         "max_depth_m": report["max_depth"],
-        "particles": stream.particles_total,
+        "particles": stream.particles_emitted,
         "impacts": stream.impacts,
         "impacts_per_s": report["impacts_per_s"],
     }

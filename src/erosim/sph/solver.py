@@ -196,9 +196,9 @@ class SPHSolver:
             lim = self.dt_limit()
             if prm.dt > lim:
                 raise ConfigError(
-                    f"Setting 'dt' = {prm.dt:g} s is above the stable step limit {lim:.3g} s "
+                    f"Setting 'sph.dt' = {prm.dt:g} s is above the stable step limit {lim:.3g} s "
                     f"(CFL {prm.cfl}·h_s/(c + |v|max) with c = {self.c:.3g} m/s, force and viscous limits); "
-                    f"use dt ≤ {lim:.3g} or dt = 0 for adaptive steps."
+                    f"use sph.dt ≤ {lim:.3g} or sph.dt = 0 for adaptive steps."
                 )
 
     # ------------------------------------------------------------------ set-up helpers

@@ -1,0 +1,115 @@
+"""The command line's outside-facing contracts: JSON keys, bad input through the CLI, no half-made
+run folders, every DEM format through `--set terrain.file`, resuming a stream with more particles."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from erosim.cli import cli
+
+
+def _json(result) -> dict:
+    assert result.exit_code == 0, result.output
+    return json.loads(result.output)
+
+
+def _one_error_line(result) -> str:
+    assert result.exit_code == 2, result.output
+    lines = [ln for ln in result.output.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("erosim: error: "), result.output
+    assert "Traceback" not in result.output
+    return lines[0]
+
+
+def test_validate_json_keys(cli_runner, tmp_path):
+    out = _json(cli_runner.invoke(cli, ["--quiet", "validate", "martin-moyce", "--resolution", "coarse",
+                                        "--json", "--out", str(tmp_path / "mm")]))
+    assert {"case", "metric", "value", "threshold", "passed", "out"} <= out.keys()
+    assert out["case"] == "martin-moyce" and out["threshold"] == 0.10 and out["passed"] is True
+
+
+def test_bench_sph_json_keys(cli_runner):
+    out = _json(cli_runner.invoke(cli, ["bench", "sph", "--particles", "500", "--steps", "3", "--json"]))
+    assert {"particles", "neighbours_mean", "particle_steps_per_s", "pair_interactions_per_s", "threads"} <= out.keys()
+    assert out["particle_steps_per_s"] > 0 and out["neighbours_mean"] > 5
+
+
+def test_bench_hydrology_json_keys(cli_runner):
+    out = _json(cli_runner.invoke(cli, ["bench", "hydrology", "--size", "32", "--droplets", "50", "--json"]))
+    assert {"size", "droplets_per_s", "steps_per_s", "flood_fraction"} <= out.keys()
+    assert out["size"] == 32 and 0.0 <= out["flood_fraction"] <= 1.0
+
+
+@pytest.mark.parametrize("args", [["bench", "sph", "--particles", "-5"], ["bench", "sph", "--steps", "0"],
+                                  ["bench", "hydrology", "--droplets", "0"], ["bench", "stream", "--particles", "-3"]])
+def test_bench_rejects_bad_counts_without_traceback(cli_runner, args):
+    result = cli_runner.invoke(cli, args)
+    assert result.exit_code == 2 and "not in the range" in result.output and "Traceback" not in result.output
+
+
+def test_bad_input_found_while_building_leaves_no_run_folder(cli_runner, tmp_path):
+    nan_dem = tmp_path / "nan.npy"
+    np.save(nan_dem, np.full((16, 16), np.nan))
+    out = tmp_path / "hy"
+    line = _one_error_line(cli_runner.invoke(cli, ["--quiet", "run", "hydrology", "--set", f"terrain.file={nan_dem}",
+                                                   "--out", str(out)]))
+    assert "NaN" in line or "no valid" in line.lower()
+    assert not out.exists()
+    out = tmp_path / "db"
+    line = _one_error_line(cli_runner.invoke(cli, ["--quiet", "run", "dam-break-2d", "--set", "sph.dt=0.01",
+                                                   "--out", str(out)]))
+    assert "sph.dt" in line and "limit" in line
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args, words", [
+    (["run", "hydrology", "--set", "terrain.cell_size=-2"], "cell_size"),
+    (["run", "hydrology", "--set", "terrain.preset=volcano"], "volcano"),
+    (["run", "hydrology", "--preset", "nope"], "no preset 'nope'"),
+    (["run", "particle-stream", "--set", "emitters.main.width=0"], "width"),
+])
+def test_bad_settings_are_one_sentence(cli_runner, tmp_path, args, words):
+    line = _one_error_line(cli_runner.invoke(cli, ["--quiet", *args, "--out", str(tmp_path / "x")]))
+    assert words in line
+
+
+def test_wrong_raw_size_is_one_sentence(cli_runner, tmp_path):
+    raw = tmp_path / "odd.raw"
+    raw.write_bytes(np.arange(15 * 17, dtype="<u2").tobytes())  # 255 samples: not a square map
+    line = _one_error_line(cli_runner.invoke(cli, ["--quiet", "run", "hydrology", "--set", f"terrain.file={raw}",
+                                                   "--out", str(tmp_path / "r")]))
+    assert "square" in line and "raw_shape" in line
+
+
+@pytest.mark.parametrize("ext", [".tif", ".png", ".asc", ".npy"])
+def test_hydrology_runs_on_each_dem_format(cli_runner, tmp_path, ext):
+    from erosim.io import heightmaps
+    from erosim.terrain.generate import generate
+
+    dem = tmp_path / f"dem{ext}"
+    heightmaps.write(dem, generate("hills", 48, 20.0, seed=3))
+    out = tmp_path / "run"
+    result = cli_runner.invoke(cli, ["--quiet", "run", "hydrology", "--set", f"terrain.file={dem}",
+                                     "--set", "run.cycles=4", "--set", "run.frames=0", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    assert report["terrain"]["shape"] == [48, 48]
+    for name in ("height_initial", "height", "lake_depth", "stream", "erosion", "deposition", "vegetation"):
+        assert (out / "maps" / f"{name}.tif").is_file()
+    # the water budget closes to round-off (issue 3: 1e-9 relative)
+    assert report["water_budget"]["closure_rel"] < 1e-9 and report["sediment_budget"]["closure_rel"] < 1e-9
+
+
+def test_resumed_stream_emits_the_new_total(cli_runner, tmp_path):
+    out = tmp_path / "ps"
+    base = ["--quiet", "run", "particle-stream", "--set", "terrain.size=96", "--set", "emitters.main.particles=40"]
+    assert cli_runner.invoke(cli, [*base, "--out", str(out)]).exit_code == 0
+    first = json.loads((out / "report.json").read_text())
+    result = cli_runner.invoke(cli, ["--quiet", "run", "--resume", str(out), "--set", "emitters.main.particles=60"])
+    assert result.exit_code == 0, result.output
+    again = json.loads((out / "report.json").read_text())
+    assert first["particles"] == 40 and again["particles"] == 60
+    assert again["impacts"] > first["impacts"] and again["removed_volume"] > first["removed_volume"]
