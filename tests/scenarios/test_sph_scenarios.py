@@ -11,7 +11,8 @@ from erosim.io.particles import read_pvd, read_vtp
 from erosim.scenarios import loader
 from erosim.scenarios.builders_sph import fluid_particles
 
-# coarse spacing and a few steps' worth of simulated time per scenario
+# coarse spacing and a few steps' worth of simulated time per scenario (every sph scenario of the
+# library must have an entry: test_every_sph_scenario_has_a_case)
 CASES = {
     "dam-break": ["sph.spacing=1.0", "run.t_end=0.02", "run.output_interval=0.01", "run.sample_interval=0.01"],
     "falling-cube": ["sph.spacing=1.0", "run.t_end=0.02", "run.output_interval=0.01", "run.sample_interval=0.01"],
@@ -73,3 +74,8 @@ def test_thesis_preset_derives_a_consistent_resolution(name):
     pos, _ = fluid_particles(sc.config)
     assert len(pos) == 343_000
     assert "inconsistent" in sc.description
+
+
+def test_every_sph_scenario_has_a_case():
+    sph = {n for n in loader.library_names() if loader.read_toml(loader.LIBRARY / f"{n}.toml").get("kind") == "sph"}
+    assert sph == set(CASES)

@@ -113,3 +113,9 @@ def test_resumed_stream_emits_the_new_total(cli_runner, tmp_path):
     again = json.loads((out / "report.json").read_text())
     assert first["particles"] == 40 and again["particles"] == 60
     assert again["impacts"] > first["impacts"] and again["removed_volume"] > first["removed_volume"]
+
+
+def test_obstacle_outside_the_domain_is_refused(cli_runner, tmp_path):
+    result = cli_runner.invoke(cli, ["--quiet", "run", "dam-break-2d", "--set", "obstacles=[{lo=[0.5, 0.0], hi=[0.7, 0.05]}]",
+                                     "--out", str(tmp_path / "o")])
+    assert "obstacle 1" in _one_error_line(result) and not (tmp_path / "o").exists()

@@ -151,18 +151,23 @@ class SPHScenario(Section):
                 "or give the domain corners in the other dimension."
             )
         lo, hi = self.domain.lo, self.domain.hi
-        for i, b in enumerate(self.fluid):
-            name = f"fluid block {i + 1}"
-            _check_box(name, b, dim)
+
+        def inside(name: str, b: Box) -> None:
             if any(bl < dl - 1e-12 or bh > dh + 1e-12 for bl, bh, dl, dh in zip(b.lo, b.hi, lo, hi, strict=True)):
                 raise ConfigError(
                     f"{name} (lo {b.lo}, hi {b.hi}) lies outside the domain (lo {lo}, hi {hi}); "
                     "move it inside or enlarge [domain]."
                 )
+
+        for i, b in enumerate(self.fluid):
+            name = f"fluid block {i + 1}"
+            _check_box(name, b, dim)
+            inside(name, b)
             if b.velocity is not None and len(b.velocity) != dim:
                 raise ConfigError(f"{name} velocity has {len(b.velocity)} components; give {dim}.")
         for i, o in enumerate(self.obstacles):
             _check_box(f"obstacle {i + 1}", o, dim)
+            inside(f"obstacle {i + 1}", o)
         for p in self.probes:
             if len(p.position) != dim:
                 raise ConfigError(f"probe '{p.name}' position has {len(p.position)} coordinates; give {dim}.")
