@@ -132,10 +132,20 @@ def _run(scenario_ref, overrides, preset, out, resume, overwrite):
 
 @cli.command()
 @click.argument("scenario", required=False)
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="Override a setting, e.g. --set run.t_end=1.5 (repeatable).")
+@click.option(
+    "--set",
+    "overrides",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="Override a setting, e.g. --set run.t_end=1.5 (repeatable).",
+)
 @click.option("--preset", default=None, help="Apply a named preset of the scenario (see `erosim describe`).")
-@click.option("--out", type=click.Path(file_okay=False), default=None, help="Run folder (default runs/<name>, never overwriting).")
-@click.option("--resume", type=click.Path(file_okay=False), default=None, help="Continue an interrupted run from its folder.")
+@click.option(
+    "--out", type=click.Path(file_okay=False), default=None, help="Run folder (default runs/<name>, never overwriting)."
+)
+@click.option(
+    "--resume", type=click.Path(file_okay=False), default=None, help="Continue an interrupted run from its folder."
+)
 @click.option("--overwrite", is_flag=True, help="Allow writing into an existing, non-empty --out folder.")
 def run(scenario, overrides, preset, out, resume, overwrite):
     """Run SCENARIO (a library name or a TOML file) and write a run folder."""
@@ -147,7 +157,13 @@ def run(scenario, overrides, preset, out, resume, overwrite):
 
 # -------------------------------------------------------------------------------------------- demo
 @cli.command()
-@click.option("--out", type=click.Path(file_okay=False), default="runs/demo", show_default=True, help="Where to write (replaced on each demo run).")
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False),
+    default="runs/demo",
+    show_default=True,
+    help="Where to write (replaced on each demo run).",
+)
 def demo(out):
     """The main job: rivers, lakes and vegetation carved into a generated 512² mountain terrain."""
     from erosim.scenarios.kinds import resolve
@@ -186,7 +202,9 @@ def list_():
 
 @cli.command()
 @click.argument("scenario")
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="Show the scenario with overrides applied.")
+@click.option(
+    "--set", "overrides", multiple=True, metavar="KEY=VALUE", help="Show the scenario with overrides applied."
+)
 @click.option("--preset", default=None, help="Show the scenario with a preset applied.")
 def describe(scenario, overrides, preset):
     """Explain SCENARIO: what it models, its presets and every setting with its unit."""
@@ -219,7 +237,9 @@ VALIDATION_CASES = {
 @cli.command()
 @click.argument("case", type=click.Choice(sorted(VALIDATION_CASES)))
 @click.option("--resolution", type=click.Choice(["coarse", "default", "fine"]), default="default", show_default=True)
-@click.option("--out", type=click.Path(file_okay=False), default=None, help="Run folder (default runs/validate-<case>).")
+@click.option(
+    "--out", type=click.Path(file_okay=False), default=None, help="Run folder (default runs/validate-<case>)."
+)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def validate(case, resolution, out, as_json):
     """Run a validation CASE against published experimental or analytic data."""
@@ -239,8 +259,12 @@ def bench():
 
 
 @bench.command(name="sph")
-@click.option("--particles", type=click.IntRange(min=100), default=100_000, show_default=True, help="Fluid particles (about).")
-@click.option("--steps", type=click.IntRange(min=1), default=None, help="Timed steps (default: enough for a few seconds).")
+@click.option(
+    "--particles", type=click.IntRange(min=100), default=100_000, show_default=True, help="Fluid particles (about)."
+)
+@click.option(
+    "--steps", type=click.IntRange(min=1), default=None, help="Timed steps (default: enough for a few seconds)."
+)
 @click.option("--dim", type=click.Choice(["2", "3"]), default="3", show_default=True)
 @click.option("--json", "as_json", is_flag=True)
 def bench_sph(particles, steps, dim, as_json):
@@ -253,19 +277,39 @@ def bench_sph(particles, steps, dim, as_json):
 
 @bench.command(name="hydrology")
 @click.option("--size", type=click.IntRange(min=16), default=256, show_default=True, help="Map size in cells (square).")
-@click.option("--droplets", type=click.IntRange(min=1), default=None, help="Droplets to time (default: enough for a few seconds).")
+@click.option(
+    "--droplets", type=click.IntRange(min=1), default=None, help="Droplets to time (default: enough for a few seconds)."
+)
+@click.option(
+    "--batch",
+    type=click.IntRange(min=0, max=4096),
+    default=0,
+    show_default=True,
+    help="Droplets per parallel batch (hydrology.batch); 0 = the seed's one-after-another order.",
+)
 @click.option("--json", "as_json", is_flag=True)
-def bench_hydrology(size, droplets, as_json):
+def bench_hydrology(size, droplets, batch, as_json):
     """Hydrology (simplehydrology-2020 preset, lakes on): droplets/s and the share spent filling lakes."""
     from erosim.scenarios.kinds import resolve
 
     fn = _guard(resolve, "erosim.bench.hydrology:run")
-    _print_result(_guard(fn, size, droplets), as_json)
+    _print_result(_guard(fn, size, droplets, batch=batch), as_json)
 
 
 @bench.command(name="stream")
-@click.option("--particles", type=click.IntRange(min=1), multiple=True, help="Particle counts (repeatable; default 1e4, 1e5, 1e6).")
-@click.option("--impacts-per-particle", type=click.IntRange(min=1), default=32, show_default=True, help="Updates (move, collide, deform) a particle makes before it returns to the pool; 1 = the seed's reading.")
+@click.option(
+    "--particles",
+    type=click.IntRange(min=1),
+    multiple=True,
+    help="Particle counts (repeatable; default 1e4, 1e5, 1e6).",
+)
+@click.option(
+    "--impacts-per-particle",
+    type=click.IntRange(min=1),
+    default=32,
+    show_default=True,
+    help="Updates (move, collide, deform) a particle makes before it returns to the pool; 1 = the seed's reading.",
+)
 @click.option("--json", "as_json", is_flag=True)
 def bench_stream(particles, impacts_per_particle, as_json):
     """Particle-stream erosion: particles and particle updates per second at several counts (shows O(n))."""
@@ -281,8 +325,16 @@ def bench_stream(particles, impacts_per_particle, as_json):
 @click.argument("src", type=click.Path())
 @click.argument("dst", type=click.Path())
 @click.option("--cell-size", type=float, default=None, help="Cell size in metres (for formats that do not store it).")
-@click.option("--raw-shape", type=(int, int), default=None, metavar="ROWS COLS", help="Shape of a RAW16 input that is not square.")
-@click.option("--height-range", type=(float, float), default=None, metavar="MIN MAX", help="Heights (m) that 0 and 65535 stand for in a 16-bit input without a stored range.")
+@click.option(
+    "--raw-shape", type=(int, int), default=None, metavar="ROWS COLS", help="Shape of a RAW16 input that is not square."
+)
+@click.option(
+    "--height-range",
+    type=(float, float),
+    default=None,
+    metavar="MIN MAX",
+    help="Heights (m) that 0 and 65535 stand for in a 16-bit input without a stored range.",
+)
 def convert(src, dst, cell_size, raw_shape, height_range):
     """Convert a heightmap between GeoTIFF, 16-bit PNG, RAW16, ESRI ASCII grid and NPY."""
     from erosim.scenarios.kinds import resolve

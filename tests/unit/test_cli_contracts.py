@@ -25,8 +25,12 @@ def _one_error_line(result) -> str:
 
 
 def test_validate_json_keys(cli_runner, tmp_path):
-    out = _json(cli_runner.invoke(cli, ["--quiet", "validate", "martin-moyce", "--resolution", "coarse",
-                                        "--json", "--out", str(tmp_path / "mm")]))
+    out = _json(
+        cli_runner.invoke(
+            cli,
+            ["--quiet", "validate", "martin-moyce", "--resolution", "coarse", "--json", "--out", str(tmp_path / "mm")],
+        )
+    )
     assert {"case", "metric", "value", "threshold", "passed", "out"} <= out.keys()
     assert out["case"] == "martin-moyce" and out["threshold"] == 0.10 and out["passed"] is True
 
@@ -43,8 +47,15 @@ def test_bench_hydrology_json_keys(cli_runner):
     assert out["size"] == 32 and 0.0 <= out["flood_fraction"] <= 1.0
 
 
-@pytest.mark.parametrize("args", [["bench", "sph", "--particles", "-5"], ["bench", "sph", "--steps", "0"],
-                                  ["bench", "hydrology", "--droplets", "0"], ["bench", "stream", "--particles", "-3"]])
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["bench", "sph", "--particles", "-5"],
+        ["bench", "sph", "--steps", "0"],
+        ["bench", "hydrology", "--droplets", "0"],
+        ["bench", "stream", "--particles", "-3"],
+    ],
+)
 def test_bench_rejects_bad_counts_without_traceback(cli_runner, args):
     result = cli_runner.invoke(cli, args)
     assert result.exit_code == 2 and "not in the range" in result.output and "Traceback" not in result.output
@@ -54,23 +65,28 @@ def test_bad_input_found_while_building_leaves_no_run_folder(cli_runner, tmp_pat
     nan_dem = tmp_path / "nan.npy"
     np.save(nan_dem, np.full((16, 16), np.nan))
     out = tmp_path / "hy"
-    line = _one_error_line(cli_runner.invoke(cli, ["--quiet", "run", "hydrology", "--set", f"terrain.file={nan_dem}",
-                                                   "--out", str(out)]))
+    line = _one_error_line(
+        cli_runner.invoke(cli, ["--quiet", "run", "hydrology", "--set", f"terrain.file={nan_dem}", "--out", str(out)])
+    )
     assert "NaN" in line or "no valid" in line.lower()
     assert not out.exists()
     out = tmp_path / "db"
-    line = _one_error_line(cli_runner.invoke(cli, ["--quiet", "run", "dam-break-2d", "--set", "sph.dt=0.01",
-                                                   "--out", str(out)]))
+    line = _one_error_line(
+        cli_runner.invoke(cli, ["--quiet", "run", "dam-break-2d", "--set", "sph.dt=0.01", "--out", str(out)])
+    )
     assert "sph.dt" in line and "limit" in line
     assert not out.exists()
 
 
-@pytest.mark.parametrize("args, words", [
-    (["run", "hydrology", "--set", "terrain.cell_size=-2"], "cell_size"),
-    (["run", "hydrology", "--set", "terrain.preset=volcano"], "volcano"),
-    (["run", "hydrology", "--preset", "nope"], "no preset 'nope'"),
-    (["run", "particle-stream", "--set", "emitters.main.width=0"], "width"),
-])
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["run", "hydrology", "--set", "terrain.cell_size=-2"], "cell_size"),
+        (["run", "hydrology", "--set", "terrain.preset=volcano"], "volcano"),
+        (["run", "hydrology", "--preset", "nope"], "no preset 'nope'"),
+        (["run", "particle-stream", "--set", "emitters.main.width=0"], "width"),
+    ],
+)
 def test_bad_settings_are_one_sentence(cli_runner, tmp_path, args, words):
     line = _one_error_line(cli_runner.invoke(cli, ["--quiet", *args, "--out", str(tmp_path / "x")]))
     assert words in line
@@ -79,8 +95,11 @@ def test_bad_settings_are_one_sentence(cli_runner, tmp_path, args, words):
 def test_wrong_raw_size_is_one_sentence(cli_runner, tmp_path):
     raw = tmp_path / "odd.raw"
     raw.write_bytes(np.arange(15 * 17, dtype="<u2").tobytes())  # 255 samples: not a square map
-    line = _one_error_line(cli_runner.invoke(cli, ["--quiet", "run", "hydrology", "--set", f"terrain.file={raw}",
-                                                   "--out", str(tmp_path / "r")]))
+    line = _one_error_line(
+        cli_runner.invoke(
+            cli, ["--quiet", "run", "hydrology", "--set", f"terrain.file={raw}", "--out", str(tmp_path / "r")]
+        )
+    )
     assert "square" in line and "raw_shape" in line
 
 
@@ -92,8 +111,22 @@ def test_hydrology_runs_on_each_dem_format(cli_runner, tmp_path, ext):
     dem = tmp_path / f"dem{ext}"
     heightmaps.write(dem, generate("hills", 48, 20.0, seed=3))
     out = tmp_path / "run"
-    result = cli_runner.invoke(cli, ["--quiet", "run", "hydrology", "--set", f"terrain.file={dem}",
-                                     "--set", "run.cycles=4", "--set", "run.frames=0", "--out", str(out)])
+    result = cli_runner.invoke(
+        cli,
+        [
+            "--quiet",
+            "run",
+            "hydrology",
+            "--set",
+            f"terrain.file={dem}",
+            "--set",
+            "run.cycles=4",
+            "--set",
+            "run.frames=0",
+            "--out",
+            str(out),
+        ],
+    )
     assert result.exit_code == 0, result.output
     report = json.loads((out / "report.json").read_text())
     assert report["terrain"]["shape"] == [48, 48]
@@ -116,6 +149,49 @@ def test_resumed_stream_emits_the_new_total(cli_runner, tmp_path):
 
 
 def test_obstacle_outside_the_domain_is_refused(cli_runner, tmp_path):
-    result = cli_runner.invoke(cli, ["--quiet", "run", "dam-break-2d", "--set", "obstacles=[{lo=[0.5, 0.0], hi=[0.7, 0.05]}]",
-                                     "--out", str(tmp_path / "o")])
+    result = cli_runner.invoke(
+        cli,
+        [
+            "--quiet",
+            "run",
+            "dam-break-2d",
+            "--set",
+            "obstacles=[{lo=[0.5, 0.0], hi=[0.7, 0.05]}]",
+            "--out",
+            str(tmp_path / "o"),
+        ],
+    )
     assert "obstacle 1" in _one_error_line(result) and not (tmp_path / "o").exists()
+
+
+def test_plain_16_bit_png_gets_a_warning_in_the_report(cli_runner, tmp_path):
+    from PIL import Image
+
+    png = tmp_path / "plain.png"
+    Image.fromarray((np.add.outer(np.arange(40), np.arange(40)) * 300).astype(np.uint16)).save(png)
+    out = tmp_path / "run"
+    result = cli_runner.invoke(
+        cli,
+        [
+            "--quiet",
+            "run",
+            "hydrology",
+            "--set",
+            f"terrain.file={png}",
+            "--set",
+            "run.cycles=2",
+            "--set",
+            "run.frames=0",
+            "--out",
+            str(out),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    warnings = json.loads((out / "report.json").read_text())["warnings"]
+    assert any("no height range" in w for w in warnings)  # the scenario sets a cell size itself
+
+    from erosim.io import heightmaps
+
+    notes = heightmaps.read(png).notes
+    assert len(notes) == 2 and "no cell size" in notes[1]
+    assert heightmaps.read(png, cell_size=5.0, height_range=(0, 100)).notes == []

@@ -14,7 +14,9 @@ def test_errors_of_the_exact_state():
     p = 1000 * 9.81 * (0.2 - z)
     e = hs.errors(pos, p, np.full_like(z, 1000.0), rho0=1000.0, g=9.81, H=0.2, lo=[0, 0], hi=[0.2, 0.3])
     assert e == {"pressure_rms_rel": 0.0, "density_variation": 0.0, "outside": 0}
-    e = hs.errors(pos + [0, 0.5], p * 1.05, np.full_like(z, 1005.0), rho0=1000.0, g=9.81, H=0.2, lo=[0, 0], hi=[0.2, 0.3])
+    e = hs.errors(
+        pos + [0, 0.5], p * 1.05, np.full_like(z, 1005.0), rho0=1000.0, g=9.81, H=0.2, lo=[0, 0], hi=[0.2, 0.3]
+    )
     assert e["density_variation"] == pytest.approx(0.005)
     assert e["outside"] == len(z)
 

@@ -115,7 +115,8 @@ def validate_section(model: type[BaseModel], data: dict, where: str = "") -> Any
         limits = _limits_text(model, loc)
         msg = err["msg"].rstrip(".")
         raise ConfigError(
-            f"Setting '{key}' = {value!r} is not valid: {msg}{limits}; change it in the scenario or with --set {key}=VALUE."
+            f"Setting '{key}' = {value!r} is not valid: {msg}{limits}; "
+            f"change it in the scenario or with --set {key}=VALUE."
         ) from None
 
 

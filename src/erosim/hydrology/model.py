@@ -58,7 +58,7 @@ from erosim.hydrology.batch import (
 )
 from erosim.hydrology.batch import check as check_batch
 from erosim.hydrology.counter_rng import spawn_base, spawn_point, splitmix64
-from erosim.hydrology.droplets import ENDED, LEFT, descend_variant
+from erosim.hydrology.droplets import ENDED, LEFT, descend, descend_cell, descend_variant
 from erosim.hydrology.params import (
     P_CA,
     P_DRAIN,
@@ -172,7 +172,7 @@ def _settle(
         B[B_DEPOSITED] += S
 
 
-@njit(cache=True)
+@njit(inline="always")
 def run_droplets(
     first,
     count,
@@ -345,6 +345,40 @@ def run_droplets(
     return count
 
 
+# Cached drivers, one per descend variant. ``run_droplets`` takes the clock and the descend kernel
+# as arguments, and Numba's cache cannot hold an overload whose signature names other jitted
+# functions (re-pickling its index then fails with "ReferenceError: underlying object has
+# vanished", numba/numba#9348), so each variant gets its own cached function into which
+# ``run_droplets`` is inlined (Numba IR inlining binds the kernels statically; passing them as
+# values would make them uncacheable "dynamic globals"). The benchmark's timed build calls
+# ``run_droplets`` itself (uncached).
+@njit(cache=True)
+def run_droplets_cell(
+    first, count, seed, z2, stream, roots, erod, lake_of, track, level, area, mroot, broot, hkey,
+    hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, margin, lake_cap, pre,
+):  # fmt: skip
+    """:func:`run_droplets` with the seed-case descend kernel (:func:`descend_cell`), untimed."""
+    return run_droplets(
+        first, count, seed, z2, stream, roots, erod, lake_of, track, level, area, mroot, broot, hkey,
+        hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, _now_none, margin, lake_cap,
+        descend_cell, pre,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def run_droplets_general(
+    first, count, seed, z2, stream, roots, erod, lake_of, track, level, area, mroot, broot, hkey,
+    hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, margin, lake_cap, pre,
+):  # fmt: skip
+    """:func:`run_droplets` with the general descend kernel (:func:`descend`), untimed."""
+    return run_droplets(
+        first, count, seed, z2, stream, roots, erod, lake_of, track, level, area, mroot, broot, hkey,
+        hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, _now_none, margin, lake_cap,
+        descend, pre,
+    )  # fmt: skip
+
+
+
 def _check_map(name: str, arr, shape) -> np.ndarray:
     a = np.asarray(arr, dtype=np.float64)
     if a.shape != tuple(shape):
@@ -403,6 +437,7 @@ class HydrologyModel:
         self.P = kernel_constants(self.p, self.cell_size)
         self.P[P_ROOT] = self.veg.root_strength if self.veg.enabled else 0.0
         self._descend = descend_variant(self.P)
+        self._driver = run_droplets_cell if self._descend is descend_cell else run_droplets_general
         check_batch(self.p, int(self.P[P_FOOT]))
         self._no_pre = np.zeros((0, R_SIZE))
         self._work = work_arrays(int(self.p.batch)) if self.p.batch > 0 else None
@@ -503,37 +538,16 @@ class HydrologyModel:
         mode), rebuilding the lake heaps whenever the pool or the lake table fills."""
         k = 0
         while k < count:
-            done = run_droplets(
-                first + k,
-                count - k,
-                self.seed,
-                self.z,
-                self.stream,
-                self.cover,
-                self.erod,
-                self.lake_of,
-                self.track,
-                self.level,
-                self.area,
-                self.mroot,
-                self.broot,
-                self.hkey,
-                self.hcell,
-                self.hleft,
-                self.hright,
-                self.hrank,
-                self.hs,
-                self.stack,
-                self.walk,
-                self.rain_cdf,
-                self.budget,
-                self.P,
-                _now_real if self.timing else _now_none,
-                self.margin,
-                self.lake_cap,
-                self._descend,
-                pre[k:],
-            )
+            head = (
+                first + k, count - k, self.seed, self.z, self.stream, self.cover, self.erod, self.lake_of,
+                self.track, self.level, self.area, self.mroot, self.broot, self.hkey, self.hcell,
+                self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk, self.rain_cdf,
+                self.budget, self.P,
+            )  # fmt: skip
+            if self.timing:  # the benchmark's build with a real clock around the lake filling
+                done = run_droplets(*head, _now_real, self.margin, self.lake_cap, self._descend, pre[k:])
+            else:
+                done = self._driver(*head, self.margin, self.lake_cap, pre[k:])
             self.droplets += done
             k += done
             if k < count:
@@ -716,4 +730,4 @@ class HydrologyModel:
         return float(self.budget[B_FLOOD_NS]) * 1e-9
 
 
-__all__ = ["HydrologyModel", "run_droplets", "splitmix64"]
+__all__ = ["HydrologyModel", "run_droplets", "run_droplets_cell", "run_droplets_general", "splitmix64"]

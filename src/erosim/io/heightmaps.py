@@ -262,7 +262,22 @@ def _read_png(p: Path, cs: float | None, rng) -> Heightmap:
         rng = _check_range(str(info[_PNG_RANGE_KEY]).split())
     if cs is None and _PNG_CELL_KEY in info:
         cs = _check_cell_size(info[_PNG_CELL_KEY])
-    return Heightmap(z=_dequantise(np.asarray(a, dtype=np.float64), rng, full), cell_size=cs or 1.0)
+    hm = Heightmap(z=_dequantise(np.asarray(a, dtype=np.float64), rng, full), cell_size=cs or 1.0)
+    hm.notes.extend(_assumptions(p, rng, cs))
+    return hm
+
+
+def _assumptions(p: Path, rng, cs) -> list[str]:
+    """What a 16-bit file without erosim's metadata leaves to assumption, in words for the report."""
+    notes = []
+    if rng is None:
+        notes.append(
+            f"'{p.name}' stores no height range, so its integer values were read as metres; "
+            "set terrain.height_range = [low, high] if they stand for another range."
+        )
+    if cs is None:
+        notes.append(f"'{p.name}' stores no cell size, so 1 m was assumed; set terrain.cell_size.")
+    return notes
 
 
 def _read_raw(p: Path, cs: float | None, rng, raw_shape) -> Heightmap:
@@ -288,7 +303,9 @@ def _read_raw(p: Path, cs: float | None, rng, raw_shape) -> Heightmap:
             )
         ny = nx = side
     q = np.fromfile(p, dtype="<u2").reshape(ny, nx)
-    return Heightmap(z=_dequantise(q, rng), cell_size=cs or 1.0)
+    hm = Heightmap(z=_dequantise(q, rng), cell_size=cs or 1.0)
+    hm.notes.extend(_assumptions(p, rng, cs))
+    return hm
 
 
 def _read_asc(p: Path, cs: float | None) -> Heightmap:

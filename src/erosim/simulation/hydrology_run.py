@@ -141,6 +141,8 @@ def run(scenario, out: RunFolder, *, resume: bool = False, progress: bool = True
 
     cfg = scenario.config
     terrain, model = build_model(cfg)
+    for note in terrain.notes:
+        out.warn(note)
     if resume:
         state, _meta = ckpt.load(out.path / "checkpoint")
         model.load_state(state)

@@ -38,9 +38,7 @@ from erosim.terrain.heightmap import Heightmap
 LENGTH_FIELDS = ("width", "length", "speed", "max_speed", "radius_per_mass", "pivot_offset")
 
 
-def build_hardness(
-    section: HardnessSection, hm: Heightmap, seed: int
-) -> tuple[np.ndarray, Strata | None]:
+def build_hardness(section: HardnessSection, hm: Heightmap, seed: int) -> tuple[np.ndarray, Strata | None]:
     """The initial hardness map for ``hm`` and, for strata that follow the cut, their Strata."""
     kind = section.kind
     if kind == "file":
@@ -48,9 +46,7 @@ def build_hardness(
     if kind == "uniform":
         return np.full(hm.shape, float(section.value)), None
     if kind == "noise":
-        return hardness_mod.noise(
-            hm.shape, seed + 7919, section.noise_scale, section.low, section.high
-        ), None
+        return hardness_mod.noise(hm.shape, seed + 7919, section.noise_scale, section.low, section.high), None
     if kind == "classes":
         cm = _read_classes(section.class_file, hm.shape)
         return hardness_mod.classes(cm, {int(k): v for k, v in section.materials.items()}), None
@@ -83,10 +79,7 @@ def _read_classes(path: str, shape: tuple[int, int]) -> np.ndarray:
         with Image.open(p) as img:
             cm = np.asarray(img)
     if cm.shape != tuple(shape):
-        raise InputError(
-            f"Class map '{p}' has shape {cm.shape} but the terrain has {tuple(shape)}; "
-            "they must match."
-        )
+        raise InputError(f"Class map '{p}' has shape {cm.shape} but the terrain has {tuple(shape)}; they must match.")
     return cm
 
 
@@ -124,9 +117,7 @@ def _strata_picture(z: np.ndarray, d: np.ndarray, cell_size: float) -> np.ndarra
     return np.clip(tint * shade[..., None], 0.0, 1.0)
 
 
-def canyon_figure(
-    path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: float, spec: Strata | None
-) -> None:
+def canyon_figure(path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: float, spec: Strata | None) -> None:
     """Map (relief tinted by hardness) and a north–south cross-section through the deepest cut
     in the middle of the map (30–70 % of its width).
 
@@ -188,9 +179,7 @@ def canyon_figure(
         fig.savefig(tmp, format="png")
 
 
-def write_outputs(
-    out: RunFolder, hm: Heightmap, d0: np.ndarray, stream: ParticleStream
-) -> dict[str, Any]:
+def write_outputs(out: RunFolder, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) -> dict[str, Any]:
     """Maps and figures of a finished (or interrupted) stream; returns what the report needs."""
     from erosim.io import heightmaps as hio
     from erosim.viz.maps import colormap_png, hillshade, save_png
@@ -223,6 +212,8 @@ def run(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: b
     """Run a particle-stream scenario into ``out``; returns a short summary for the CLI."""
     cfg: StreamScenario = scenario.config
     hm, d0, stream = build(cfg)
+    for note in hm.notes:
+        out.warn(note)
     elapsed = 0.0
     if resume:
         state, meta = checkpoint.load(out.checkpoint)
@@ -235,20 +226,14 @@ def run(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: b
 
     def completed() -> float:
         in_flight = int((stream.serial >= 0).sum())
-        return (
-            float(stream.particles_emitted - in_flight)
-            if not stream.done
-            else float(stream.particles_total)
-        )
+        return float(stream.particles_emitted - in_flight) if not stream.done else float(stream.particles_total)
 
     def advance() -> float:
         stream.advance(rounds)
         return completed()
 
     def save_checkpoint() -> None:
-        checkpoint.save(
-            out.checkpoint, stream.state(), {"elapsed_s": elapsed + time.perf_counter() - t0}
-        )
+        checkpoint.save(out.checkpoint, stream.state(), {"elapsed_s": elapsed + time.perf_counter() - t0})
 
     total = float(stream.particles_total)
     drive(

@@ -40,6 +40,9 @@ class Heightmap:
     crs: str | None = None
     transform: tuple | None = None
     nodata: np.ndarray | None = None
+    # assumptions made while reading (no stored height range or cell size): runners copy them into
+    # report.json's warnings so a user sees why heights or distances look off
+    notes: list[str] = dataclasses.field(default_factory=list, compare=False)
 
     def __post_init__(self) -> None:
         try:

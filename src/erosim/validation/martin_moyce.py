@@ -33,8 +33,15 @@ THRESHOLD = 0.10
 RESOLUTIONS = {"coarse": 10, "default": 25, "fine": 50}
 
 
-def front_error(t: np.ndarray, x_front: np.ndarray, a: float, g: float,
-                ref_T: np.ndarray, ref_Z: np.ndarray, t_max: float = T_MAX_METRIC) -> tuple[float, np.ndarray, np.ndarray]:
+def front_error(
+    t: np.ndarray,
+    x_front: np.ndarray,
+    a: float,
+    g: float,
+    ref_T: np.ndarray,
+    ref_Z: np.ndarray,
+    t_max: float = T_MAX_METRIC,
+) -> tuple[float, np.ndarray, np.ndarray]:
     """Mean relative error of Z at the reference points with T ≤ t_max; also (T_k, Z_sim(T_k))."""
     T = np.asarray(t) * np.sqrt(2.0 * g / a)
     Z = np.asarray(x_front) / a
@@ -80,12 +87,19 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     err, T_k, Z_k = front_error(rows[:, 0], rows[:, 1], A, g, ref["T"], ref["Z"])
     T_all = rows[:, 0] * np.sqrt(2 * g / A)
     fig = front_vs_experiment(
-        folder.figures / "front_vs_experiment.png", T_all, rows[:, 1] / A, ref["T"], ref["Z"],
-        label=f"erosim, dx = a/{n_a}", title=f"Martin & Moyce n²=2: mean rel. error (T≤3) {100 * err:.1f} %",
+        folder.figures / "front_vs_experiment.png",
+        T_all,
+        rows[:, 1] / A,
+        ref["T"],
+        ref["Z"],
+        label=f"erosim, dx = a/{n_a}",
+        title=f"Martin & Moyce n²=2: mean rel. error (T≤3) {100 * err:.1f} %",
     )
     result = {
         "case": "martin-moyce",
-        "metric": "mean relative error of the surge front Z = x/a at the Martin & Moyce (1952) table points with T <= 3",
+        "metric": (
+            "mean relative error of the surge front Z = x/a at the Martin & Moyce (1952) table points with T <= 3"
+        ),
         "value": err,
         "threshold": THRESHOLD,
         "passed": bool(err <= THRESHOLD),
@@ -98,8 +112,11 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         "steps": int(solver.steps),
         "simulated_time_s": float(solver.t),
         "wall_time_s": round(wall, 2),
-        "points": {"T": T_k.tolist(), "Z_experiment": ref["Z"][ref["T"] <= T_MAX_METRIC + 1e-12].tolist(),
-                   "Z_simulation": Z_k.tolist()},
+        "points": {
+            "T": T_k.tolist(),
+            "Z_experiment": ref["Z"][ref["T"] <= T_MAX_METRIC + 1e-12].tolist(),
+            "Z_simulation": Z_k.tolist(),
+        },
         "figure": str(fig.relative_to(folder.path)),
         "run_status": summary["status"],
     }
