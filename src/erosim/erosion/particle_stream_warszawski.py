@@ -66,7 +66,7 @@ is both a collision and an impact): impact point ``P_k`` (off the map → back t
 collision turn of the heading (ST-4), deformation around ``P_k`` (ST-5), move to ``C_{k+1}``
 (ST-3).
 
-Strata that follow the cut (``advance_strata``): with hardness given by layered strata
+Strata that follow the cut (:func:`advance` with strata): with hardness given by layered strata
 (:mod:`erosim.terrain.hardness`), a cell's hardness is that of the band its *current* height lies
 in, ``d = D_b`` with ``b`` the band of ``q = (h + t_x i + t_y j − z₀) mod T`` (bands of thicknesses
 ``t_b`` from ``z₀`` repeating with period ``T = Σ t_b``, tilt ``t_x, t_y`` in metres per cell), and
@@ -291,52 +291,18 @@ def _act(h, d, table, e, st, s, key, age):
 
 # ----------------------------------------------------------------------------------- drivers
 @njit(cache=True)
-def advance_fixed(h, d, table, st, serial, age, emitted, total, acc, seed, rounds):
-    """Run ``rounds`` round-robin sweeps over all pool slots on a fixed hardness map.
+def advance(h, d, table, st, serial, age, emitted, total, acc, seed, rounds, strata, edges, values, floor):
+    """Run ``rounds`` round-robin sweeps over all pool slots.
 
     ``st`` (slots, 6) holds C_x, C_y, α, v, m, β; ``serial[s]`` is the slot's particle number
     (−1 = idle), ``age[s]`` its impacts so far; ``emitted``/``total`` count per emitter.
     ``acc[0]`` accumulates the summed lowering (m) impact by impact, so the total does not depend on
     how the run is cut into calls. Returns (impacts done, rounds done before the stream ran dry).
-    """
-    nslot = st.shape[0]
-    pool = nslot // table.shape[0]
-    impacts = 0
-    for r in range(rounds):
-        busy = False
-        for s in range(nslot):
-            e = s // pool
-            if serial[s] < 0:
-                if emitted[e] >= total[e]:
-                    continue
-                serial[s] = emitted[e]
-                emitted[e] += 1
-                age[s] = 0
-                _emit(table, e, serial[s], seed, st, s)
-            busy = True
-            key = _key(seed, e, serial[s])
-            m = st[s, 4]
-            px, py, ok = _act(h, d, table, e, st, s, key, age[s])
-            if ok:
-                acc[0] += _stamp(h, d, px, py, table[e, ERADIUS] * m, table[e, EDEPTH] * m)
-                impacts += 1
-                age[s] += 1
-            if not ok or age[s] >= table[e, ESTEPS]:
-                serial[s] = -1
-        if not busy:
-            return impacts, r
-    return impacts, rounds
 
-
-@njit(cache=True)
-def advance_strata(
-    h, d, table, st, serial, age, emitted, total, acc, seed, rounds, strata, edges, values, floor
-):
-    """:func:`advance_fixed` with strata hardness re-read from each lowered cell's new height.
-
-    ``strata`` = (t_x, t_y, z₀, T, 1/T); ``edges`` the bands' lower bounds within a period
-    (edges[0] = 0); ``values`` their hardness; ``floor`` each cell's stratum floor
-    (:func:`strata_init`).
+    Hardness: a fixed map when ``floor`` is ``None`` (Numba compiles that case without the strata
+    branch); else strata re-read from each lowered cell's new height, ``strata`` = (t_x, t_y, z₀,
+    T, 1/T), ``edges`` the bands' lower bounds within a period (edges[0] = 0), ``values`` their
+    hardness, ``floor`` each cell's stratum floor (:func:`strata_init`).
     """
     nslot = st.shape[0]
     pool = nslot // table.shape[0]
@@ -358,7 +324,10 @@ def advance_strata(
             px, py, ok = _act(h, d, table, e, st, s, key, age[s])
             if ok:
                 lam, depth = table[e, ERADIUS] * m, table[e, EDEPTH] * m
-                acc[0] += _stamp_strata(h, d, floor, px, py, lam, depth, strata, edges, values)
+                if floor is None:
+                    acc[0] += _stamp(h, d, px, py, lam, depth)
+                else:
+                    acc[0] += _stamp_strata(h, d, floor, px, py, lam, depth, strata, edges, values)
                 impacts += 1
                 age[s] += 1
             if not ok or age[s] >= table[e, ESTEPS]:
@@ -490,7 +459,7 @@ def emitter_table(
 
 def strata_arrays(strata: Strata, cell_size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(params (t_x, t_y per cell, z₀, T, 1/T), band lower edges, band hardness) for
-    :func:`advance_strata`."""
+    :func:`advance` with strata."""
     th = np.asarray(strata.thickness, dtype=np.float64)
     edges = np.concatenate([[0.0], np.cumsum(th)[:-1]])
     period = float(th.sum())
@@ -575,9 +544,9 @@ class ParticleStream:
             int(rounds),
         )
         if self.strata is None:
-            impacts, did = advance_fixed(*args)
+            impacts, did = advance(*args, None, None, None, None)
         else:
-            impacts, did = advance_strata(*args, self._sp, self._se, self._sv, self.floor)
+            impacts, did = advance(*args, self._sp, self._se, self._sv, self.floor)
         self.impacts += impacts
         if did < rounds:
             self.finished = True
