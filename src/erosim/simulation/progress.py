@@ -25,7 +25,8 @@ class _Rate(ProgressColumn):
         steps = task.fields.get("steps", 0)
         elapsed = task.elapsed or 0.0
         rate = steps / elapsed if elapsed > 0 else 0.0
-        return Text(f"{rate:,.0f} steps/s", style="cyan")
+        what = task.fields.get("rate_unit", "steps")
+        return Text(f"{rate:,.0f} {what}/s", style="cyan")
 
 
 class ProgressBar:
@@ -55,7 +56,11 @@ class ProgressBar:
                 transient=False,
             )
             self._progress.__enter__()
-            self._task = self._progress.add_task(self.label, total=self.total, completed=self._start, steps=0)
+            # simulated time advances in steps; other units (cycles, droplets) count themselves
+            rate_unit = "steps" if self.unit == "s" else self.unit
+            self._task = self._progress.add_task(
+                self.label, total=self.total, completed=self._start, steps=0, rate_unit=rate_unit
+            )
         return self
 
     def update(self, done: float, steps: int) -> None:
