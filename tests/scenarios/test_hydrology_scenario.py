@@ -13,13 +13,7 @@ from erosim.scenarios import loader
 from erosim.simulation import hydrology_run
 from erosim.terrain.heightmap import Heightmap
 
-SMALL = [
-    "terrain.size=48",
-    "terrain.cell_size=40.0",
-    "run.cycles=6",
-    "run.frames=3",
-    "hydrology.cycle_droplets=20000",
-]
+SMALL = ["terrain.size=48", "terrain.cell_size=40.0", "run.cycles=6", "run.frames=3", "hydrology.cycle_droplets=20000"]
 
 
 def _run(tmp_path, overrides=(), name="run", preset=None):
@@ -61,10 +55,7 @@ def test_report_budgets_and_ranges(folder):
     for key in ("eroded", "deposited", "carried_off", "closure_rel"):
         assert key in sb
     # the four terms close by themselves (float64 accumulators): 1e-9 is the stated bar
-    assert (
-        abs(wb["rained"] - wb["in_lakes"] - wb["evaporated"] - wb["left_edges"])
-        <= 1e-9 * wb["rained"]
-    )
+    assert abs(wb["rained"] - wb["in_lakes"] - wb["evaporated"] - wb["left_edges"]) <= 1e-9 * wb["rained"]
     assert abs(sb["eroded"] - sb["deposited"] - sb["carried_off"]) <= 1e-9 * sb["eroded"]
     lo, hi = rep["outputs"]["heightmap_16bit"]["height_range"]
     # the 16-bit heightmap re-scales to the final heights within half a quantisation step
@@ -95,9 +86,7 @@ def test_dem_file_input_keeps_its_crs(tmp_path):
     from rasterio.crs import CRS
 
     crs = CRS.from_epsg(32633).to_wkt()
-    dem = Heightmap(
-        z=z, cell_size=30.0, crs=crs, transform=(30.0, 0.0, 400000.0, 0.0, -30.0, 5000000.0)
-    )
+    dem = Heightmap(z=z, cell_size=30.0, crs=crs, transform=(30.0, 0.0, 400000.0, 0.0, -30.0, 5000000.0))
     hio.write(tmp_path / "dem.tif", dem)
     path, _ = _run(tmp_path, [f"terrain.file={tmp_path / 'dem.tif'}"], name="dem")
     out = hio.read(path / "maps" / "lake_depth.tif")
@@ -108,10 +97,7 @@ def test_dem_file_input_keeps_its_crs(tmp_path):
 
 def test_seed_preset_runs(tmp_path):
     path, summary = _run(
-        tmp_path,
-        ["terrain.size=48", "terrain.cell_size=40.0"],
-        name="seed",
-        preset="simplehydrology-2020",
+        tmp_path, ["terrain.size=48", "terrain.cell_size=40.0"], name="seed", preset="simplehydrology-2020"
     )
     text = (path / "scenario.toml").read_text()
     assert "length_scale = 0.0" in text and "pit_flood = false" in text

@@ -14,14 +14,7 @@ from erosim.scenarios import loader
 from erosim.simulation import stream_run
 from erosim.terrain.heightmap import Heightmap
 
-SMALL = [
-    "--set",
-    "terrain.size=64",
-    "--set",
-    "emitters.main.particles=150",
-    "--set",
-    "emitters.main.steps=50",
-]
+SMALL = ["--set", "terrain.size=64", "--set", "emitters.main.particles=150", "--set", "emitters.main.steps=50"]
 
 
 def run_cli(*args):
@@ -43,13 +36,7 @@ def test_library_scenario_writes_the_run_folder(tmp_path):
         "erosion_mask.png",
     ):
         assert (out / "maps" / name).is_file(), name
-    for name in (
-        "hillshade_before.png",
-        "hillshade_after.png",
-        "strata_after.png",
-        "erosion.png",
-        "canyon.png",
-    ):
+    for name in ("hillshade_before.png", "hillshade_after.png", "strata_after.png", "erosion.png", "canyon.png"):
         assert (out / "figures" / name).is_file(), name
     assert (out / "scenario.toml").is_file() and (out / "checkpoint" / "state.npz").is_file()
     rep = json.loads((out / "report.json").read_text())
@@ -59,9 +46,7 @@ def test_library_scenario_writes_the_run_folder(tmp_path):
     assert rep["seed"] == 1 and rep["particles"] == 150 and rep["removed_volume"] > 0
     # float32 GeoTIFFs: heights ~10² m carry ~10⁻⁵ m round-off per cell, so compare to 1e-4 relative
     area = h0.cell_size**2
-    assert rep["removed_volume"] == pytest.approx(
-        float(ero.astype(np.float64).sum()) * area, rel=1e-4
-    )
+    assert rep["removed_volume"] == pytest.approx(float(ero.astype(np.float64).sum()) * area, rel=1e-4)
     assert rep["removed_volume"] == pytest.approx(rep["removed_volume_kernel"], rel=1e-9)
     assert (h <= h0.z + 1e-3).all()  # only goes down (float32 round-off aside)
     # the 16-bit PNG re-reads within one quantisation step of the float map
@@ -99,9 +84,7 @@ def test_own_dem_and_hardness_files(tmp_path):
     assert res.exit_code == 0, res.output
     rep = json.loads((out / "report.json").read_text())
     assert rep["hardness_source"] == "file" and rep["terrain"]["cell_size"] == 5.0
-    np.testing.assert_array_equal(
-        hio.read(out / "maps" / "hardness.tif").z, d.astype(np.float32)
-    )  # float32 file
+    np.testing.assert_array_equal(hio.read(out / "maps" / "hardness.tif").z, d.astype(np.float32))  # float32 file
     h0 = hio.read(out / "maps" / "height_initial.tif").z
     h = hio.read(out / "maps" / "height.tif").z
     assert np.array_equal(h[:, 30:34], h0[:, 30:34])
@@ -111,12 +94,7 @@ def test_own_dem_and_hardness_files(tmp_path):
 def test_same_seed_same_maps(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     for out in (a, b):
-        assert (
-            run_cli(
-                "particle-stream", "--out", str(out), *SMALL, "--preset", "two-streams"
-            ).exit_code
-            == 0
-        )
+        assert run_cli("particle-stream", "--out", str(out), *SMALL, "--preset", "two-streams").exit_code == 0
     for name in ("height.tif", "hardness.tif", "erosion.tif"):
         assert np.array_equal(hio.read(a / "maps" / name).z, hio.read(b / "maps" / name).z)
     ra, rb = (json.loads((p / "report.json").read_text()) for p in (a, b))
@@ -124,12 +102,7 @@ def test_same_seed_same_maps(tmp_path):
 
 
 def test_resume_continues_exactly(tmp_path):
-    sets = [
-        "terrain.size=64",
-        "emitters.main.particles=120",
-        "emitters.main.steps=40",
-        "stream.pool=8",
-    ]
+    sets = ["terrain.size=64", "emitters.main.particles=120", "emitters.main.steps=40", "stream.pool=8"]
     sc = loader.load("particle-stream", sets)
     whole = RunFolder(tmp_path / "whole")
     stream_run.run(sc, whole, progress=False)
@@ -142,9 +115,7 @@ def test_resume_continues_exactly(tmp_path):
     resumed = loader.load(tmp_path / "part" / "scenario.toml")
     stream_run.run(resumed, RunFolder(tmp_path / "part", resume=True), resume=True, progress=False)
     for name in ("height.tif", "hardness.tif"):
-        assert np.array_equal(
-            hio.read(whole.path / "maps" / name).z, hio.read(part.path / "maps" / name).z
-        )
+        assert np.array_equal(hio.read(whole.path / "maps" / name).z, hio.read(part.path / "maps" / name).z)
 
 
 @pytest.mark.parametrize(
@@ -167,25 +138,13 @@ def test_bad_hardness_files_are_one_sentence(tmp_path):
     np.save(tmp_path / "small.npy", np.zeros((10, 10)))
     np.save(tmp_path / "big.npy", np.full((64, 64), 2.0))
     res = run_cli(
-        "particle-stream",
-        "--out",
-        str(tmp_path / "a"),
-        *SMALL,
-        "--set",
-        f"hardness.file={tmp_path / 'small.npy'}",
+        "particle-stream", "--out", str(tmp_path / "a"), *SMALL, "--set", f"hardness.file={tmp_path / 'small.npy'}"
     )
     assert res.exit_code != 0 and "shape (10, 10)" in res.output and "Traceback" not in res.output
     res = run_cli(
-        "particle-stream",
-        "--out",
-        str(tmp_path / "b"),
-        *SMALL,
-        "--set",
-        f"hardness.file={tmp_path / 'big.npy'}",
+        "particle-stream", "--out", str(tmp_path / "b"), *SMALL, "--set", f"hardness.file={tmp_path / 'big.npy'}"
     )
-    assert (
-        res.exit_code != 0 and "must lie in [0, 1]" in res.output and "Traceback" not in res.output
-    )
+    assert res.exit_code != 0 and "must lie in [0, 1]" in res.output and "Traceback" not in res.output
 
 
 def test_every_hardness_source_builds(tmp_path):
@@ -220,9 +179,7 @@ def test_bench_stream_prints_one_json_object(monkeypatch):
 
     monkeypatch.setattr(bench, "SIZE", 96)  # the contract, not the timing: a small map, one repeat
     monkeypatch.setattr(bench, "MIN_TIME", 0.0)
-    res = CliRunner().invoke(
-        cli, ["bench", "stream", "--particles", "100", "--particles", "300", "--json"]
-    )
+    res = CliRunner().invoke(cli, ["bench", "stream", "--particles", "100", "--particles", "300", "--json"])
     assert res.exit_code == 0, res.output
     out = json.loads(res.output)
     assert [r["particles"] for r in out["runs"]] == [100, 300]

@@ -56,8 +56,14 @@ def test_drive_schedules_and_interrupt(tmp_path):
         return clock["t"]
 
     with pytest.raises(Interrupted, match="checkpoint was written"):
-        drive(advance, start=0.0, total=5.0, schedules=[Every(1.0, fired.append)],
-              checkpoint=lambda: saved.append(clock["t"]), progress=False)
+        drive(
+            advance,
+            start=0.0,
+            total=5.0,
+            schedules=[Every(1.0, fired.append)],
+            checkpoint=lambda: saved.append(clock["t"]),
+            progress=False,
+        )
     # frames at t = 0, then the first steps past 1.0 and 2.0 (0.3-s steps: 1.2, 2.1 is interrupted before)
     assert fired == pytest.approx([0.0, 1.2]) and len(saved) == 1
 

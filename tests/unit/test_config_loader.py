@@ -72,7 +72,7 @@ def test_resolved_toml_round_trips(toy_kind, tmp_path):
 @pytest.mark.parametrize(
     "text, match",
     [
-        ("kind = \"toy\"\n[inner\n", "not valid TOML"),
+        ('kind = "toy"\n[inner\n', "not valid TOML"),
         ('kind = "nope"\n', "Unknown scenario kind 'nope'"),
         ("name = 'x'\n", "has no 'kind'"),
         ('schema_version = 7\nkind = "toy"\n', "schema_version 7"),

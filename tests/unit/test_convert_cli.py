@@ -24,9 +24,7 @@ def test_convert_npy_to_geotiff_with_cell_size(tmp_path):
 def test_convert_geotiff_to_png16_reports_height_range(tmp_path):
     hm = Heightmap(z=np.arange(20.0).reshape(4, 5) * 3.0 + 100.0, cell_size=4.0)
     io.write(tmp_path / "in.tif", hm)
-    result = CliRunner().invoke(
-        cli, ["convert", str(tmp_path / "in.tif"), str(tmp_path / "out.png")]
-    )
+    result = CliRunner().invoke(cli, ["convert", str(tmp_path / "in.tif"), str(tmp_path / "out.png")])
     assert result.exit_code == 0, result.output
     assert "height_range" in result.output and "157" in result.output  # 100 + 19·3
     back = io.read(tmp_path / "out.png")
@@ -41,7 +39,5 @@ def test_convert_bad_input_is_one_sentence(tmp_path):
     np.save(tmp_path / "in.npy", np.zeros((3, 3)))
     result = runner.invoke(cli, ["convert", str(tmp_path / "in.npy"), str(tmp_path / "x.bmp")])
     assert result.exit_code != 0 and "unknown extension '.bmp'" in result.output
-    result = runner.invoke(
-        cli, ["convert", str(tmp_path / "in.npy"), str(tmp_path / "x.tif"), "--cell-size", "-1"]
-    )
+    result = runner.invoke(cli, ["convert", str(tmp_path / "in.npy"), str(tmp_path / "x.tif"), "--cell-size", "-1"])
     assert result.exit_code != 0 and "positive number of metres" in result.output

@@ -74,17 +74,13 @@ def test_terrain_section_generates_or_reads(tmp_path):
     from erosim.io.heightmaps import write
     from erosim.scenarios.schema_common import TerrainSection, build_terrain
 
-    sec = validate_section(
-        TerrainSection, {"preset": "hills", "size": 32, "cell_size": 4.0, "relief": 50.0}, "terrain"
-    )
+    sec = validate_section(TerrainSection, {"preset": "hills", "size": 32, "cell_size": 4.0, "relief": 50.0}, "terrain")
     hm = build_terrain(sec, seed=5)
     assert np.array_equal(hm.z, generate("hills", 32, 4.0, 5, relief=50.0).z)
     write(tmp_path / "dem.npy", hm)
     # Setting only terrain.file switches the source (what `--set terrain.file=PATH` does).
     sec = validate_section(
-        TerrainSection,
-        {"preset": "hills", "file": str(tmp_path / "dem.npy"), "cell_size": 4.0},
-        "terrain",
+        TerrainSection, {"preset": "hills", "file": str(tmp_path / "dem.npy"), "cell_size": 4.0}, "terrain"
     )
     assert sec.uses_file
     assert np.array_equal(build_terrain(sec, seed=0).z, hm.z)

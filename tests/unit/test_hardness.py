@@ -49,21 +49,15 @@ def test_strata_bands_by_height_repeat_and_tilt():
     spec = Strata(thickness=(2.0, 1.0, 3.0), hardness=(0.1, 0.9, 0.5), base=10.0)
     z = np.array([[10.0, 11.9, 12.0, 12.99, 13.0, 15.99, 16.0, 18.5, 9.5]])
     # bands from 10 m: [10, 12) → 0.1, [12, 13) → 0.9, [13, 16) → 0.5, repeating every 6 m
-    np.testing.assert_array_equal(
-        hardness.strata(z, 1.0, spec), [[0.1, 0.1, 0.9, 0.9, 0.5, 0.5, 0.1, 0.9, 0.5]]
-    )
+    np.testing.assert_array_equal(hardness.strata(z, 1.0, spec), [[0.1, 0.1, 0.9, 0.9, 0.5, 0.5, 0.1, 0.9, 0.5]])
     # tilt: layers rise 0.5 m per metre eastward relative to the surface → on flat ground at 10 m,
     # cells 2 m apart (cell 1 m) step through the bands
     tilted = Strata(thickness=(2.0, 1.0, 3.0), hardness=(0.1, 0.9, 0.5), base=10.0, tilt_x=0.5)
     flat = np.full((1, 8), 10.0)
-    np.testing.assert_array_equal(
-        hardness.strata(flat, 1.0, tilted), [[0.1] * 4 + [0.9] * 2 + [0.5] * 2]
-    )
+    np.testing.assert_array_equal(hardness.strata(flat, 1.0, tilted), [[0.1] * 4 + [0.9] * 2 + [0.5] * 2])
     # northward tilt: rows run south, so a northward rise shows in the row direction reversed
     north = Strata(thickness=(2.0, 1.0, 3.0), hardness=(0.1, 0.9, 0.5), base=10.0, tilt_y=-0.5)
-    np.testing.assert_array_equal(
-        hardness.strata(flat.T, 1.0, north)[:, 0], [0.1] * 4 + [0.9] * 2 + [0.5] * 2
-    )
+    np.testing.assert_array_equal(hardness.strata(flat.T, 1.0, north)[:, 0], [0.1] * 4 + [0.9] * 2 + [0.5] * 2)
 
 
 def test_strata_bad_specs():
@@ -89,9 +83,7 @@ def test_noise_is_smooth_in_range_and_seeded():
 def test_class_map_with_materials_table():
     cm = np.array([[0, 1], [2, 1]], dtype=np.int16)
     d = hardness.classes(cm, {0: "sand", 1: "granite", 2: 0.33})
-    np.testing.assert_array_equal(
-        d, [[MATERIALS["sand"], MATERIALS["granite"]], [0.33, MATERIALS["granite"]]]
-    )
+    np.testing.assert_array_equal(d, [[MATERIALS["sand"], MATERIALS["granite"]], [0.33, MATERIALS["granite"]]])
     with pytest.raises(InputError, match=r"values \[2\] have no material"):
         hardness.classes(cm, {0: "sand", 1: "granite"})
     with pytest.raises(InputError, match="Unknown material 'lava'"):

@@ -19,9 +19,7 @@ def hm():
 
 @pytest.fixture
 def geo_hm(hm):
-    return Heightmap(
-        z=hm.z, cell_size=5.0, crs=UTM33, transform=(5.0, 0.0, 440000.0, 0.0, -5.0, 5100000.0)
-    )
+    return Heightmap(z=hm.z, cell_size=5.0, crs=UTM33, transform=(5.0, 0.0, 440000.0, 0.0, -5.0, 5100000.0))
 
 
 def test_geotiff_keeps_crs_transform_and_float32_heights(tmp_path, geo_hm):
@@ -40,9 +38,7 @@ def test_geotiff_keeps_crs_transform_and_float32_heights(tmp_path, geo_hm):
 def test_geotiff_nodata_becomes_mask_and_is_filled(tmp_path, geo_hm):
     z = geo_hm.z.copy()
     z[:3, :4] = np.nan
-    io.write(
-        tmp_path / "n.tif", Heightmap(z=z, cell_size=5.0, crs=UTM33, transform=geo_hm.transform)
-    )
+    io.write(tmp_path / "n.tif", Heightmap(z=z, cell_size=5.0, crs=UTM33, transform=geo_hm.transform))
     back = io.read(tmp_path / "n.tif")
     assert back.nodata is not None and back.nodata.sum() == 12 and back.nodata[:3, :4].all()
     assert np.isfinite(back.z).all()
@@ -63,9 +59,7 @@ def test_16bit_formats_within_one_quantisation_step(tmp_path, hm, ext):
     info = io.write(tmp_path / f"h{ext}", hm)
     lo, hi = info["height_range"]
     assert lo == hm.z.min() and hi == hm.z.max()
-    back = io.read(
-        tmp_path / f"h{ext}", height_range=(lo, hi), raw_shape=hm.shape if ext != ".png" else None
-    )
+    back = io.read(tmp_path / f"h{ext}", height_range=(lo, hi), raw_shape=hm.shape if ext != ".png" else None)
     step = (hi - lo) / 65535
     assert np.abs(back.z - hm.z).max() <= 0.5 * step + 1e-12  # rounding to the nearest level
 

@@ -69,9 +69,7 @@ def test_batch_mode_stays_close_to_the_serial_model():
     # of its scale (measured on this map: eroded volume +2 %, descend steps +3 %); a factor 1.3
     # would flag a broken batch path (lost or doubled logs), not the chaotic path differences
     assert b["eroded"] == pytest.approx(a["eroded"], rel=0.3)
-    assert batched.stats()["descend_steps"] == pytest.approx(
-        serial.stats()["descend_steps"], rel=0.3
-    )
+    assert batched.stats()["descend_steps"] == pytest.approx(serial.stats()["descend_steps"], rel=0.3)
 
 
 def test_batch_mode_is_refused_where_no_logged_kernel_exists():

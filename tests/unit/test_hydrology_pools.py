@@ -12,12 +12,7 @@ from erosim.terrain.heightmap import Heightmap
 
 def _model(z, cell=1.0, **kw):
     p = HydrologyParams(length_scale=0.0, **kw)
-    m = HydrologyModel(
-        Heightmap(z=np.asarray(z, float), cell_size=cell),
-        p,
-        VegetationParams(enabled=False),
-        seed=3,
-    )
+    m = HydrologyModel(Heightmap(z=np.asarray(z, float), cell_size=cell), p, VegetationParams(enabled=False), seed=3)
     m._rebuild()
     return m
 
@@ -95,9 +90,7 @@ def test_fill_to_spill_then_overflow_into_the_next_basin():
     level = (z + d)[8, 8]
     assert level == pytest.approx(5.0 - 0.001 * (5.0 - z[iy, ix]), abs=1e-9)  # seed's slow drainage
     released = 300.0 - d.sum()
-    assert V == pytest.approx(
-        50.0 + released, rel=1e-12
-    )  # what overflowed is what the drop carries
+    assert V == pytest.approx(50.0 + released, rel=1e-12)  # what overflowed is what the drop carries
     # never above the spill level given by a morphological fill of the terrain
     assert np.all(z + d <= _filled(z) + 1e-9)
 

@@ -19,15 +19,7 @@ def flat(n=N, value=10.0):
 def single(**kw):
     """One particle, one impact, no jitter: it strikes exactly at the window centre."""
     base = dict(
-        particles=1,
-        steps=1,
-        width=1e-9,
-        spread_deg=0,
-        speed_jitter=0,
-        mass_jitter=0,
-        max_angle_deg=0,
-        x=0.5,
-        y=0.5,
+        particles=1, steps=1, width=1e-9, spread_deg=0, speed_jitter=0, mass_jitter=0, max_angle_deg=0, x=0.5, y=0.5
     )
     return Emitter(**{**base, **kw})
 
@@ -46,18 +38,14 @@ def test_single_impact_stays_inside_radius_of_influence():
     # largest at the impact point, e·m there (erodibility 1): Δh(r) = e m (1 - r²/λ²)
     # (tolerance: the 1e-9-wide window shifts the impact by < 1e-9 cells, a 1e-9 relative change)
     drop = h0 - h
-    np.testing.assert_allclose(
-        drop, np.clip(0.15 * (1 - r**2 / lam**2), 0, None), rtol=0, atol=1e-9
-    )
+    np.testing.assert_allclose(drop, np.clip(0.15 * (1 - r**2 / lam**2), 0, None), rtol=0, atol=1e-9)
 
 
 def test_heavier_particle_erodes_wider_area():
     h0 = flat()
     areas = []
     for mass in (1.0, 2.0):
-        h, _, _ = erode(
-            h0, np.zeros_like(h0), 1.0, [single(mass=mass, radius_per_mass=5.0)], seed=1
-        )
+        h, _, _ = erode(h0, np.zeros_like(h0), 1.0, [single(mass=mass, radius_per_mass=5.0)], seed=1)
         areas.append(int((h < h0).sum()))
     assert areas[1] > areas[0]
     # λ ∝ m, so the disc's area ∝ m²: ratio 4 up to the lattice count of discs of radius 5 and 10
@@ -86,10 +74,7 @@ def test_terrain_only_goes_down_and_removed_volume_is_reported():
     h0 = 20.0 + 3.0 * rng.random((N, N))
     d = rng.random((N, N))
     cell = 2.5
-    em = [
-        Emitter(particles=300, x=0.05, y=0.3),
-        Emitter(particles=300, x=0.5, y=0.95, direction_deg=90),
-    ]
+    em = [Emitter(particles=300, x=0.05, y=0.3), Emitter(particles=300, x=0.5, y=0.95, direction_deg=90)]
     h, _, vol = erode(h0, d, cell, em, seed=11)
     assert (h <= h0).all()
     assert vol > 0
@@ -217,8 +202,7 @@ def test_rotational_motion_strikes_around_the_pivot():
     h, _, _ = erode(flat(), np.zeros((N, N)), 1.0, [em], seed=0)
     c = 0.5 * (N - 1)
     hits = {
-        (round(c + 6 * math.cos(math.radians(a))), round(c - 6 * math.sin(math.radians(a))))
-        for a in (0, 90, 180, 270)
+        (round(c + 6 * math.cos(math.radians(a))), round(c - 6 * math.sin(math.radians(a)))) for a in (0, 90, 180, 270)
     }
     for i, j in hits:
         assert h[j, i] < 10.0
@@ -258,9 +242,7 @@ def test_bad_inputs_give_clear_errors():
         validate_section(Emitter, {"width": -1.0}, "emitters.main")
 
 
-@pytest.mark.parametrize(
-    "direction, drow, dcol", [(0, 0, 1), (90, -1, 0), (180, 0, -1), (-90, 1, 0)]
-)
+@pytest.mark.parametrize("direction, drow, dcol", [(0, 0, 1), (90, -1, 0), (180, 0, -1), (-90, 1, 0)])
 def test_direction_is_compass_style_and_the_window_bounds_the_entry(direction, drow, dcol):
     n = 96
     c = 0.5 * (n - 1)

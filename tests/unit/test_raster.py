@@ -69,9 +69,7 @@ def test_scatter_conserves_total_and_stays_on_map():
     field = np.zeros((10, 12))
     rng = np.random.default_rng(5)
     total = 0.0
-    for x, y, v in zip(
-        rng.uniform(-3, 15, 500), rng.uniform(-3, 13, 500), rng.normal(size=500), strict=True
-    ):
+    for x, y, v in zip(rng.uniform(-3, 15, 500), rng.uniform(-3, 13, 500), rng.normal(size=500), strict=True):
         raster.scatter_bilinear(field, x, y, v)
         total += v
     assert field.sum() == pytest.approx(total, abs=1e-10)

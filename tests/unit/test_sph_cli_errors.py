@@ -45,7 +45,7 @@ def test_unknown_key_suggests_nearest(tmp_path):
 
 
 def test_unknown_key_in_file_sph_table(tmp_path):
-    text = (LIB / "hydrostatic.toml").read_text().replace("[sph]\n", "[sph]\nviscousity = \"laminar\"\n")
+    text = (LIB / "hydrostatic.toml").read_text().replace("[sph]\n", '[sph]\nviscousity = "laminar"\n')
     code, out = _run(["run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o")])
     assert code != 0
     line = _one_sentence(out)
@@ -54,8 +54,12 @@ def test_unknown_key_in_file_sph_table(tmp_path):
 
 @pytest.mark.parametrize(
     "override, key",
-    [("sph.spacing=-0.01", "sph.spacing"), ("run.t_end=0", "run.t_end"), ("sph.alpha=5", "sph.alpha"),
-     ("sph.eos=\"ideal-gas\"", "sph.eos")],
+    [
+        ("sph.spacing=-0.01", "sph.spacing"),
+        ("run.t_end=0", "run.t_end"),
+        ("sph.alpha=5", "sph.alpha"),
+        ('sph.eos="ideal-gas"', "sph.eos"),
+    ],
 )
 def test_value_out_of_range(tmp_path, override, key):
     code, out = _run(["run", "dam-break-2d", "--set", override, "--out", str(tmp_path / "o")])

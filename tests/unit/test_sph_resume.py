@@ -93,8 +93,9 @@ def test_ctrl_c_writes_checkpoint_and_resume_matches(tmp_path, monkeypatch):
 def test_unstable_run_stops_with_clear_message_and_keeps_files(tmp_path):
     """max_mach tiny: the first motion counts as 'exploding speed', which must stop the run cleanly."""
     out = tmp_path / "u"
-    code, text = _cli("run", "dam-break-2d", "--out", str(out),
-                      *_sets(BASE + ["run.t_end=0.01", "sph.max_mach=0.0001"]))
+    code, text = _cli(
+        "run", "dam-break-2d", "--out", str(out), *_sets(BASE + ["run.t_end=0.01", "sph.max_mach=0.0001"])
+    )
     assert code == InstabilityError.exit_code
     lines = [ln for ln in text.strip().splitlines() if ln.strip()]
     assert len(lines) == 1 and "step" in lines[0] and "Traceback" not in text

@@ -54,9 +54,7 @@ def test_erosion_rivers_lakes_agree_128_vs_256():
     assert r["stream"][0] > 0.65 and r["stream"][1] > 0.8
     assert r["lakes"][1] > 0.8
     # the same amounts: total erosion within 15 % (a chaotic system: measured 3 %)
-    assert fine.sediment_budget()["eroded"] == pytest.approx(
-        coarse.sediment_budget()["eroded"], rel=0.15
-    )
+    assert fine.sediment_budget()["eroded"] == pytest.approx(coarse.sediment_budget()["eroded"], rel=0.15)
 
 
 @pytest.mark.slow

@@ -19,8 +19,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 
-def probe_pressure(positions: np.ndarray, pressure: np.ndarray, volume: np.ndarray,
-                   points: np.ndarray, h: float) -> np.ndarray:
+def probe_pressure(
+    positions: np.ndarray, pressure: np.ndarray, volume: np.ndarray, points: np.ndarray, h: float
+) -> np.ndarray:
     """Shepard-interpolated pressure at each of ``points`` (k, d); 0 where no particle is within h."""
     points = np.atleast_2d(np.asarray(points, dtype=np.float64))
     out = np.zeros(len(points))
@@ -40,8 +41,7 @@ def probe_pressure(positions: np.ndarray, pressure: np.ndarray, volume: np.ndarr
     return out
 
 
-def water_depth(positions: np.ndarray, gauges: np.ndarray, radius: float, spacing: float,
-                floor: float) -> np.ndarray:
+def water_depth(positions: np.ndarray, gauges: np.ndarray, radius: float, spacing: float, floor: float) -> np.ndarray:
     """Depth above ``floor`` of the water column at each gauge's horizontal position.
 
     ``gauges`` is (k, d−1): x in 2-D, (x, y) in 3-D. Depth = max z of particles within ``radius``

@@ -28,13 +28,7 @@ import time
 import warnings
 
 
-def run(
-    size: int = 256,
-    droplets: int | None = None,
-    spinup: int | None = None,
-    seed: int = 1,
-    batch: int = 0,
-) -> dict:
+def run(size: int = 256, droplets: int | None = None, spinup: int | None = None, seed: int = 1, batch: int = 0) -> dict:
     """Benchmark one map size; returns the JSON-able result."""
     import numba
     from numba import NumbaWarning

@@ -33,9 +33,7 @@ STRATA = Strata(thickness=(12.0, 5.0, 9.0, 4.0), hardness=(0.25, 0.85, 0.45, 0.7
 
 
 def _emitters(particles: int, steps: int = STEPS) -> list[Emitter]:
-    counts = [
-        particles // EMITTERS + (1 if k < particles % EMITTERS else 0) for k in range(EMITTERS)
-    ]
+    counts = [particles // EMITTERS + (1 if k < particles % EMITTERS else 0) for k in range(EMITTERS)]
     return [
         Emitter(
             x=0.02,

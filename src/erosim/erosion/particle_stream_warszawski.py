@@ -254,9 +254,7 @@ def _stamp_strata(h, d, floor, x0, y0, lam, depth, strata, edges, values):
                 h[j, i] -= dh
                 total += dh
                 if h[j, i] < floor[j, i]:
-                    d[j, i], floor[j, i] = _band(
-                        h[j, i], tx, ty, i, j, z0, edges, values, period, inv_period
-                    )
+                    d[j, i], floor[j, i] = _band(h[j, i], tx, ty, i, j, z0, edges, values, period, inv_period)
     return total
 
 
@@ -277,9 +275,7 @@ def _act(h, d, table, e, st, s, key, age):
         return px, py, False
     nprobe = int(table[e, EPROBES])
     step = table[e, EGAMMA] / nprobe
-    alpha = _steer(
-        d, px, py, alpha, v, table[e, ECOSD], table[e, ESIND], nprobe, step, table[e, ESTEER]
-    )
+    alpha = _steer(d, px, py, alpha, v, table[e, ECOSD], table[e, ESIND], nprobe, step, table[e, ESTEER])
     dmax = table[e, EAMAX] * max(0.0, 1.0 - v / table[e, EVMAX])
     ak = alpha + (2.0 * _u01(key, 8 + age) - 1.0) * dmax
     st[s, 0] = cx + v * math.cos(ak)
@@ -349,61 +345,33 @@ class Emitter(Section):
     = north).
     """
 
-    x: float = param(
-        0.05, unit="1", doc="window centre, fraction of the map width from the west edge"
-    )
-    y: float = param(
-        0.5, unit="1", doc="window centre, fraction of the map height from the north edge"
-    )
+    x: float = param(0.05, unit="1", doc="window centre, fraction of the map width from the west edge")
+    y: float = param(0.5, unit="1", doc="window centre, fraction of the map height from the north edge")
     direction_deg: float = param(0.0, unit="deg", doc="stream heading, counter-clockwise from east")
-    width: float = param(
-        20.0, ge=0, unit="m|cell", doc="window width across the stream (stream width)"
-    )
+    width: float = param(20.0, ge=0, unit="m|cell", doc="window width across the stream (stream width)")
     length: float = param(0.0, ge=0, unit="m|cell", doc="window length along the stream")
     spread_deg: float = param(5.0, ge=0, le=180, unit="deg", doc="initial heading jitter ±")
     particles: int = param(10_000, ge=0, unit="1", doc="particles this emitter emits in total")
     steps: int = param(40, ge=1, unit="1", doc="impacts per particle before it returns to the pool")
-    speed: float = param(
-        2.0, gt=0, unit="m|cell per step", doc="mean speed v (radius of the motion circle)"
-    )
+    speed: float = param(2.0, gt=0, unit="m|cell per step", doc="mean speed v (radius of the motion circle)")
     speed_jitter: float = param(0.2, ge=0, lt=1, unit="1", doc="relative speed jitter ±")
-    max_speed: float = param(
-        4.0, gt=0, unit="m|cell per step", doc="v_max: at this speed the course never deviates"
-    )
+    max_speed: float = param(4.0, gt=0, unit="m|cell per step", doc="v_max: at this speed the course never deviates")
     max_angle_deg: float = param(
-        20.0,
-        ge=0,
-        le=180,
-        unit="deg",
-        doc="alpha_max: largest deviation from the heading (at v = 0)",
+        20.0, ge=0, le=180, unit="deg", doc="alpha_max: largest deviation from the heading (at v = 0)"
     )
-    gamma_deg: float = param(
-        30.0, ge=0, le=180, unit="deg", doc="gamma: collision looks for soft rock within ±gamma"
-    )
-    probes: int = param(
-        2, ge=1, le=32, unit="1", doc="probe directions each side of the heading (2J+1 in all)"
-    )
-    steer: float = param(
-        0.5, ge=0, le=1, unit="1", doc="share of the turn toward the softest probe per impact"
-    )
+    gamma_deg: float = param(30.0, ge=0, le=180, unit="deg", doc="gamma: collision looks for soft rock within ±gamma")
+    probes: int = param(2, ge=1, le=32, unit="1", doc="probe directions each side of the heading (2J+1 in all)")
+    steer: float = param(0.5, ge=0, le=1, unit="1", doc="share of the turn toward the softest probe per impact")
     mass: float = param(1.0, gt=0, unit="1", doc="mean particle mass (erosive strength)")
     mass_jitter: float = param(0.2, ge=0, lt=1, unit="1", doc="relative mass jitter ±")
-    depth_per_mass: float = param(
-        0.02, ge=0, unit="m", doc="e: lowering at the impact point per unit mass"
-    )
-    radius_per_mass: float = param(
-        4.0, gt=0, unit="m|cell", doc="kappa: radius of influence per unit mass"
-    )
-    pivot_offset: float = param(
-        0.0, ge=0, unit="m|cell", doc="rho: rotational motion, pivot shift from the track"
-    )
+    depth_per_mass: float = param(0.02, ge=0, unit="m", doc="e: lowering at the impact point per unit mass")
+    radius_per_mass: float = param(4.0, gt=0, unit="m|cell", doc="kappa: radius of influence per unit mass")
+    pivot_offset: float = param(0.0, ge=0, unit="m|cell", doc="rho: rotational motion, pivot shift from the track")
     rotation_speed_deg: float = param(0.0, unit="deg/step", doc="r: rotational speed")
     rotation_angle_deg: float = param(0.0, unit="deg", doc="beta_0: initial rotation angle")
 
 
-def emitter_table(
-    emitters: list[Emitter] | dict[str, Emitter], shape: tuple[int, int], cell_size: float
-) -> np.ndarray:
+def emitter_table(emitters: list[Emitter] | dict[str, Emitter], shape: tuple[int, int], cell_size: float) -> np.ndarray:
     """The (E, NCOL) float64 table the kernels read; lengths converted to cells, angles to radians.
 
     Raises :class:`ConfigError` for an empty emission window (zero width or entirely off the map).
@@ -412,24 +380,18 @@ def emitter_table(
         raise ConfigError("No emitter is defined; add an [emitters.NAME] table to the scenario.")
     ny, nx = shape
     t = np.zeros((len(emitters), NCOL))
-    named = (
-        emitters if isinstance(emitters, dict) else {str(k): em for k, em in enumerate(emitters)}
-    )
+    named = emitters if isinstance(emitters, dict) else {str(k): em for k, em in enumerate(emitters)}
     for k, (name, em) in enumerate(named.items()):
         if em.width <= 0:
             raise ConfigError(
-                f"Emitter '{name}' has an empty emission window (width = 0); give it a width > 0 "
-                "(the stream's width)."
+                f"Emitter '{name}' has an empty emission window (width = 0); give it a width > 0 (the stream's width)."
             )
         if em.speed <= 0 or em.max_speed <= 0 or em.mass <= 0 or em.radius_per_mass <= 0:
             raise ConfigError(
-                f"Emitter '{name}': speed, max_speed, mass and radius_per_mass must be positive; "
-                "fix them."
+                f"Emitter '{name}': speed, max_speed, mass and radius_per_mass must be positive; fix them."
             )
         cx, cy = em.x * (nx - 1), em.y * (ny - 1)
-        a = -math.radians(
-            em.direction_deg
-        )  # compass-style (CCW from east, north up) → grid (y down)
+        a = -math.radians(em.direction_deg)  # compass-style (CCW from east, north up) → grid (y down)
         half = 0.5 * max(em.width, em.length) / cell_size + 0.5
         if cx + half < 0 or cy + half < 0 or cx - half > nx - 1 or cy - half > ny - 1:
             raise ConfigError(
@@ -440,11 +402,7 @@ def emitter_table(
         t[k, EX], t[k, EY], t[k, EDIR] = cx, cy, a
         t[k, EWIDTH], t[k, ELENGTH] = em.width / cell_size, em.length / cell_size
         t[k, ESPREAD] = math.radians(em.spread_deg)
-        t[k, ESPEED], t[k, EVJIT], t[k, EVMAX] = (
-            em.speed / cell_size,
-            em.speed_jitter,
-            em.max_speed / cell_size,
-        )
+        t[k, ESPEED], t[k, EVJIT], t[k, EVMAX] = (em.speed / cell_size, em.speed_jitter, em.max_speed / cell_size)
         t[k, EAMAX], t[k, EGAMMA] = math.radians(em.max_angle_deg), math.radians(em.gamma_deg)
         t[k, EPROBES], t[k, ESTEER] = max(int(em.probes), 1), em.steer
         t[k, EMASS], t[k, EMJIT] = em.mass, em.mass_jitter
@@ -463,9 +421,7 @@ def strata_arrays(strata: Strata, cell_size: float) -> tuple[np.ndarray, np.ndar
     th = np.asarray(strata.thickness, dtype=np.float64)
     edges = np.concatenate([[0.0], np.cumsum(th)[:-1]])
     period = float(th.sum())
-    params = np.array(
-        [strata.tilt_x * cell_size, -strata.tilt_y * cell_size, strata.base, period, 1.0 / period]
-    )
+    params = np.array([strata.tilt_x * cell_size, -strata.tilt_y * cell_size, strata.base, period, 1.0 / period])
     return params, edges, np.asarray(strata.hardness, dtype=np.float64)
 
 
@@ -591,10 +547,7 @@ class ParticleStream:
             names += ("floor",)
         for name in names:
             if name not in state:
-                raise InputError(
-                    f"The checkpoint lacks '{name}'; resume with the scenario the run was "
-                    "started with."
-                )
+                raise InputError(f"The checkpoint lacks '{name}'; resume with the scenario the run was started with.")
             cur = getattr(self, name)
             new = np.ascontiguousarray(state[name], dtype=cur.dtype)
             if new.shape != cur.shape:

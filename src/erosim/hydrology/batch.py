@@ -49,16 +49,7 @@ from erosim.hydrology.params import (
     P_V0,
     P_VMIN,
 )
-from erosim.hydrology.pools import (
-    B_CARRIED,
-    B_DEPOSITED,
-    B_ERODED,
-    B_EVAP,
-    B_LEFT,
-    B_SIZE,
-    B_STEPS,
-    walk_down,
-)
+from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_SIZE, B_STEPS, walk_down
 
 PAUSED = 3  # the droplet's log is full: it goes on descending in the serial phase
 LOG = 2048  # logged steps per droplet and first descent
@@ -202,23 +193,7 @@ def descend_batch(first, count, seed, z2, stream, roots, erod, lake_of, level, r
             bd[i, k] = 0.0
         x, y = spawn_point(base, first + i, rain_cdf, nx, ny)
         st, x, y, vx, vy, V, S, n = descend_logged(
-            x,
-            y,
-            0.0,
-            0.0,
-            P[P_V0],
-            0.0,
-            z2,
-            zf,
-            sf,
-            rf,
-            ef,
-            lake_of,
-            level,
-            lc[i],
-            ldz[i],
-            bd[i],
-            P,
+            x, y, 0.0, 0.0, P[P_V0], 0.0, z2, zf, sf, rf, ef, lake_of, level, lc[i], ldz[i], bd[i], P
         )
         res[i, R_STATUS] = st
         res[i, R_X] = x

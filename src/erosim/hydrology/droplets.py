@@ -54,20 +54,21 @@ from erosim.hydrology.params import (
     P_V0,
     P_VMIN,
 )
-from erosim.hydrology.pools import (
-    B_CARRIED,
-    B_DEPOSITED,
-    B_ERODED,
-    B_EVAP,
-    B_LEFT,
-    B_STEPS,
-    walk_down,
-)
+from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_STEPS, walk_down
 from erosim.kernels.raster import _locate, _nodes, q4_shape
 
 ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
 LEFT = 1  # left the map or entered the sea: water and sediment accounted as gone
 STOP = 2  # stopped at a cell for HY-2 flood
+
+
+@njit(cache=True, inline="always")
+def _settle_budget(B, steps, evap, eroded, deposited):
+    """Add a finished descent's totals to the budget array (steps, evaporation, sediment moved)."""
+    B[B_STEPS] += steps
+    B[B_EVAP] += evap
+    B[B_ERODED] += eroded
+    B[B_DEPOSITED] += deposited
 
 
 @njit(cache=True, inline="always")
@@ -356,34 +357,22 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
         if x < -0.5 or y < -0.5 or x >= nx - 0.5 or y >= ny - 0.5:
             B[B_LEFT] += V
             B[B_CARRIED] += S
-            B[B_STEPS] += steps
-            B[B_EVAP] += evap
-            B[B_ERODED] += eroded
-            B[B_DEPOSITED] += deposited
+            _settle_budget(B, steps, evap, eroded, deposited)
             return LEFT, x0, y0, vx, vy, 0.0, 0.0
         cn = int(y + 0.5) * nx + int(x + 0.5)
         if zf[cn] < sea:
             B[B_LEFT] += V
             B[B_CARRIED] += S
-            B[B_STEPS] += steps
-            B[B_EVAP] += evap
-            B[B_ERODED] += eroded
-            B[B_DEPOSITED] += deposited
+            _settle_budget(B, steps, evap, eroded, deposited)
             return LEFT, x, y, vx, vy, 0.0, 0.0
         if (stream[cn] > 0.5 and dvx * dvx + dvy * dvy < amin2) or lake_of[cn] >= 0:
-            B[B_STEPS] += steps
-            B[B_EVAP] += evap
-            B[B_ERODED] += eroded
-            B[B_DEPOSITED] += deposited
+            _settle_budget(B, steps, evap, eroded, deposited)
             return STOP, x, y, vx, vy, V, S
         speed = math.sqrt(vx * vx + vy * vy)
         if speed * dt < pit:
             wc, at_min = walk_down(cn, nwalk, zf, lake_of, level, sea, nx, ny)
             if at_min:
-                B[B_STEPS] += steps
-                B[B_EVAP] += evap
-                B[B_ERODED] += eroded
-                B[B_DEPOSITED] += deposited
+                _settle_budget(B, steps, evap, eroded, deposited)
                 return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S
         # the terrain at the new position, before the transfer
         i0, j0, fx, fy, z1, zz2, z3, z4 = _corners(z2, x, y)
@@ -423,10 +412,7 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
         evap += V - vn
         V = vn
         if V < vmin or steps >= maxsteps:
-            B[B_STEPS] += steps
-            B[B_EVAP] += evap
-            B[B_ERODED] += eroded
-            B[B_DEPOSITED] += deposited
+            _settle_budget(B, steps, evap, eroded, deposited)
             return ENDED, x, y, vx, vy, V, S
 
 

@@ -117,26 +117,7 @@ def _now_none(ts):
 
 
 @njit(cache=True)
-def _settle(
-    c,
-    V,
-    S,
-    zf,
-    lake_of,
-    level,
-    area,
-    mroot,
-    broot,
-    B,
-    P,
-    hkey,
-    hcell,
-    hleft,
-    hright,
-    hrank,
-    hs,
-    stack,
-):
+def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack):
     """A droplet ends at cell c: its volume counts as evaporated, its sediment settles there."""
     B[B_RESID] += V
     if S <= 0.0:
@@ -144,23 +125,7 @@ def _settle(
     k = lake_of[c]
     if k >= 0:
         extra = settle_in_lake(
-            k,
-            c,
-            S,
-            zf,
-            lake_of,
-            level,
-            area,
-            mroot,
-            broot,
-            P[P_CA],
-            hkey,
-            hcell,
-            hleft,
-            hright,
-            hrank,
-            hs,
-            stack,
+            k, c, S, zf, lake_of, level, area, mroot, broot, P[P_CA], hkey, hcell, hleft, hright, hrank, hs, stack
         )
         B[B_TO_LAKES] -= extra
         B[B_RESID] += extra
@@ -262,24 +227,7 @@ def run_droplets(
             c = int(y + 0.5) * nx + int(x + 0.5)
             if status == ENDED or not lakes_on:
                 _settle(
-                    c,
-                    V,
-                    S,
-                    zf,
-                    lake_of,
-                    level,
-                    area,
-                    mroot,
-                    broot,
-                    B,
-                    P,
-                    hkey,
-                    hcell,
-                    hleft,
-                    hright,
-                    hrank,
-                    hs,
-                    stack,
+                    c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack
                 )
                 break
             t0 = now(ts)
@@ -378,7 +326,6 @@ def run_droplets_general(
     )  # fmt: skip
 
 
-
 def _check_map(name: str, arr, shape) -> np.ndarray:
     a = np.asarray(arr, dtype=np.float64)
     if a.shape != tuple(shape):
@@ -387,9 +334,7 @@ def _check_map(name: str, arr, shape) -> np.ndarray:
             "give a map of the same size as the terrain."
         )
     if not np.isfinite(a).all() or (a < 0).any():
-        raise InputError(
-            f"The {name} map holds negative or non-finite values; use finite values >= 0."
-        )
+        raise InputError(f"The {name} map holds negative or non-finite values; use finite values >= 0.")
     return np.ascontiguousarray(a)
 
 
@@ -450,19 +395,13 @@ class HydrologyModel:
         self.cover = np.zeros((ny, nx))  # tree cover within the root radius (HY-5)
         self.trees = np.zeros((ny, nx), np.uint8)
         self.track = np.zeros(n, np.uint8)
-        self.erod = (
-            np.ones((ny, nx))
-            if erodibility is None
-            else _check_map("erodibility", erodibility, (ny, nx))
-        )
+        self.erod = np.ones((ny, nx)) if erodibility is None else _check_map("erodibility", erodibility, (ny, nx))
         if rain is None:
             self.rain_cdf = np.zeros(0)
         else:
             r = _check_map("rain", rain, (ny, nx)).ravel()
             if r.sum() <= 0:
-                raise InputError(
-                    "The rain map is zero everywhere; give positive values where rain falls."
-                )
+                raise InputError("The rain map is zero everywhere; give positive values where rain falls.")
             self.rain_cdf = np.cumsum(r)
         self.lake_of = np.full(n, -1, np.int64)
         self.per_cycle = droplets_per_cycle(self.p, (ny, nx), self.cell_size)
@@ -614,9 +553,7 @@ class HydrologyModel:
 
     def vegetation(self) -> np.ndarray:
         """Root density ρ_r in [0, 1] (zero on lakes and sea): what holds the soil (HY-5)."""
-        return vegetation.root_density(
-            self.cover, self.veg, (self.lake_depth() > 0) | self.sea_mask()
-        )
+        return vegetation.root_density(self.cover, self.veg, (self.lake_depth() > 0) | self.sea_mask())
 
     def water_budget(self) -> dict:
         B = self.budget
@@ -653,9 +590,7 @@ class HydrologyModel:
             "carried_off": carried,
             "closure_rel": closure,
             "terrain_change": change,
-            "terrain_change_rel_error": abs(change - (deposited - eroded)) / eroded
-            if eroded > 0
-            else 0.0,
+            "terrain_change_rel_error": abs(change - (deposited - eroded)) / eroded if eroded > 0 else 0.0,
         }
 
     def stats(self) -> dict:

@@ -35,54 +35,29 @@ class HydrologyParams(Section):
     """Droplet, lake and stream parameters (HY-1…HY-4); defaults give the demo's look."""
 
     length_scale: float = param(
-        40.0,
-        ge=0,
-        unit="m",
-        doc="reference length ℓ (the seed's cell): footprints, volume, acceleration; 0 = one cell",
+        40.0, ge=0, unit="m", doc="reference length ℓ (the seed's cell): footprints, volume, acceleration; 0 = one cell"
     )
     dt: float = param(1.2, gt=0, unit="s", doc="droplet time step (seed 1.2)")
-    density: float = param(
-        1.0, gt=0, unit="1", doc="droplet density relative to the seed's (seed 1.0)"
-    )
-    friction: float = param(
-        0.5, ge=0, unit="1/s", doc="speed damping, × (1 − 0.5·stream) (seed 0.1)"
-    )
-    evaporation: float = param(
-        0.003, ge=0, unit="1/s", doc="volume loss rate, × (1 − 0.2·stream) (seed 0.001)"
-    )
-    deposition: float = param(
-        0.08, ge=0, le=1, unit="1", doc="mass-transfer fraction per dt (seed 0.08)"
-    )
+    density: float = param(1.0, gt=0, unit="1", doc="droplet density relative to the seed's (seed 1.0)")
+    friction: float = param(0.5, ge=0, unit="1/s", doc="speed damping, × (1 − 0.5·stream) (seed 0.1)")
+    evaporation: float = param(0.003, ge=0, unit="1/s", doc="volume loss rate, × (1 − 0.2·stream) (seed 0.001)")
+    deposition: float = param(0.08, ge=0, le=1, unit="1", doc="mass-transfer fraction per dt (seed 0.08)")
     capacity: float = param(1.0, ge=0, unit="1", doc="sediment capacity factor (seed 1.0)")
-    min_volume: float = param(
-        0.01, gt=0, lt=1, unit="1", doc="droplet ends below this share of V₀ (seed 0.01)"
-    )
+    min_volume: float = param(0.01, gt=0, lt=1, unit="1", doc="droplet ends below this share of V₀ (seed 0.01)")
     volume_factor: float = param(100.0, gt=0, unit="1", doc="V₀ = ℓ³/volume_factor (seed 100)")
-    drainage: float = param(
-        0.001, ge=0, le=1, unit="1", doc="lake level step toward a drain (seed 0.001)"
-    )
+    drainage: float = param(0.001, ge=0, le=1, unit="1", doc="lake level step toward a drain (seed 0.001)")
     spill: int = param(5, ge=1, le=100, unit="1", doc="descend/flood rounds per droplet (seed 5)")
-    stream_rate: float = param(
-        0.01, gt=0, le=1, unit="1", doc="stream map adaptation rate r (seed 0.01)"
-    )
+    stream_rate: float = param(0.01, gt=0, le=1, unit="1", doc="stream map adaptation rate r (seed 0.01)")
     cycle_droplets: int = param(
-        1000,
-        ge=1,
-        unit="1",
-        doc="droplets per stream/vegetation update, per (256 ℓ)² of map area",
+        1000, ge=1, unit="1", doc="droplets per stream/vegetation update, per (256 ℓ)² of map area"
     )
-    max_step: float = param(
-        1.0, ge=0, unit="cells", doc="largest move per sub-step; 0 = none (the seed)"
-    )
+    max_step: float = param(1.0, ge=0, unit="cells", doc="largest move per sub-step; 0 = none (the seed)")
     lakes: bool = param(True, doc="flood droplets into lakes (HY-2); off: a stopped droplet ends")
     sea_level: float | None = param(
-        None,
-        unit="m",
-        doc="water below this height leaves the world; none = open map edges only",
+        None, unit="m", doc="water below this height leaves the world; none = open map edges only"
     )
     pit_flood: bool = param(
-        True,
-        doc="a slow droplet in a pit (cell lower than its 8 neighbours) floods there; seed: off",
+        True, doc="a slow droplet in a pit (cell lower than its 8 neighbours) floods there; seed: off"
     )
     max_steps: int = param(20_000, ge=10, unit="1", doc="safety cap on sub-steps per descent")
     batch: int = param(
@@ -94,10 +69,7 @@ class HydrologyParams(Section):
         "against the batch-start terrain (hydrology/batch.py; one-cell footprint, max_step 0)",
     )
     rebuild_every: int = param(
-        16,
-        ge=1,
-        unit="cycles",
-        doc="rebuild the lake heaps (fresh keys after erosion) every N cycles",
+        16, ge=1, unit="cycles", doc="rebuild the lake heaps (fresh keys after erosion) every N cycles"
     )
 
 
@@ -105,22 +77,12 @@ class VegetationParams(Section):
     """Trees (HY-5): they hold the soil, spread to their neighbours and die in water."""
 
     enabled: bool = param(True, doc="grow trees")
-    spawn: float = param(
-        10.0, ge=0, unit="1", doc="random seedlings per cycle per (256 ℓ)² (seed 1)"
-    )
-    spread: float = param(
-        0.03, ge=0, le=1, unit="1", doc="chance per tree and cycle to seed a neighbour (seed 1/50)"
-    )
+    spawn: float = param(10.0, ge=0, unit="1", doc="random seedlings per cycle per (256 ℓ)² (seed 1)")
+    spread: float = param(0.03, ge=0, le=1, unit="1", doc="chance per tree and cycle to seed a neighbour (seed 1/50)")
     spread_radius: float = param(4.0, ge=0, unit="ℓ", doc="how far a tree seeds (seed 4 cells)")
-    death: float = param(
-        0.001, ge=0, le=1, unit="1", doc="random death chance per cycle (seed 1/1000)"
-    )
-    max_stream: float = param(
-        0.2, ge=0, le=1, unit="1", doc="trees die / cannot grow where stream > this (seed 0.2)"
-    )
-    min_normal_z: float = param(
-        0.8, ge=0, le=1, unit="1", doc="trees grow where the normal's z ≥ this (seed 0.8)"
-    )
+    death: float = param(0.001, ge=0, le=1, unit="1", doc="random death chance per cycle (seed 1/1000)")
+    max_stream: float = param(0.2, ge=0, le=1, unit="1", doc="trees die / cannot grow where stream > this (seed 0.2)")
+    min_normal_z: float = param(0.8, ge=0, le=1, unit="1", doc="trees grow where the normal's z ≥ this (seed 0.8)")
     root_radius: float = param(1.0, gt=0, unit="ℓ", doc="radius of the root-density footprint")
     root_strength: float = param(
         1.0, ge=0, unit="1", doc="root density of full tree cover; erosion × max(0, 1 − density)"

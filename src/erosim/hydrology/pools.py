@@ -191,23 +191,7 @@ def walk_down(c, max_walk, zf, lake_of, level, sea_level, nx, ny):
 
 @njit(cache=True)
 def _push_neighbours(
-    k,
-    c,
-    nx,
-    ny,
-    zf,
-    lake_of,
-    level,
-    broot,
-    sea_level,
-    edge_key,
-    hkey,
-    hcell,
-    hleft,
-    hright,
-    hrank,
-    hs,
-    stack,
+    k, c, nx, ny, zf, lake_of, level, broot, sea_level, edge_key, hkey, hcell, hleft, hright, hrank, hs, stack
 ):
     iy = c // nx
     ix = c - iy * nx
@@ -228,16 +212,7 @@ def _push_neighbours(
             if lake_of[n] == k:
                 continue
             broot[k] = push(
-                broot[k],
-                surface(n, zf, lake_of, level, sea_level),
-                n,
-                hkey,
-                hcell,
-                hleft,
-                hright,
-                hrank,
-                hs,
-                stack,
+                broot[k], surface(n, zf, lake_of, level, sea_level), n, hkey, hcell, hleft, hright, hrank, hs, stack
             )
     if edge:
         broot[k] = push(broot[k], edge_key, -(c + 2), hkey, hcell, hleft, hright, hrank, hs, stack)
@@ -245,24 +220,7 @@ def _push_neighbours(
 
 @njit(cache=True)
 def new_lake(
-    c,
-    nx,
-    ny,
-    zf,
-    lake_of,
-    level,
-    area,
-    mroot,
-    broot,
-    sea_level,
-    edge_key,
-    hkey,
-    hcell,
-    hleft,
-    hright,
-    hrank,
-    hs,
-    stack,
+    c, nx, ny, zf, lake_of, level, area, mroot, broot, sea_level, edge_key, hkey, hcell, hleft, hright, hrank, hs, stack
 ):
     """A one-cell lake at c with level h[c] (no water yet)."""
     k = hs[HS_NLAKES]
@@ -273,23 +231,7 @@ def new_lake(
     mroot[k] = push(-1, -zf[c], c, hkey, hcell, hleft, hright, hrank, hs, stack)
     broot[k] = -1
     _push_neighbours(
-        k,
-        c,
-        nx,
-        ny,
-        zf,
-        lake_of,
-        level,
-        broot,
-        sea_level,
-        edge_key,
-        hkey,
-        hcell,
-        hleft,
-        hright,
-        hrank,
-        hs,
-        stack,
+        k, c, nx, ny, zf, lake_of, level, broot, sea_level, edge_key, hkey, hcell, hleft, hright, hrank, hs, stack
     )
     return k
 
@@ -332,22 +274,7 @@ def _merge_lakes(a, b, lake_of, area, mroot, broot, hkey, hcell, hleft, hright, 
 
 @njit(cache=True)
 def lower(
-    k,
-    new_level,
-    zf,
-    lake_of,
-    level,
-    area,
-    mroot,
-    broot,
-    cell_area,
-    hkey,
-    hcell,
-    hleft,
-    hright,
-    hrank,
-    hs,
-    stack,
+    k, new_level, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft, hright, hrank, hs, stack
 ):
     """Lower lake k to ``new_level``; members above it fall dry. Returns the water released (m³)."""
     L = level[k]
@@ -379,23 +306,7 @@ def lower(
 
 @njit(cache=True)
 def settle_in_lake(
-    k,
-    c,
-    amount,
-    zf,
-    lake_of,
-    level,
-    area,
-    mroot,
-    broot,
-    cell_area,
-    hkey,
-    hcell,
-    hleft,
-    hright,
-    hrank,
-    hs,
-    stack,
+    k, c, amount, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft, hright, hrank, hs, stack
 ):
     """Sediment ``amount`` (m³) settles on lake cell c. Returns the water it displaces (m³).
 
@@ -487,23 +398,7 @@ def flood(
         )
     if dep > 0.0:
         extra = settle_in_lake(
-            k,
-            c,
-            dep,
-            zf,
-            lake_of,
-            level,
-            area,
-            mroot,
-            broot,
-            cell_area,
-            hkey,
-            hcell,
-            hleft,
-            hright,
-            hrank,
-            hs,
-            stack,
+            k, c, dep, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft, hright, hrank, hs, stack
         )
         B[B_DEPOSITED] += dep
         B[B_TO_LAKES] -= extra
@@ -624,31 +519,13 @@ def flood(
         broot[k] = pop(top, hkey, hleft, hright, hrank, hs, stack)
         j = lake_of[b]
         if j >= 0:
-            k = _merge_lakes(
-                k, j, lake_of, area, mroot, broot, hkey, hcell, hleft, hright, hrank, stack, walk
-            )
+            k = _merge_lakes(k, j, lake_of, area, mroot, broot, hkey, hcell, hleft, hright, hrank, stack, walk)
             continue
         lake_of[b] = k
         area[k] += 1
         mroot[k] = push(mroot[k], -zf[b], b, hkey, hcell, hleft, hright, hrank, hs, stack)
         _push_neighbours(
-            k,
-            b,
-            nx,
-            ny,
-            zf,
-            lake_of,
-            level,
-            broot,
-            sea_level,
-            edge_key,
-            hkey,
-            hcell,
-            hleft,
-            hright,
-            hrank,
-            hs,
-            stack,
+            k, b, nx, ny, zf, lake_of, level, broot, sea_level, edge_key, hkey, hcell, hleft, hright, hrank, hs, stack
         )
     return SPENT, c, 0.0, 0.0
 
@@ -752,9 +629,7 @@ def rebuild(
                         stack,
                     )
             if edge:
-                broot[k] = push(
-                    broot[k], edge_key, -(c + 2), hkey, hcell, hleft, hright, hrank, hs, stack
-                )
+                broot[k] = push(broot[k], edge_key, -(c + 2), hkey, hcell, hleft, hright, hrank, hs, stack)
     return K
 
 

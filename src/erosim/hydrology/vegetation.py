@@ -214,9 +214,7 @@ def step(
     )
 
 
-def root_density(
-    cover: np.ndarray, p: VegetationParams, water: np.ndarray | None = None
-) -> np.ndarray:
+def root_density(cover: np.ndarray, p: VegetationParams, water: np.ndarray | None = None) -> np.ndarray:
     """ρ_r = min(1, strength·cover), zero on water when ``water`` is given (the output map)."""
     rho = np.clip(p.root_strength * cover, 0.0, 1.0)
     if water is not None:

@@ -73,9 +73,7 @@ def _check_cell_size(cell_size) -> float | None:
     except (TypeError, ValueError):
         cs = float("nan")
     if not math.isfinite(cs) or cs <= 0:
-        raise InputError(
-            f"Cell size {cell_size!r} m is not valid; it must be a positive number of metres."
-        )
+        raise InputError(f"Cell size {cell_size!r} m is not valid; it must be a positive number of metres.")
     return cs
 
 
@@ -89,10 +87,7 @@ def _check_range(height_range) -> tuple[float, float] | None:
             f"Height range {height_range!r} is not valid; give two numbers [low, high] in metres."
         ) from None
     if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-        raise InputError(
-            f"Height range {height_range!r} is not valid; it needs low < high, both finite, in "
-            "metres."
-        )
+        raise InputError(f"Height range {height_range!r} is not valid; it needs low < high, both finite, in metres.")
     return lo, hi
 
 
@@ -122,9 +117,7 @@ def _as_heightmap(hm_or_array, like: Heightmap | None) -> Heightmap:
     z = np.asarray(hm_or_array)
     if like is not None:
         if z.shape != like.shape:
-            raise InputError(
-                f"Array shape {z.shape} does not match the reference map's {like.shape}."
-            )
+            raise InputError(f"Array shape {z.shape} does not match the reference map's {like.shape}.")
         return Heightmap(z=z, cell_size=like.cell_size, crs=like.crs, transform=like.transform)
     return Heightmap(z=z, cell_size=1.0)
 
@@ -161,9 +154,7 @@ def read(
     if key.lower() in SAMPLES:
         return _read_sample(key.lower(), cs)
     if key.startswith("sample:"):
-        raise InputError(
-            f"Unknown sample DEM '{key}'; the one available is " + ", ".join(SAMPLES) + "."
-        )
+        raise InputError(f"Unknown sample DEM '{key}'; the one available is " + ", ".join(SAMPLES) + ".")
     fmt = _format(path, "read")
     p = Path(path)
     if not p.is_file():
@@ -199,10 +190,7 @@ def _read_sample(key: str, cs: float | None) -> Heightmap:
     from rasterio.crs import CRS
 
     return Heightmap(
-        z=z,
-        cell_size=cs or JACKSBORO_CELL,
-        crs=CRS.from_epsg(4326).to_wkt(),
-        transform=(dx, 0.0, x0, 0.0, -dy, y_top),
+        z=z, cell_size=cs or JACKSBORO_CELL, crs=CRS.from_epsg(4326).to_wkt(), transform=(dx, 0.0, x0, 0.0, -dy, y_top)
     )
 
 
@@ -283,9 +271,7 @@ def _assumptions(p: Path, rng, cs) -> list[str]:
 def _read_raw(p: Path, cs: float | None, rng, raw_shape) -> Heightmap:
     nbytes = p.stat().st_size
     if nbytes % 2:
-        raise InputError(
-            f"RAW16 file '{p}' has an odd size ({nbytes} bytes); it is not 16-bit data."
-        )
+        raise InputError(f"RAW16 file '{p}' has an odd size ({nbytes} bytes); it is not 16-bit data.")
     n = nbytes // 2
     if raw_shape is not None:
         ny, nx = (int(v) for v in raw_shape)
@@ -297,10 +283,7 @@ def _read_raw(p: Path, cs: float | None, rng, raw_shape) -> Heightmap:
     else:
         side = math.isqrt(n)
         if side * side != n:
-            raise InputError(
-                f"RAW16 file '{p}' holds {n} values, not a square map; give raw_shape = [rows, "
-                "cols]."
-            )
+            raise InputError(f"RAW16 file '{p}' holds {n} values, not a square map; give raw_shape = [rows, cols].")
         ny = nx = side
     q = np.fromfile(p, dtype="<u2").reshape(ny, nx)
     hm = Heightmap(z=_dequantise(q, rng), cell_size=cs or 1.0)
@@ -323,28 +306,15 @@ def _read_asc(p: Path, cs: float | None) -> Heightmap:
         need = ("ncols", "nrows", "cellsize")
         missing = [k for k in need if k not in header]
         if missing:
-            raise InputError(
-                f"ASCII grid '{p}' lacks header line(s) {', '.join(missing)}; is it an ESRI .asc "
-                "file?"
-            )
+            raise InputError(f"ASCII grid '{p}' lacks header line(s) {', '.join(missing)}; is it an ESRI .asc file?")
         ny, nx = int(header["nrows"]), int(header["ncols"])
         values = np.loadtxt(fh, dtype=np.float64, ndmin=1).ravel()
     if values.size != ny * nx:
-        raise InputError(
-            f"ASCII grid '{p}' has {values.size} values but its header says {ny}x{nx}."
-        )
+        raise InputError(f"ASCII grid '{p}' has {values.size} values but its header says {ny}x{nx}.")
     z = values.reshape(ny, nx)
     step = header["cellsize"]
-    x0 = (
-        header["xllcorner"]
-        if "xllcorner" in header
-        else header.get("xllcenter", 0.5 * step) - 0.5 * step
-    )
-    y0 = (
-        header["yllcorner"]
-        if "yllcorner" in header
-        else header.get("yllcenter", 0.5 * step) - 0.5 * step
-    )
+    x0 = header["xllcorner"] if "xllcorner" in header else header.get("xllcenter", 0.5 * step) - 0.5 * step
+    y0 = header["yllcorner"] if "yllcorner" in header else header.get("yllcenter", 0.5 * step) - 0.5 * step
     mask = None
     if "nodata_value" in header:
         mask = z == header["nodata_value"]
@@ -363,23 +333,15 @@ def _read_npz(p: Path, cs: float | None) -> Heightmap:
         if zkey is None:
             arrays = [k for k in keys if data[k].ndim == 2]
             if not arrays:
-                raise InputError(
-                    f"NPZ file '{p}' holds no 2-D array; store the heights under the key 'z'."
-                )
+                raise InputError(f"NPZ file '{p}' holds no 2-D array; store the heights under the key 'z'.")
             zkey = arrays[0]
         z = data[zkey]
         file_cs = float(data["cell_size"]) if "cell_size" in keys else None
         crs = str(data["crs"]) if "crs" in keys and str(data["crs"]) else None
         transform = (
-            tuple(float(v) for v in data["transform"])
-            if "transform" in keys and data["transform"].size == 6
-            else None
+            tuple(float(v) for v in data["transform"]) if "transform" in keys and data["transform"].size == 6 else None
         )
-        mask = (
-            data["nodata"].astype(bool)
-            if "nodata" in keys and data["nodata"].shape == z.shape
-            else None
-        )
+        mask = data["nodata"].astype(bool) if "nodata" in keys and data["nodata"].shape == z.shape else None
     return Heightmap(z=z, cell_size=cs or file_cs or 1.0, crs=crs, transform=transform, nodata=mask)
 
 
@@ -477,12 +439,7 @@ def _write_png(tmp: Path, hm: Heightmap, height_range) -> tuple[float, float]:
 def _write_asc(tmp: Path, hm: Heightmap) -> None:
     ny, nx = hm.shape
     t = hm.transform
-    square = (
-        t is not None
-        and t[1] == 0
-        and t[3] == 0
-        and abs(abs(t[0]) - abs(t[4])) <= 1e-12 * abs(t[0])
-    )
+    square = t is not None and t[1] == 0 and t[3] == 0 and abs(abs(t[0]) - abs(t[4])) <= 1e-12 * abs(t[0])
     if square:
         step, x0, y0 = abs(t[0]), t[2], t[5] + t[4] * ny
     else:

@@ -76,8 +76,7 @@ def vtp_bytes(positions: np.ndarray, fields: dict[str, np.ndarray], time: float 
             f'format="ascii">{float(time)!r}</DataArray></FieldData>'
         )
     parts.append(
-        f'<Piece NumberOfPoints="{n}" NumberOfVerts="{n}" NumberOfLines="0" '
-        'NumberOfStrips="0" NumberOfPolys="0">'
+        f'<Piece NumberOfPoints="{n}" NumberOfVerts="{n}" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys="0">'
     )
     parts.append("<PointData>")
     for name, arr in fields.items():
@@ -90,18 +89,14 @@ def vtp_bytes(positions: np.ndarray, fields: dict[str, np.ndarray], time: float 
     parts.append("</PointData>")
     parts.append("<Points>" + _data_array("Points", pts, 3) + "</Points>")
     idx = np.arange(n, dtype="<i8")
-    parts.append(
-        "<Verts>"
-        + _data_array("connectivity", idx, 1)
-        + _data_array("offsets", idx + 1, 1)
-        + "</Verts>"
-    )
+    parts.append("<Verts>" + _data_array("connectivity", idx, 1) + _data_array("offsets", idx + 1, 1) + "</Verts>")
     parts += ["</Piece>", "</PolyData>", "</VTKFile>", ""]
     return "\n".join(parts).encode("ascii")
 
 
-def write_vtp(path: str | os.PathLike, positions: np.ndarray, fields: dict[str, np.ndarray],
-              time: float | None = None) -> Path:
+def write_vtp(
+    path: str | os.PathLike, positions: np.ndarray, fields: dict[str, np.ndarray], time: float | None = None
+) -> Path:
     """Write one frame atomically."""
     return write_bytes(path, vtp_bytes(positions, fields, time))
 
@@ -141,9 +136,7 @@ def read_vtp(path: str | os.PathLike) -> dict[str, Any]:
 
 def pvd_text(frames: list[tuple[float, str]]) -> str:
     """A ParaView collection listing ``(time, relative file)`` frames."""
-    rows = "\n".join(
-        f'    <DataSet timestep="{t!r}" group="" part="0" file="{f}"/>' for t, f in frames
-    )
+    rows = "\n".join(f'    <DataSet timestep="{t!r}" group="" part="0" file="{f}"/>' for t, f in frames)
     return (
         '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
         f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n"
@@ -163,8 +156,9 @@ class FrameSeries:
     collection with exactly the frames of the uninterrupted run.
     """
 
-    def __init__(self, folder: str | os.PathLike, name: str = "particles",
-                 frames: list[tuple[float, str]] | None = None):
+    def __init__(
+        self, folder: str | os.PathLike, name: str = "particles", frames: list[tuple[float, str]] | None = None
+    ):
         self.folder = Path(folder)
         self.name = name
         self.frames: list[tuple[float, str]] = [(float(t), str(f)) for t, f in (frames or [])]

@@ -20,12 +20,8 @@ class Kind:
 
 KINDS: dict[str, Kind] = {
     "sph": Kind("erosim.scenarios.schema_sph:SPHScenario", "erosim.simulation.sph_run:run"),
-    "hydrology": Kind(
-        "erosim.scenarios.schema_hydrology:HydrologyScenario", "erosim.simulation.hydrology_run:run"
-    ),
-    "particle-stream": Kind(
-        "erosim.scenarios.schema_stream:StreamScenario", "erosim.simulation.stream_run:run"
-    ),
+    "hydrology": Kind("erosim.scenarios.schema_hydrology:HydrologyScenario", "erosim.simulation.hydrology_run:run"),
+    "particle-stream": Kind("erosim.scenarios.schema_stream:StreamScenario", "erosim.simulation.stream_run:run"),
 }
 
 
@@ -37,7 +33,5 @@ def resolve(target: str) -> Any:
 
 def get(kind: str) -> Kind:
     if kind not in KINDS:
-        raise ConfigError(
-            f"Unknown scenario kind '{kind}'; use one of: {', '.join(sorted(KINDS))}."
-        )
+        raise ConfigError(f"Unknown scenario kind '{kind}'; use one of: {', '.join(sorted(KINDS))}.")
     return KINDS[kind]

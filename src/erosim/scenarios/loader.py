@@ -161,9 +161,7 @@ def _merge(base: dict, extra: dict) -> dict:
 
 
 def load(
-    name_or_path: str | os.PathLike,
-    overrides: list[str] | tuple[str, ...] = (),
-    preset: str | None = None,
+    name_or_path: str | os.PathLike, overrides: list[str] | tuple[str, ...] = (), preset: str | None = None
 ) -> Scenario:
     """Read, merge and validate a scenario; every problem is one :class:`ConfigError` sentence."""
     path = find(name_or_path)
@@ -195,7 +193,7 @@ def load(
         _set(body, keys, value, item)
     kind_name = data.get("kind")
     if not kind_name:
-        raise ConfigError(f"Scenario '{path}' has no 'kind'; add kind = \"sph\", \"hydrology\" or \"particle-stream\".")
+        raise ConfigError(f'Scenario \'{path}\' has no \'kind\'; add kind = "sph", "hydrology" or "particle-stream".')
     kind = kinds.get(kind_name)
     schema = kinds.resolve(kind.schema)
     config = validate_section(schema, body)

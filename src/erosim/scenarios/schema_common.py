@@ -35,23 +35,14 @@ class TerrainSection(Section):
     source: Literal["auto", "generate", "file"] = param(
         "auto", doc="auto (file when `file` is set, else generate) | generate | file"
     )
-    preset: str = param(
-        "mountains", doc="generated terrain: hills | mountains | plateau | fbm | ridged | warped"
-    )
+    preset: str = param("mountains", doc="generated terrain: hills | mountains | plateau | fbm | ridged | warped")
     size: int = param(256, ge=2, le=16384, unit="cells", doc="generated terrain: cells per side")
     cell_size: float | None = param(
-        None,
-        gt=0,
-        unit="m",
-        doc=f"cell size; generated default {DEFAULT_CELL_SIZE:g} m, files default to their own",
+        None, gt=0, unit="m", doc=f"cell size; generated default {DEFAULT_CELL_SIZE:g} m, files default to their own"
     )
-    file: str | None = param(
-        None, doc='DEM file (.tif .png .raw .r16 .asc .npy .npz) or "sample:jacksboro"'
-    )
+    file: str | None = param(None, doc='DEM file (.tif .png .raw .r16 .asc .npy .npz) or "sample:jacksboro"')
     raw_shape: list[int] | None = param(None, doc="[rows, cols] of a RAW16 file that is not square")
-    height_range: list[float] | None = param(
-        None, unit="m", doc="[low, high] heights of a 16-bit file's 0 and 65535"
-    )
+    height_range: list[float] | None = param(None, unit="m", doc="[low, high] heights of a 16-bit file's 0 and 65535")
     # Noise overrides (None: the preset's value); ranges are checked against NoiseParams.
     wavelength: float | None = param(None, unit="m", doc="wavelength of the largest features")
     relief: float | None = param(None, unit="m", doc="height scale")
@@ -76,35 +67,24 @@ class TerrainSection(Section):
     def noise_overrides(self) -> dict:
         from erosim.terrain.generate import NOISE_KEYS
 
-        return {
-            k: getattr(self, k) for k in NOISE_KEYS if k != "kind" and getattr(self, k) is not None
-        }
+        return {k: getattr(self, k) for k in NOISE_KEYS if k != "kind" and getattr(self, k) is not None}
 
     @model_validator(mode="after")
     def _check(self) -> TerrainSection:
         if self.source == "file" and not self.file:
-            raise ConfigError(
-                "terrain.source is 'file' but terrain.file is not set; give --set "
-                "terrain.file=PATH."
-            )
+            raise ConfigError("terrain.source is 'file' but terrain.file is not set; give --set terrain.file=PATH.")
         if self.raw_shape is not None and (len(self.raw_shape) != 2 or min(self.raw_shape) < 2):
-            raise ConfigError(
-                f"terrain.raw_shape = {self.raw_shape} is not valid; give [rows, cols], each at "
-                "least 2."
-            )
+            raise ConfigError(f"terrain.raw_shape = {self.raw_shape} is not valid; give [rows, cols], each at least 2.")
         if self.height_range is not None and (
             len(self.height_range) != 2 or not self.height_range[0] < self.height_range[1]
         ):
             raise ConfigError(
-                f"terrain.height_range = {self.height_range} is not valid; give [low, high] with "
-                "low < high."
+                f"terrain.height_range = {self.height_range} is not valid; give [low, high] with low < high."
             )
         if not self.uses_file:
             from erosim.terrain.generate import resolve
 
-            resolve(
-                self.preset, self.noise_overrides(), where="terrain"
-            )  # unknown preset / bad value
+            resolve(self.preset, self.noise_overrides(), where="terrain")  # unknown preset / bad value
         return self
 
 
@@ -122,9 +102,5 @@ def build_terrain(section: TerrainSection, seed: int) -> Heightmap:
     from erosim.terrain.generate import generate
 
     return generate(
-        section.preset,
-        section.size,
-        section.cell_size or DEFAULT_CELL_SIZE,
-        seed,
-        **section.noise_overrides(),
+        section.preset, section.size, section.cell_size or DEFAULT_CELL_SIZE, seed, **section.noise_overrides()
     )

@@ -19,8 +19,7 @@ from erosim.scenarios.schema_common import TerrainSection
 
 class Inputs(Section):
     rain_map: str | None = param(
-        None,
-        doc="raster of relative rain (a heightmap format, terrain-sized); none = uniform",
+        None, doc="raster of relative rain (a heightmap format, terrain-sized); none = uniform"
     )
     hardness_map: str | None = param(
         None, doc="hardness raster in [0, 1] (GeoTIFF, PNG, .npy); erosion × (1 − hardness)"
@@ -35,9 +34,7 @@ class HydrologyRun(Section):
 
 class HydrologyScenario(Section):
     seed: int = param(1, doc="random seed (terrain, droplets, vegetation)")
-    terrain: TerrainSection = param(
-        TerrainSection(preset="mountains", size=512, cell_size=20.0), doc="the heightmap"
-    )
+    terrain: TerrainSection = param(TerrainSection(preset="mountains", size=512, cell_size=20.0), doc="the heightmap")
     hydrology: HydrologyParams = param(HydrologyParams(), doc="droplets, lakes, streams")
     vegetation: VegetationParams = param(VegetationParams(), doc="trees")
     inputs: Inputs = param(Inputs(), doc="rain and hardness maps")

@@ -48,7 +48,9 @@ class Obstacle(Box):
 
 class Particles(Section):
     count: int | None = param(
-        None, ge=1, unit="1",
+        None,
+        ge=1,
+        unit="1",
         doc="target number of fluid particles; when set, sph.spacing = (fluid volume / count)^(1/dim) "
         "(so h = h_factor·Δx and m = ρ₀Δx^dim follow from it)",
     )

@@ -33,29 +33,15 @@ class HardnessSection(Section):
     """The hardness map D (ST-1): 1 = unerodible, 0 = fully erodible."""
 
     source: Literal["auto", "file", "strata", "noise", "classes", "uniform"] = param(
-        "auto",
-        doc="auto (file when `file` is set, else strata) | file | strata | noise | classes"
-        " | uniform",
+        "auto", doc="auto (file when `file` is set, else strata) | file | strata | noise | classes | uniform"
     )
-    file: str | None = param(
-        None, doc="hardness raster (GeoTIFF, PNG 8/16-bit, .npy), same size as the terrain"
-    )
-    thickness: list[float] = param(
-        [30.0, 12.0, 20.0, 8.0], unit="m", doc="strata: band thicknesses, bottom up"
-    )
-    values: list[float] = param(
-        [0.25, 0.85, 0.45, 0.7], unit="1", doc="strata: hardness of each band"
-    )
+    file: str | None = param(None, doc="hardness raster (GeoTIFF, PNG 8/16-bit, .npy), same size as the terrain")
+    thickness: list[float] = param([30.0, 12.0, 20.0, 8.0], unit="m", doc="strata: band thicknesses, bottom up")
+    values: list[float] = param([0.25, 0.85, 0.45, 0.7], unit="1", doc="strata: hardness of each band")
     base: float = param(0.0, unit="m", doc="strata: height where the first band starts")
-    tilt_x: float = param(
-        0.0, unit="m/m", doc="strata: dip of the layers, metres per metre eastward"
-    )
-    tilt_y: float = param(
-        0.0, unit="m/m", doc="strata: dip of the layers, metres per metre northward"
-    )
-    follow_cut: bool = param(
-        True, doc="strata: a lowered cell takes the hardness of the band it is cut down to"
-    )
+    tilt_x: float = param(0.0, unit="m/m", doc="strata: dip of the layers, metres per metre eastward")
+    tilt_y: float = param(0.0, unit="m/m", doc="strata: dip of the layers, metres per metre northward")
+    follow_cut: bool = param(True, doc="strata: a lowered cell takes the hardness of the band it is cut down to")
     noise_scale: float = param(16.0, gt=0, unit="cells", doc="noise: feature size (Gaussian sigma)")
     low: float = param(0.1, ge=0, le=1, unit="1", doc="noise: softest value")
     high: float = param(0.9, ge=0, le=1, unit="1", doc="noise: hardest value")
@@ -74,10 +60,7 @@ class HardnessSection(Section):
     @model_validator(mode="after")
     def _check(self) -> HardnessSection:
         if self.kind == "file" and not self.file:
-            raise ConfigError(
-                "hardness.source is 'file' but hardness.file is not set; "
-                "give --set hardness.file=PATH."
-            )
+            raise ConfigError("hardness.source is 'file' but hardness.file is not set; give --set hardness.file=PATH.")
         if self.kind == "strata":
             if not self.thickness or len(self.thickness) != len(self.values):
                 raise ConfigError(
@@ -85,53 +68,38 @@ class HardnessSection(Section):
                     f"{len(self.values)}; give one hardness per band."
                 )
             if min(self.thickness) <= 0:
-                raise ConfigError(
-                    "Every hardness.thickness must be positive (metres); fix the list."
-                )
+                raise ConfigError("Every hardness.thickness must be positive (metres); fix the list.")
             if min(self.values) < 0 or max(self.values) > 1:
                 raise ConfigError(
-                    f"hardness.values {self.values} must lie in [0, 1] "
-                    "(0 = fully erodible, 1 = unerodible)."
+                    f"hardness.values {self.values} must lie in [0, 1] (0 = fully erodible, 1 = unerodible)."
                 )
         if self.kind == "noise" and self.low > self.high:
-            raise ConfigError(
-                f"hardness.low = {self.low:g} is above hardness.high = {self.high:g}; swap them."
-            )
+            raise ConfigError(f"hardness.low = {self.low:g} is above hardness.high = {self.high:g}; swap them.")
         if self.kind == "classes":
             if not self.class_file:
-                raise ConfigError(
-                    "hardness.source is 'classes' but hardness.class_file is not set; "
-                    "give its path."
-                )
+                raise ConfigError("hardness.source is 'classes' but hardness.class_file is not set; give its path.")
             for key, mat in self.materials.items():
                 try:
                     int(key)
                 except ValueError:
                     raise ConfigError(
-                        f"hardness.materials key '{key}' is not a class number; "
-                        'use e.g. "3" = "shale".'
+                        f'hardness.materials key \'{key}\' is not a class number; use e.g. "3" = "shale".'
                     ) from None
                 if isinstance(mat, str) and mat not in MATERIALS:
                     raise ConfigError(
-                        f"hardness.materials: unknown material '{mat}'; "
-                        f"use one of {', '.join(MATERIALS)}."
+                        f"hardness.materials: unknown material '{mat}'; use one of {', '.join(MATERIALS)}."
                     )
                 if not isinstance(mat, str) and not 0 <= mat <= 1:
-                    raise ConfigError(
-                        f"hardness.materials: class {key} hardness {mat} is outside [0, 1]."
-                    )
+                    raise ConfigError(f"hardness.materials: class {key} hardness {mat} is outside [0, 1].")
         return self
 
 
 class StreamSection(Section):
     """How the stream is run."""
 
-    pool: int = param(
-        64, ge=1, le=65536, unit="particles", doc="particles in flight per emitter (pool size)"
-    )
+    pool: int = param(64, ge=1, le=65536, unit="particles", doc="particles in flight per emitter (pool size)")
     length_unit: Literal["cells", "m"] = param(
-        "cells",
-        doc="unit of the emitters' width, length, speed, max_speed, radius_per_mass, pivot_offset",
+        "cells", doc="unit of the emitters' width, length, speed, max_speed, radius_per_mass, pivot_offset"
     )
     impacts_per_batch: int = param(
         200_000, ge=1, unit="impacts", doc="work between progress updates and checkpoint checks"

@@ -73,18 +73,14 @@ def build_model(cfg, *, timing: bool = False):
 
     terrain = build_terrain(cfg.terrain, cfg.seed)
     rain, erod = _inputs(cfg, terrain.shape)
-    model = HydrologyModel(
-        terrain, cfg.hydrology, cfg.vegetation, cfg.seed, rain=rain, erodibility=erod, timing=timing
-    )
+    model = HydrologyModel(terrain, cfg.hydrology, cfg.vegetation, cfg.seed, rain=rain, erodibility=erod, timing=timing)
     return terrain, model
 
 
 def _picture(model):
     from erosim.viz.maps import hydrology_map
 
-    return hydrology_map(
-        model.z, model.cell_size, model.stream, model.lake_depth(), vegetation=model.vegetation()
-    )
+    return hydrology_map(model.z, model.cell_size, model.stream, model.lake_depth(), vegetation=model.vegetation())
 
 
 def write_outputs(model, terrain, out: RunFolder) -> dict:
@@ -104,11 +100,7 @@ def write_outputs(model, terrain, out: RunFolder) -> dict:
     info: dict = {"maps": {}, "masks": {}}
     for name, arr in maps.items():
         hio.write(out.maps / f"{name}.tif", np.ascontiguousarray(arr), like=terrain)
-        info["maps"][name] = {
-            "path": f"maps/{name}.tif",
-            "min": float(arr.min()),
-            "max": float(arr.max()),
-        }
+        info["maps"][name] = {"path": f"maps/{name}.tif", "min": float(arr.min()), "max": float(arr.max())}
     png = hio.write(out.maps / "height.png", model.z, like=terrain)
     raw = hio.write(out.maps / "height.r16", model.z, like=terrain)
     info["heightmap_16bit"] = {
@@ -194,9 +186,7 @@ def run(scenario, out: RunFolder, *, resume: bool = False, progress: bool = True
         info["animation"] = "figures/evolution.gif"
     wb, sb = model.water_budget(), model.sediment_budget()
     stats = model.stats()
-    stats["droplets_per_s"] = (
-        (model.per_cycle * cfg.run.cycles) / wall if wall > 0 and not resume else None
-    )
+    stats["droplets_per_s"] = (model.per_cycle * cfg.run.cycles) / wall if wall > 0 and not resume else None
     report = {
         "kind": "hydrology",
         "scenario": scenario.name,
@@ -234,10 +224,7 @@ def _clear_demo_folder(out: Path) -> None:
         raise ConfigError(f"Demo output '{out}' is a file; pass another --out folder.")
     entries = list(out.iterdir())
     if entries and not ((out / "report.json").exists() or (out / "scenario.toml").exists()):
-        raise ConfigError(
-            f"Demo output '{out}' holds files erosim did not write; "
-            "pass an empty or new --out folder."
-        )
+        raise ConfigError(f"Demo output '{out}' holds files erosim did not write; pass an empty or new --out folder.")
     shutil.rmtree(out)
 
 

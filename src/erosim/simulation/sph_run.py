@@ -63,9 +63,7 @@ class Recorder:
         self.n_snap = 0
         self.frames = FrameSeries(out.path / "particles") if cfg.run.output_interval > 0 else None
         self.front_origin = (
-            cfg.measure.front_origin
-            if cfg.measure.front_origin is not None
-            else min(b.lo[0] for b in cfg.fluid)
+            cfg.measure.front_origin if cfg.measure.front_origin is not None else min(b.lo[0] for b in cfg.fluid)
         )
         self.header = ["t"] + [f"p_{q.name}" for q in cfg.probes] + [f"depth_{g.name}" for g in cfg.gauges]
 
@@ -102,8 +100,13 @@ class Recorder:
         s = self.solver
         snapshot(
             self.out.figures / f"snapshot_{self.n_snap:03d}.png",
-            s.fluid_positions(), s.fluid_velocities(), t=float(s.t),
-            lo=self.cfg.domain.lo, hi=self.cfg.domain.hi, spacing=self.dx, title=self.name,
+            s.fluid_positions(),
+            s.fluid_velocities(),
+            t=float(s.t),
+            lo=self.cfg.domain.lo,
+            hi=self.cfg.domain.hi,
+            spacing=self.dx,
+            title=self.name,
         )
         self.n_snap += 1
 
@@ -132,8 +135,13 @@ class Recorder:
         g = abs(self.cfg.sph.gravity_vector()[-1])
         T, Z = nondimensional_front(rows[:, 0], rows[:, 1], a, g)
         path = front_vs_experiment(
-            self.out.figures / "front.png", T, Z, ref["T"], ref["Z"],
-            label=f"erosim (dx = a/{a / self.dx:.0f})", title=f"{self.name}: surge front",
+            self.out.figures / "front.png",
+            T,
+            Z,
+            ref["T"],
+            ref["Z"],
+            label=f"erosim (dx = a/{a / self.dx:.0f})",
+            title=f"{self.name}: surge front",
         )
         return str(path.relative_to(self.out.path))
 
@@ -189,7 +197,7 @@ def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progres
     if resume:
         state, meta = checkpoint.load(out.checkpoint)
         solver.load_state_dict(
-            {k[len(_SOLVER):]: (v.item() if v.ndim == 0 else v) for k, v in state.items() if k.startswith(_SOLVER)}
+            {k[len(_SOLVER) :]: (v.item() if v.ndim == 0 else v) for k, v in state.items() if k.startswith(_SOLVER)}
         )
         rec.restore(state, meta)
         saved_sched = meta.get("schedules", {})
@@ -223,9 +231,16 @@ def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progres
     status, error = "completed", None
     try:
         drive(
-            advance, start=t0, total=r.t_end, schedules=list(schedules.values()),
-            checkpoint=save_checkpoint, checkpoint_wall_s=r.checkpoint_wall_s,
-            label=scenario.name, unit="s", progress=progress, steps_done=steps0,
+            advance,
+            start=t0,
+            total=r.t_end,
+            schedules=list(schedules.values()),
+            checkpoint=save_checkpoint,
+            checkpoint_wall_s=r.checkpoint_wall_s,
+            label=scenario.name,
+            unit="s",
+            progress=progress,
+            steps_done=steps0,
         )
     except InstabilityError as exc:
         status, error = "unstable", str(exc)
@@ -244,9 +259,11 @@ def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progres
             fig = rec.front_figure()
             if fig:
                 report["figures"].append(fig)
-        report["figures"] += sorted(
-            str(p.relative_to(out.path)) for p in (out.path / "figures").glob("snapshot_*.png")
-        ) if (out.path / "figures").is_dir() else []
+        report["figures"] += (
+            sorted(str(p.relative_to(out.path)) for p in (out.path / "figures").glob("snapshot_*.png"))
+            if (out.path / "figures").is_dir()
+            else []
+        )
         out.write_report(report, seed=cfg.seed)
     summary = {
         "status": status,

@@ -50,13 +50,7 @@ def build_hardness(section: HardnessSection, hm: Heightmap, seed: int) -> tuple[
     if kind == "classes":
         cm = _read_classes(section.class_file, hm.shape)
         return hardness_mod.classes(cm, {int(k): v for k, v in section.materials.items()}), None
-    spec = Strata(
-        tuple(section.thickness),
-        tuple(section.values),
-        section.base,
-        section.tilt_x,
-        section.tilt_y,
-    )
+    spec = Strata(tuple(section.thickness), tuple(section.values), section.base, section.tilt_x, section.tilt_y)
     return hardness_mod.strata(hm.z, hm.cell_size, spec), (spec if section.follow_cut else None)
 
 
@@ -98,13 +92,7 @@ def build(cfg: StreamScenario) -> tuple[Heightmap, np.ndarray, ParticleStream]:
     hm = build_terrain(cfg.terrain, cfg.seed)
     d0, strata = build_hardness(cfg.hardness, hm, cfg.seed)
     stream = ParticleStream(
-        hm.z,
-        d0,
-        hm.cell_size,
-        emitters_in_metres(cfg, hm.cell_size),
-        cfg.seed,
-        strata,
-        pool=cfg.stream.pool,
+        hm.z, d0, hm.cell_size, emitters_in_metres(cfg, hm.cell_size), cfg.seed, strata, pool=cfg.stream.pool
     )
     return hm, d0, stream
 

@@ -293,31 +293,9 @@ def fluid_pass_2d_wendland_wcsph_artificial(
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
-            K.wendland_f_2d,
-            no_lap,
-            pterm_wcsph,
-            visc_artificial,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.wendland_f_2d, no_lap, pterm_wcsph, visc_artificial,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -326,31 +304,9 @@ def fluid_pass_2d_wendland_wcsph_laminar(
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
-            K.wendland_f_2d,
-            K.wendland_lap_2d,
-            pterm_wcsph,
-            visc_laminar,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.wendland_f_2d, K.wendland_lap_2d, pterm_wcsph, visc_laminar,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -359,31 +315,9 @@ def fluid_pass_2d_wendland_symmetric_artificial(
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
-            K.wendland_f_2d,
-            no_lap,
-            pterm_symmetric,
-            visc_artificial,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.wendland_f_2d, no_lap, pterm_symmetric, visc_artificial,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -392,31 +326,9 @@ def fluid_pass_2d_wendland_symmetric_laminar(
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
-            K.wendland_f_2d,
-            K.wendland_lap_2d,
-            pterm_symmetric,
-            visc_laminar,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.wendland_f_2d, K.wendland_lap_2d, pterm_symmetric, visc_laminar,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -425,31 +337,9 @@ def fluid_pass_2d_muller_wcsph_artificial(
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
-            K.muller_f_2d,
-            no_lap,
-            pterm_wcsph,
-            visc_artificial,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.muller_f_2d, no_lap, pterm_wcsph, visc_artificial,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -458,31 +348,9 @@ def fluid_pass_2d_muller_wcsph_laminar(
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
-            K.muller_f_2d,
-            K.muller_lap_2d,
-            pterm_wcsph,
-            visc_laminar,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.muller_f_2d, K.muller_lap_2d, pterm_wcsph, visc_laminar,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -491,31 +359,9 @@ def fluid_pass_2d_muller_symmetric_artificial(
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
-            K.muller_f_2d,
-            no_lap,
-            pterm_symmetric,
-            visc_artificial,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.muller_f_2d, no_lap, pterm_symmetric, visc_artificial,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -524,31 +370,9 @@ def fluid_pass_2d_muller_symmetric_laminar(
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
-            K.muller_f_2d,
-            K.muller_lap_2d,
-            pterm_symmetric,
-            visc_laminar,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.muller_f_2d, K.muller_lap_2d, pterm_symmetric, visc_laminar,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -557,31 +381,9 @@ def fluid_pass_3d_wendland_wcsph_artificial(
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
-            K.wendland_f_3d,
-            no_lap,
-            pterm_wcsph,
-            visc_artificial,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.wendland_f_3d, no_lap, pterm_wcsph, visc_artificial,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -590,31 +392,9 @@ def fluid_pass_3d_wendland_wcsph_laminar(
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
-            K.wendland_f_3d,
-            K.wendland_lap_3d,
-            pterm_wcsph,
-            visc_laminar,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.wendland_f_3d, K.wendland_lap_3d, pterm_wcsph, visc_laminar,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -623,31 +403,9 @@ def fluid_pass_3d_wendland_symmetric_artificial(
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
-            K.wendland_f_3d,
-            no_lap,
-            pterm_symmetric,
-            visc_artificial,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.wendland_f_3d, no_lap, pterm_symmetric, visc_artificial,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -656,31 +414,9 @@ def fluid_pass_3d_wendland_symmetric_laminar(
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
-            K.wendland_f_3d,
-            K.wendland_lap_3d,
-            pterm_symmetric,
-            visc_laminar,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.wendland_f_3d, K.wendland_lap_3d, pterm_symmetric, visc_laminar,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -689,31 +425,9 @@ def fluid_pass_3d_muller_wcsph_artificial(
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
-            K.muller_f_3d,
-            no_lap,
-            pterm_wcsph,
-            visc_artificial,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.muller_f_3d, no_lap, pterm_wcsph, visc_artificial,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -722,31 +436,9 @@ def fluid_pass_3d_muller_wcsph_laminar(
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
-            K.muller_f_3d,
-            K.muller_lap_3d,
-            pterm_wcsph,
-            visc_laminar,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.muller_f_3d, K.muller_lap_3d, pterm_wcsph, visc_laminar,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -755,31 +447,9 @@ def fluid_pass_3d_muller_symmetric_artificial(
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
-            K.muller_f_3d,
-            no_lap,
-            pterm_symmetric,
-            visc_artificial,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.muller_f_3d, no_lap, pterm_symmetric, visc_artificial,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
@@ -788,31 +458,9 @@ def fluid_pass_3d_muller_symmetric_laminar(
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
-            K.muller_f_3d,
-            K.muller_lap_3d,
-            pterm_symmetric,
-            visc_laminar,
-            i,
-            pos,
-            vel,
-            rho,
-            p,
-            start,
-            mid,
-            nbr,
-            m,
-            h,
-            kv,
-            eps2,
-            kdiff,
-            eta2,
-            kh,
-            gx,
-            gy,
-            gz,
-            acc,
-            drho,
-        )
+            K.muller_f_3d, K.muller_lap_3d, pterm_symmetric, visc_laminar,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+        )  # fmt: skip
 
 
 @njit(parallel=True, cache=True)

@@ -81,34 +81,20 @@ class NoiseParams(Section):
 
     kind: Literal["fbm", "ridged", "warped"] = param("fbm", doc="noise kind: fbm | ridged | warped")
     wavelength: float = param(2000.0, gt=0, unit="m", doc="wavelength of the largest features")
-    relief: float = param(
-        200.0, ge=0, unit="m", doc="height scale: heights span about base..base+relief"
-    )
+    relief: float = param(200.0, ge=0, unit="m", doc="height scale: heights span about base..base+relief")
     base: float = param(0.0, unit="m", doc="height of the lowest ground")
-    octaves: int = param(
-        0, ge=0, le=24, unit="1", doc="octaves; 0 = until the finest wavelength is 2 cells"
-    )
+    octaves: int = param(0, ge=0, le=24, unit="1", doc="octaves; 0 = until the finest wavelength is 2 cells")
     lacunarity: float = param(2.0, gt=1, le=4, unit="1", doc="wavelength ratio between octaves")
     gain: float = param(0.5, gt=0, lt=1, unit="1", doc="amplitude ratio between octaves")
     exponent: float = param(1.0, gt=0, le=8, unit="1", doc="height redistribution u**exponent")
     ridge_mix: float = param(
-        1.0,
-        ge=0,
-        le=1,
-        unit="1",
-        doc="ridged kind: share of ridged noise, the rest independent fBm",
+        1.0, ge=0, le=1, unit="1", doc="ridged kind: share of ridged noise, the rest independent fBm"
     )
     warp_strength: float = param(0.0, ge=0, unit="m", doc="domain-warp displacement amplitude")
     warp_wavelength: float = param(2000.0, gt=0, unit="m", doc="wavelength of the warp field")
-    plateau_level: float = param(
-        0.0, ge=0, le=1, unit="1", doc="mesa step height fraction (0 = off)"
-    )
-    plateau_sharpness: float = param(
-        12.0, gt=0, le=100, unit="1", doc="steepness of the mesa escarpments"
-    )
-    plateau_detail: float = param(
-        0.1, ge=0, le=1, unit="1", doc="share of the raw noise kept on mesas"
-    )
+    plateau_level: float = param(0.0, ge=0, le=1, unit="1", doc="mesa step height fraction (0 = off)")
+    plateau_sharpness: float = param(12.0, gt=0, le=100, unit="1", doc="steepness of the mesa escarpments")
+    plateau_detail: float = param(0.1, ge=0, le=1, unit="1", doc="share of the raw noise kept on mesas")
     offset_x: float = param(0.0, unit="m", doc="x of the map's west edge in the noise world")
     offset_y: float = param(0.0, unit="m", doc="y of the map's north edge in the noise world")
 
@@ -173,9 +159,7 @@ def auto_octaves(p: NoiseParams, cell_size: float) -> int:
     return int(min(16, 1 + math.floor(math.log(ratio) / math.log(p.lacunarity))))
 
 
-def height_fraction(
-    p: NoiseParams, seed: int, x: np.ndarray, y: np.ndarray, octaves: int
-) -> np.ndarray:
+def height_fraction(p: NoiseParams, seed: int, x: np.ndarray, y: np.ndarray, octaves: int) -> np.ndarray:
     """Shaped height fraction u (≈ 0..1) at physical points x, y (m), before scaling by relief."""
     s_base, s_wx, s_wy = _seeds(seed, 3)
     if p.warp_strength > 0:
@@ -201,9 +185,7 @@ def height_fraction(
     return u
 
 
-def resolve(
-    preset_or_kind: str, overrides: dict | None = None, where: str = "terrain"
-) -> NoiseParams:
+def resolve(preset_or_kind: str, overrides: dict | None = None, where: str = "terrain") -> NoiseParams:
     """Validated parameters: a preset (or bare kind) with ``overrides`` on top."""
     name = str(preset_or_kind).strip().lower()
     if name in PRESETS:
@@ -216,19 +198,13 @@ def resolve(
         choices = sorted(PRESETS) + list(KINDS)
         near = difflib.get_close_matches(name, choices, n=1)
         hint = f"did you mean '{near[0]}'? " if near else ""
-        raise ConfigError(
-            f"Unknown terrain preset '{preset_or_kind}': {hint}choose one of {', '.join(choices)}."
-        )
+        raise ConfigError(f"Unknown terrain preset '{preset_or_kind}': {hint}choose one of {', '.join(choices)}.")
     data.update({k: v for k, v in (overrides or {}).items() if v is not None})
     return validate_section(NoiseParams, data, where)
 
 
 def generate(
-    preset_or_kind: str = "hills",
-    size: int | tuple[int, int] = 256,
-    cell_size: float = 2.0,
-    seed: int = 0,
-    **overrides,
+    preset_or_kind: str = "hills", size: int | tuple[int, int] = 256, cell_size: float = 2.0, seed: int = 0, **overrides
 ) -> Heightmap:
     """A generated :class:`Heightmap` of ``size`` cells (int or (ny, nx)) of ``cell_size`` metres.
 
@@ -237,14 +213,10 @@ def generate(
     """
     ny, nx = (size, size) if np.isscalar(size) else tuple(size)
     if int(ny) < 2 or int(nx) < 2 or int(ny) != ny or int(nx) != nx:
-        raise ConfigError(
-            f"Terrain size {size!r} is not valid; give at least 2 cells per side, e.g. 256."
-        )
+        raise ConfigError(f"Terrain size {size!r} is not valid; give at least 2 cells per side, e.g. 256.")
     ny, nx = int(ny), int(nx)
     if not (isinstance(cell_size, (int, float)) and math.isfinite(cell_size) and cell_size > 0):
-        raise ConfigError(
-            f"Cell size {cell_size!r} m is not valid; it must be a positive number of metres."
-        )
+        raise ConfigError(f"Cell size {cell_size!r} m is not valid; it must be a positive number of metres.")
     p = resolve(preset_or_kind, overrides)
     octaves = auto_octaves(p, float(cell_size))
     xs = p.offset_x + (np.arange(nx) + 0.5) * cell_size

@@ -47,15 +47,11 @@ class Strata:
     tilt_y: float = 0.0
 
 
-def check_hardness(
-    d: np.ndarray, shape: tuple[int, int] | None = None, what: str = "hardness map"
-) -> np.ndarray:
+def check_hardness(d: np.ndarray, shape: tuple[int, int] | None = None, what: str = "hardness map") -> np.ndarray:
     """``d`` as C-contiguous float64, or an :class:`InputError` (NaN, outside [0, 1], bad shape)."""
     d = np.asarray(d)
     if d.ndim != 2:
-        raise InputError(
-            f"The {what} must be a 2-D array, got shape {d.shape}; give one value per cell."
-        )
+        raise InputError(f"The {what} must be a 2-D array, got shape {d.shape}; give one value per cell.")
     if shape is not None and d.shape != tuple(shape):
         raise InputError(
             f"The {what} has shape {d.shape} but the heightmap has {tuple(shape)}; "
@@ -63,9 +59,7 @@ def check_hardness(
         )
     d = np.ascontiguousarray(d, dtype=np.float64)
     if not np.isfinite(d).all():
-        raise InputError(
-            f"The {what} holds NaN or infinite values; fill them with a hardness in [0, 1]."
-        )
+        raise InputError(f"The {what} holds NaN or infinite values; fill them with a hardness in [0, 1].")
     lo, hi = float(d.min()), float(d.max())
     if lo < 0.0 or hi > 1.0:
         raise InputError(
@@ -101,9 +95,7 @@ def load(path: str | os.PathLike, shape: tuple[int, int] | None = None) -> np.nd
 
             with rasterio.open(p) as src:
                 raw = src.read(1, masked=True)
-                a = np.asarray(
-                    raw.filled(np.nan) if np.ma.isMaskedArray(raw) and raw.mask.any() else raw.data
-                )
+                a = np.asarray(raw.filled(np.nan) if np.ma.isMaskedArray(raw) and raw.mask.any() else raw.data)
         elif ext == ".npy":
             a = np.load(p, allow_pickle=False)
         else:
@@ -114,20 +106,13 @@ def load(path: str | os.PathLike, shape: tuple[int, int] | None = None) -> np.nd
             if a.ndim == 3:  # colour: mean of the colour channels (alpha ignored)
                 kind = a.dtype
                 a = a[..., :3].mean(axis=2) if a.shape[2] >= 3 else a[..., 0]
-                a = (
-                    a.astype(np.float64) / np.iinfo(kind).max
-                    if np.issubdtype(kind, np.integer)
-                    else a
-                )
+                a = a.astype(np.float64) / np.iinfo(kind).max if np.issubdtype(kind, np.integer) else a
     except (OSError, ValueError) as exc:
-        raise InputError(
-            f"Hardness file '{p}' cannot be read ({exc}); give a GeoTIFF, PNG or .npy file."
-        ) from None
+        raise InputError(f"Hardness file '{p}' cannot be read ({exc}); give a GeoTIFF, PNG or .npy file.") from None
     if np.issubdtype(a.dtype, np.integer):
         if a.dtype.itemsize > 2 or np.issubdtype(a.dtype, np.signedinteger):
             raise InputError(
-                f"Hardness file '{p}' holds {a.dtype} integers; "
-                "use floats in [0, 1] or 8/16-bit unsigned pixels."
+                f"Hardness file '{p}' holds {a.dtype} integers; use floats in [0, 1] or 8/16-bit unsigned pixels."
             )
         a = a.astype(np.float64) / np.iinfo(a.dtype).max
     return check_hardness(a, shape, what=f"hardness map '{p.name}'")
@@ -153,9 +138,7 @@ def strata_at(z, i, j, cell_size: float, spec: Strata) -> np.ndarray:
             "list one hardness per band."
         )
     if (th <= 0).any():
-        raise InputError(
-            "Every stratum thickness must be positive (metres); fix hardness.thickness."
-        )
+        raise InputError("Every stratum thickness must be positive (metres); fix hardness.thickness.")
     check_hardness(vals[None, :], what="strata hardness list")
     edges = np.concatenate([[0.0], np.cumsum(th)[:-1]])
     period = float(th.sum())
@@ -167,19 +150,12 @@ def strata_at(z, i, j, cell_size: float, spec: Strata) -> np.ndarray:
     return vals[np.clip(band, 0, vals.size - 1)]
 
 
-def noise(
-    shape: tuple[int, int], seed: int, scale: float = 16.0, low: float = 0.0, high: float = 1.0
-) -> np.ndarray:
+def noise(shape: tuple[int, int], seed: int, scale: float = 16.0, low: float = 0.0, high: float = 1.0) -> np.ndarray:
     """Smooth random hardness in ``[low, high]``: white noise blurred with σ = ``scale`` cells."""
     if not 0.0 <= low <= high <= 1.0:
-        raise InputError(
-            f"Noise hardness range {low:g}..{high:g} is not within [0, 1]; "
-            "use 0 <= low <= high <= 1."
-        )
+        raise InputError(f"Noise hardness range {low:g}..{high:g} is not within [0, 1]; use 0 <= low <= high <= 1.")
     if scale <= 0:
-        raise InputError(
-            f"Noise scale {scale:g} cells must be positive; give the feature size in cells."
-        )
+        raise InputError(f"Noise scale {scale:g} cells must be positive; give the feature size in cells.")
     rng = np.random.default_rng(seed)
     f = ndimage.gaussian_filter(rng.standard_normal(shape), sigma=scale, mode="wrap")
     span = f.max() - f.min()
@@ -193,24 +169,17 @@ def classes(class_map: np.ndarray, materials: dict[int, str | float]) -> np.ndar
     Material names are those of :data:`MATERIALS`."""
     cm = np.asarray(class_map)
     if not np.issubdtype(cm.dtype, np.integer):
-        raise InputError(
-            f"A class map must hold integer classes, got {cm.dtype}; save it as an integer raster."
-        )
+        raise InputError(f"A class map must hold integer classes, got {cm.dtype}; save it as an integer raster.")
     out = np.full(cm.shape, np.nan)
     for cls, mat in materials.items():
         if isinstance(mat, str):
             if mat not in MATERIALS:
-                raise InputError(
-                    f"Unknown material '{mat}' for class {cls}; use one of: {', '.join(MATERIALS)}."
-                )
+                raise InputError(f"Unknown material '{mat}' for class {cls}; use one of: {', '.join(MATERIALS)}.")
             val = MATERIALS[mat]
         else:
             val = float(mat)
         out[cm == int(cls)] = val
     missing = np.unique(cm[np.isnan(out)])
     if missing.size:
-        raise InputError(
-            f"Class map values {missing[:5].tolist()} have no material; "
-            "add them to the materials table."
-        )
+        raise InputError(f"Class map values {missing[:5].tolist()} have no material; add them to the materials table.")
     return check_hardness(out, what="class-map hardness")

@@ -49,31 +49,23 @@ class Heightmap:
             cs = float(self.cell_size)
         except (TypeError, ValueError):
             raise InputError(
-                f"Cell size {self.cell_size!r} is not a number; give the cell size in metres, "
-                "e.g. 2.0."
+                f"Cell size {self.cell_size!r} is not a number; give the cell size in metres, e.g. 2.0."
             ) from None
         if not math.isfinite(cs) or cs <= 0:
-            raise InputError(
-                f"Cell size {self.cell_size!r} m is not valid; it must be a positive number of "
-                "metres."
-            )
+            raise InputError(f"Cell size {self.cell_size!r} m is not valid; it must be a positive number of metres.")
         self.cell_size = cs
         z = np.asarray(self.z)
         if z.ndim != 2 or z.shape[0] < 2 or z.shape[1] < 2:
             raise InputError(
-                f"A heightmap must be a 2-D array of at least 2x2 cells, got shape {z.shape}; "
-                "check the input file."
+                f"A heightmap must be a 2-D array of at least 2x2 cells, got shape {z.shape}; check the input file."
             )
         if not np.issubdtype(z.dtype, np.number) or np.iscomplexobj(z):
-            raise InputError(
-                f"Heights must be real numbers, got dtype {z.dtype}; check the input file."
-            )
+            raise InputError(f"Heights must be real numbers, got dtype {z.dtype}; check the input file.")
         z = np.ascontiguousarray(z, dtype=np.float64)
         bad = ~np.isfinite(z)
         if self.nodata is not None and np.shape(self.nodata) != z.shape:
             raise InputError(
-                f"The nodata mask has shape {np.shape(self.nodata)} but the heights have "
-                f"{z.shape}; they must match."
+                f"The nodata mask has shape {np.shape(self.nodata)} but the heights have {z.shape}; they must match."
             )
         mask = bad if self.nodata is None else (np.asarray(self.nodata, dtype=bool) | bad)
         if mask.all():
@@ -90,9 +82,7 @@ class Heightmap:
         if self.transform is not None:
             t = tuple(float(v) for v in tuple(self.transform)[:6])
             if len(t) != 6:
-                raise InputError(
-                    "A geotransform needs six numbers (a, b, c, d, e, f); check the input file."
-                )
+                raise InputError("A geotransform needs six numbers (a, b, c, d, e, f); check the input file.")
             self.transform = t
 
     @property

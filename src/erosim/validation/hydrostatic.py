@@ -28,8 +28,7 @@ RHO_THRESHOLD = 0.01
 RESOLUTIONS = {"coarse": (16, 0.6), "default": (40, 1.0), "fine": (80, 1.0)}
 
 
-def errors(pos: np.ndarray, p: np.ndarray, rho: np.ndarray, *, rho0: float, g: float, H: float,
-           lo, hi) -> dict:
+def errors(pos: np.ndarray, p: np.ndarray, rho: np.ndarray, *, rho0: float, g: float, H: float, lo, hi) -> dict:
     """The three measures of the module docstring."""
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     z = pos[:, -1] - lo[-1]
@@ -53,10 +52,16 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     block = base.config.fluid[0]
     H = block.hi[-1] - block.lo[-1]
     n_h, t_end = RESOLUTIONS[resolution]
-    scenario = loader.load("hydrostatic", [
-        f"sph.spacing={H / n_h!r}", f"run.t_end={t_end!r}", "run.output_interval=0.1",
-        "run.snapshots=1", "run.checkpoint_wall_s=600.0",
-    ])
+    scenario = loader.load(
+        "hydrostatic",
+        [
+            f"sph.spacing={H / n_h!r}",
+            f"run.t_end={t_end!r}",
+            "run.output_interval=0.1",
+            "run.snapshots=1",
+            "run.checkpoint_wall_s=600.0",
+        ],
+    )
     cfg = scenario.config
     g = abs(cfg.sph.gravity_vector()[-1])
     folder = RunFolder(out if out is not None else default_out(f"validate-hydrostatic-{resolution}"))
@@ -67,8 +72,12 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     pos, p, rho = solver.fluid_positions(), solver.fluid_pressure(), solver.fluid_density()
     e = errors(pos, p, rho, rho0=cfg.sph.rho0, g=g, H=H, lo=cfg.domain.lo, hi=cfg.domain.hi)
     fig = pressure_profile(
-        folder.figures / "pressure_profile.png", pos[:, -1] - cfg.domain.lo[-1], p,
-        rho0=cfg.sph.rho0, g=g, H=H,
+        folder.figures / "pressure_profile.png",
+        pos[:, -1] - cfg.domain.lo[-1],
+        p,
+        rho0=cfg.sph.rho0,
+        g=g,
+        H=H,
         title=f"hydrostatic, dx = H/{n_h}, t = {solver.t:.3g} s: RMS {100 * e['pressure_rms_rel']:.2f} %",
     )
     passed = e["pressure_rms_rel"] < P_THRESHOLD and e["density_variation"] < RHO_THRESHOLD and e["outside"] == 0

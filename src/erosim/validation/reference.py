@@ -24,7 +24,8 @@ def reference_dir() -> Path:
         if c.is_dir():
             return c
     raise InputError(
-        "Reference data not found (looked in " + ", ".join(str(c) for c in candidates)
+        "Reference data not found (looked in "
+        + ", ".join(str(c) for c in candidates)
         + "); set EROSIM_REFERENCE to the folder holding the reference CSV files."
     )
 

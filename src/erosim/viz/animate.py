@@ -34,22 +34,16 @@ def save_animation(path: str | os.PathLike, frames, fps: float = 10.0) -> str:
     if any(f.shape != frames[0].shape for f in frames):
         raise InputError(f"Animation '{p}': frames differ in size; give frames of one shape.")
     if not fps > 0:
-        raise InputError(
-            f"Animation frame rate {fps!r} is not valid; give a positive number of frames per "
-            "second."
-        )
+        raise InputError(f"Animation frame rate {fps!r} is not valid; give a positive number of frames per second.")
     stack = np.stack(frames)
     with atomic_path(p) as tmp:
         if ext == ".gif":
-            iio.imwrite(
-                tmp, stack, extension=".gif", plugin="pillow", duration=1000.0 / fps, loop=0
-            )
+            iio.imwrite(tmp, stack, extension=".gif", plugin="pillow", duration=1000.0 / fps, loop=0)
         else:
             try:
                 iio.imwrite(tmp, stack, extension=".mp4", plugin="FFMPEG", fps=fps)
             except Exception as exc:  # no ffmpeg backend installed
                 raise InputError(
-                    f"Cannot write MP4 '{p}' ({exc}); install imageio-ffmpeg or use a .gif file "
-                    "name."
+                    f"Cannot write MP4 '{p}' ({exc}); install imageio-ffmpeg or use a .gif file name."
                 ) from None
     return str(p)

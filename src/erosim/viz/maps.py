@@ -23,9 +23,7 @@ FOREST = np.array([0.13, 0.36, 0.15])
 GROUND = np.array([0.78, 0.72, 0.60])
 
 
-def hillshade(
-    z: np.ndarray, cell_size: float, azimuth: float = 315.0, altitude: float = 45.0
-) -> np.ndarray:
+def hillshade(z: np.ndarray, cell_size: float, azimuth: float = 315.0, altitude: float = 45.0) -> np.ndarray:
     """Illumination in [0, 1] of the surface ``z`` (m) lit from ``azimuth``/``altitude`` (deg)."""
     z = np.asarray(z, dtype=np.float64)
     if min(z.shape) < 2:
@@ -59,12 +57,7 @@ def save_png(path: str | os.PathLike, rgb_or_gray: np.ndarray) -> str:
 
 
 def shaded_relief(
-    z: np.ndarray,
-    cell_size: float,
-    cmap: str = "gist_earth",
-    vmin=None,
-    vmax=None,
-    ambient: float = 0.35,
+    z: np.ndarray, cell_size: float, cmap: str = "gist_earth", vmin=None, vmax=None, ambient: float = 0.35
 ) -> np.ndarray:
     """Hypsometric tint (``cmap`` from 0.3 to 0.95 over vmin..vmax) times a softened hillshade."""
     import matplotlib
@@ -123,9 +116,7 @@ def hydrology_map(
     return np.clip(rgb, 0.0, 1.0)
 
 
-def colormap(
-    array: np.ndarray, cmap: str = "viridis", vmin=None, vmax=None, symmetric: bool = False
-) -> np.ndarray:
+def colormap(array: np.ndarray, cmap: str = "viridis", vmin=None, vmax=None, symmetric: bool = False) -> np.ndarray:
     """RGB picture of ``array`` through a matplotlib colour map (NaN drawn gray).
 
     ``symmetric`` centres the scale on zero (for erosion − deposition differences).
@@ -145,8 +136,6 @@ def colormap(
     return rgb
 
 
-def colormap_png(
-    path: str | os.PathLike, array: np.ndarray, cmap: str = "viridis", **kwargs
-) -> str:
+def colormap_png(path: str | os.PathLike, array: np.ndarray, cmap: str = "viridis", **kwargs) -> str:
     """Write ``array`` through a matplotlib colour map as PNG (see :func:`colormap` for options)."""
     return save_png(path, colormap(array, cmap, **kwargs))

@@ -25,9 +25,18 @@ def _save(fig, path: str | os.PathLike) -> Path:
     return Path(path)
 
 
-def snapshot(path, positions: np.ndarray, velocities: np.ndarray, *, t: float,
-             lo, hi, spacing: float | None = None, boundary: np.ndarray | None = None,
-             title: str = "") -> Path:
+def snapshot(
+    path,
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    *,
+    t: float,
+    lo,
+    hi,
+    spacing: float | None = None,
+    boundary: np.ndarray | None = None,
+    title: str = "",
+) -> Path:
     """Particles coloured by speed |u|; 3-D runs are shown as a side view (x–z).
 
     With ``spacing`` the dots are drawn about one particle spacing wide."""
@@ -57,9 +66,17 @@ def snapshot(path, positions: np.ndarray, velocities: np.ndarray, *, t: float,
     return _save(fig, path)
 
 
-def front_vs_experiment(path, T: np.ndarray, Z: np.ndarray, ref_T: np.ndarray, ref_Z: np.ndarray,
-                        *, label: str = "erosim", ref_label: str = "Martin & Moyce (1952)",
-                        title: str = "") -> Path:
+def front_vs_experiment(
+    path,
+    T: np.ndarray,
+    Z: np.ndarray,
+    ref_T: np.ndarray,
+    ref_Z: np.ndarray,
+    *,
+    label: str = "erosim",
+    ref_label: str = "Martin & Moyce (1952)",
+    title: str = "",
+) -> Path:
     """Non-dimensional surge front Z = x/a against T = t√(2g/a), simulation line vs measured points."""
     fig, ax = plt.subplots(figsize=(6, 4.5))
     ax.plot(T, Z, "-", label=label)
@@ -74,8 +91,9 @@ def front_vs_experiment(path, T: np.ndarray, Z: np.ndarray, ref_T: np.ndarray, r
     return _save(fig, path)
 
 
-def pressure_profile(path, z: np.ndarray, p: np.ndarray, *, rho0: float, g: float, H: float,
-                     floor: float = 0.0, title: str = "") -> Path:
+def pressure_profile(
+    path, z: np.ndarray, p: np.ndarray, *, rho0: float, g: float, H: float, floor: float = 0.0, title: str = ""
+) -> Path:
     """Particle pressure against height with the hydrostatic line p = ρ₀ g (H − z)."""
     fig, ax = plt.subplots(figsize=(5, 5))
     ax.plot(p, z, ".", ms=2, alpha=0.5, label="particles")
