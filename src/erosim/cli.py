@@ -48,7 +48,7 @@ def _guard(fn, *args, **kwargs):
 
 def _print_result(result: dict, as_json: bool) -> None:
     if as_json:
-        from erosim.io.atomic import to_json
+        from erosim.core.atomic import to_json
 
         click.echo(to_json(result))
         return
@@ -99,7 +99,7 @@ def cli(threads: int | None, quiet: bool, debug: bool) -> None:
 # --------------------------------------------------------------------------------------------- run
 def _run(scenario_ref, overrides, preset, out, resume, overwrite):
     from erosim.io.runfolder import RunFolder, default_out
-    from erosim.scenarios import kinds, loader
+    from erosim.scenarios import loader
 
     if resume:
         folder = Path(resume)
@@ -116,11 +116,10 @@ def _run(scenario_ref, overrides, preset, out, resume, overwrite):
         target = Path(out) if out else default_out(scenario.name)
         created = not target.exists()
         run_folder = RunFolder(target, overwrite=overwrite)
-    runner = kinds.resolve(kinds.get(scenario.kind).runner)
+    from erosim.scenarios.runner import run as run_scenario
+
     try:
-        summary = runner(scenario, run_folder, resume=bool(resume), progress=not STATE.quiet)
-    except Interrupted as exc:
-        raise Interrupted(str(exc).replace("<run folder>", str(run_folder.path))) from None
+        summary = run_scenario(scenario, run_folder, resume=bool(resume), progress=not STATE.quiet)
     except (ConfigError, InputError):
         # bad input found while building the run (a NaN-only DEM, a step above the CFL limit):
         # nothing was simulated, so a folder this command created is removed, not left half-made
@@ -168,7 +167,7 @@ def demo(out):
     """The main job: rivers, lakes and vegetation carved into a generated 512² mountain terrain."""
     from erosim.scenarios.kinds import resolve
 
-    fn = _guard(resolve, "erosim.simulation.hydrology_run:demo")
+    fn = _guard(resolve, "erosim.scenarios.runner:demo")
     summary = _guard(fn, Path(out), not STATE.quiet)
     if summary:
         _print_result(summary, as_json=False)

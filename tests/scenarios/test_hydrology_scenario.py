@@ -7,11 +7,10 @@ import pytest
 
 from erosim.cli import cli
 from erosim.core.errors import ConfigError, InputError
+from erosim.core.heightmap import Heightmap
 from erosim.io import heightmaps as hio
 from erosim.io.runfolder import RunFolder
-from erosim.scenarios import loader
-from erosim.simulation import hydrology_run
-from erosim.terrain.heightmap import Heightmap
+from erosim.scenarios import builders_hydrology, loader, runner
 
 SMALL = ["terrain.size=48", "terrain.cell_size=40.0", "run.cycles=6", "run.frames=3", "hydrology.cycle_droplets=20000"]
 
@@ -19,7 +18,7 @@ SMALL = ["terrain.size=48", "terrain.cell_size=40.0", "run.cycles=6", "run.frame
 def _run(tmp_path, overrides=(), name="run", preset=None):
     sc = loader.load("hydrology", list(SMALL) + list(overrides), preset=preset)
     out = RunFolder(tmp_path / name)
-    summary = hydrology_run.run(sc, out, progress=False)
+    summary = runner.run(sc, out, progress=False)
     return out.path, summary
 
 
@@ -30,7 +29,7 @@ def folder(tmp_path_factory):
 
 
 def test_run_folder_holds_every_output(folder):
-    for name in hydrology_run.MAPS:
+    for name in builders_hydrology.MAPS:
         assert (folder / "maps" / f"{name}.tif").is_file()
     for name in (
         "height.png",
@@ -69,7 +68,7 @@ def test_resume_repeats_the_uninterrupted_run(tmp_path):
     half, _ = _run(tmp_path, ["run.cycles=3", "run.frames=0"], name="half")
     # continue the 3-cycle run to 6 cycles from its checkpoint
     sc = loader.load(half / "scenario.toml", ["run.cycles=6"])
-    hydrology_run.run(sc, RunFolder(half, resume=True), resume=True, progress=False)
+    runner.run(sc, RunFolder(half, resume=True), resume=True, progress=False)
     a = hio.read(full / "maps" / "height.tif").z
     b = hio.read(half / "maps" / "height.tif").z
     assert np.array_equal(a, b)
@@ -153,7 +152,7 @@ def test_demo_folder_guard(tmp_path):
     keep.mkdir()
     (keep / "notes.txt").write_text("precious")
     with pytest.raises(ConfigError, match="did not write"):
-        hydrology_run._clear_demo_folder(keep)
+        builders_hydrology.clear_demo_folder(keep)
     assert (keep / "notes.txt").is_file()
 
 

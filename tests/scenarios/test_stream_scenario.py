@@ -7,12 +7,10 @@ import pytest
 from click.testing import CliRunner
 
 from erosim.cli import cli
-from erosim.io import checkpoint
+from erosim.core.heightmap import Heightmap
 from erosim.io import heightmaps as hio
 from erosim.io.runfolder import RunFolder
-from erosim.scenarios import loader
-from erosim.simulation import stream_run
-from erosim.terrain.heightmap import Heightmap
+from erosim.scenarios import builders_stream, loader, runner
 
 SMALL = ["--set", "terrain.size=64", "--set", "emitters.main.particles=150", "--set", "emitters.main.steps=50"]
 
@@ -101,19 +99,32 @@ def test_same_seed_same_maps(tmp_path):
     assert ra["removed_volume"] == rb["removed_volume"] and ra["emitters"] == ["main", "north"]
 
 
-def test_resume_continues_exactly(tmp_path):
-    sets = ["terrain.size=64", "emitters.main.particles=120", "emitters.main.steps=40", "stream.pool=8"]
+def test_resume_continues_exactly(tmp_path, monkeypatch):
+    from erosim.core.errors import Interrupted
+    from erosim.erosion.particle_stream_warszawski import ParticleStream
+
+    sets = ["terrain.size=64", "emitters.main.particles=120", "emitters.main.steps=40", "stream.pool=8",
+            "stream.impacts_per_batch=200"]  # fmt: skip
     sc = loader.load("particle-stream", sets)
     whole = RunFolder(tmp_path / "whole")
-    stream_run.run(sc, whole, progress=False)
-    # an interrupted run: part of the stream done, then a checkpoint
+    runner.run(sc, whole, progress=False)
+    # Ctrl-C during the stream: the checkpoint holds the state after the last whole advance
+    real, calls = ParticleStream.advance, {"n": 0}
+
+    def interrupt_later(self, rounds=None):
+        calls["n"] += 1
+        if calls["n"] == 5:  # the first call is the builder's compile-only advance(0)
+            raise KeyboardInterrupt
+        return real(self, rounds)
+
+    monkeypatch.setattr(ParticleStream, "advance", interrupt_later)
     part = RunFolder(tmp_path / "part")
-    loader.write_resolved(sc, part)
-    _, _, stream = stream_run.build(sc.config)
-    stream.advance(100)
-    checkpoint.save(part.checkpoint, stream.state(), {"elapsed_s": 0.0})
+    with pytest.raises(Interrupted, match="--resume"):
+        runner.run(sc, part, progress=False)
+    monkeypatch.setattr(ParticleStream, "advance", real)
+    assert json.loads((part.path / "report.json").read_text())["status"] == "interrupted"
     resumed = loader.load(tmp_path / "part" / "scenario.toml")
-    stream_run.run(resumed, RunFolder(tmp_path / "part", resume=True), resume=True, progress=False)
+    runner.run(resumed, RunFolder(tmp_path / "part", resume=True), resume=True, progress=False)
     for name in ("height.tif", "hardness.tif"):
         assert np.array_equal(hio.read(whole.path / "maps" / name).z, hio.read(part.path / "maps" / name).z)
 
@@ -169,7 +180,7 @@ def test_every_hardness_source_builds(tmp_path):
     }
     for name, (sets, ok) in cases.items():
         sc = loader.load("particle-stream", ["terrain.size=64", *sets])
-        hm, d0, stream = stream_run.build(sc.config)
+        hm, d0, stream = builders_stream.build(sc.config)
         assert ok(d0), name
         assert (stream.strata is not None) == (name == "strata"), name
 

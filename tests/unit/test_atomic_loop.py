@@ -1,14 +1,14 @@
-"""Atomic writes, run folders, checkpoints and the generic loop."""
+"""Atomic writes, run folders and checkpoints."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from erosim.core.errors import ConfigError, Interrupted
-from erosim.io import atomic, checkpoint
+from erosim.core import atomic
+from erosim.core.errors import ConfigError
+from erosim.io import checkpoint
 from erosim.io.runfolder import RunFolder, default_out
-from erosim.simulation.loop import Every, drive
 
 
 def test_atomic_path_leaves_nothing_on_failure(tmp_path):
@@ -43,40 +43,6 @@ def test_checkpoint_round_trip(tmp_path):
     back, meta = checkpoint.load(tmp_path)
     assert np.array_equal(back["pos"], state["pos"]) and back["t"].item() == 0.25
     assert meta == {"scenario": "x"}
-
-
-def test_drive_schedules_and_interrupt(tmp_path):
-    clock = {"t": 0.0}
-    fired, saved = [], []
-
-    def advance():
-        clock["t"] += 0.3
-        if clock["t"] > 2.0:
-            raise KeyboardInterrupt
-        return clock["t"]
-
-    with pytest.raises(Interrupted, match="checkpoint was written"):
-        drive(
-            advance,
-            start=0.0,
-            total=5.0,
-            schedules=[Every(1.0, fired.append)],
-            checkpoint=lambda: saved.append(clock["t"]),
-            progress=False,
-        )
-    # frames at t = 0, then the first steps past 1.0 and 2.0 (0.3-s steps: 1.2, 2.1 is interrupted before)
-    assert fired == pytest.approx([0.0, 1.2]) and len(saved) == 1
-
-
-def test_drive_runs_to_total():
-    clock = {"t": 0.0}
-
-    def advance():
-        clock["t"] += 0.25
-        return clock["t"]
-
-    done, steps = drive(advance, start=0.0, total=1.0, progress=False)
-    assert done == pytest.approx(1.0) and steps == 4
 
 
 def test_atomic_files_get_usual_permissions(tmp_path):

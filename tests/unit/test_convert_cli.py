@@ -4,8 +4,8 @@ import numpy as np
 from click.testing import CliRunner
 
 from erosim.cli import cli
+from erosim.core.heightmap import Heightmap
 from erosim.io import heightmaps as io
-from erosim.terrain.heightmap import Heightmap
 
 
 def test_convert_npy_to_geotiff_with_cell_size(tmp_path):

@@ -5,10 +5,10 @@ import pytest
 from PIL import Image
 
 from erosim.core.errors import InputError
+from erosim.core.heightmap import Heightmap
 from erosim.io import heightmaps as hio
 from erosim.terrain import hardness
 from erosim.terrain.hardness import MATERIALS, Strata
-from erosim.terrain.heightmap import Heightmap
 
 
 def test_geotiff_float_is_hardness_as_is(tmp_path):

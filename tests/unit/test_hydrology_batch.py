@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from erosim.core.errors import ConfigError
+from erosim.core.heightmap import Heightmap
 from erosim.hydrology import batch
 from erosim.hydrology.model import HydrologyModel
 from erosim.hydrology.params import HydrologyParams, VegetationParams
-from erosim.terrain.heightmap import Heightmap
 
 
 def _terrain(n=48, seed=3):
@@ -86,7 +86,7 @@ def test_batch_mode_resumes_bit_identically():
     part = _model(z, 32, seed=2)
     part.run(2)
     again = _model(z, 32, seed=2)
-    again.load_state({k: np.array(v, copy=True) for k, v in part.state().items()})
+    again.load_state_dict({k: np.array(v, copy=True) for k, v in part.state_dict().items()})
     again.run(2)
     assert np.array_equal(full.z, again.z) and np.array_equal(full.budget, again.budget)
     assert np.array_equal(full.lake_depth(), again.lake_depth())

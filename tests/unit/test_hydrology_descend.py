@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
+from erosim.core.heightmap import Heightmap
 from erosim.hydrology import droplets
 from erosim.hydrology.model import HydrologyModel
 from erosim.hydrology.params import P_MAXSTEPS, P_V0, HydrologyParams, VegetationParams
 from erosim.hydrology.pools import B_SIZE, B_STEPS
-from erosim.terrain.heightmap import Heightmap
 
 
 def _terrain(n=64, seed=2):

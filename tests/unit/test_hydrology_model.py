@@ -5,9 +5,9 @@ import pytest
 from skimage.morphology import reconstruction
 
 from erosim.core.errors import InputError
+from erosim.core.heightmap import Heightmap
 from erosim.hydrology.model import HydrologyModel
 from erosim.hydrology.params import HydrologyParams, VegetationParams
-from erosim.terrain.heightmap import Heightmap
 
 CELL = 20.0
 ELL = 40.0
@@ -96,9 +96,9 @@ def test_resume_from_state_is_bit_identical():
     full.run(10)
     part = _model(z, seed=3, rebuild_every=4)
     part.run(5)
-    st = {k: np.array(v, copy=True) for k, v in part.state().items()}
+    st = {k: np.array(v, copy=True) for k, v in part.state_dict().items()}
     again = _model(z, seed=3, rebuild_every=4)
-    again.load_state(st)
+    again.load_state_dict(st)
     again.run(5)
     assert np.array_equal(full.z, again.z)
     assert np.array_equal(full.lake_depth(), again.lake_depth())

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from skimage.morphology import reconstruction
 
+from erosim.core.heightmap import Heightmap
 from erosim.hydrology import pools
 from erosim.hydrology.model import HydrologyModel
 from erosim.hydrology.params import HydrologyParams, VegetationParams
-from erosim.terrain.heightmap import Heightmap
 
 
 def _model(z, cell=1.0, **kw):

@@ -53,7 +53,7 @@ def test_points_on_cell_borders_and_exact_radius():
 def test_memory_grows_with_particles_not_domain():
     """Two particles 10 km apart at 0.1 m cells: the hash table is sized by the particle count."""
     pos = np.array([[0.0, 0.0, 0.0], [1.0e4, 1.0e4, 1.0e3]])
-    grid = nb._Grid(3)
+    grid = nb.Grid(3)
     ncell = nb.build_grid(grid, pos, 0.1)
     assert ncell == 2
     assert grid.table_key.size <= 16  # power of two ≥ 2n (min 16), not (10⁵)³ cells

@@ -101,9 +101,9 @@ def test_resume_from_state_reproduces_uninterrupted_run():
     whole = ParticleStream(h0, d, 1.0, em, seed=9, pool=8).run(batch=7)
     first = ParticleStream(h0, d, 1.0, em, seed=9, pool=8)
     first.advance(50)
-    saved = {k: np.array(v) for k, v in first.state().items()}
+    saved = {k: np.array(v) for k, v in first.state_dict().items()}
     second = ParticleStream(h0, d, 1.0, em, seed=9, pool=8)
-    second.load_state(saved)
+    second.load_state_dict(saved)
     second.run(batch=7)
     assert np.array_equal(second.h, whole.h)
     assert second.removed == whole.removed and second.impacts == whole.impacts

@@ -10,8 +10,7 @@ from erosim.cli import cli
 from erosim.core.errors import InstabilityError, Interrupted
 from erosim.io import checkpoint
 from erosim.io.runfolder import RunFolder
-from erosim.scenarios import loader
-from erosim.simulation import sph_run
+from erosim.scenarios import loader, runner
 
 BASE = ["sph.spacing=0.007", "run.output_interval=0.002", "run.sample_interval=0.001", "run.snapshots=0"]
 
@@ -30,7 +29,7 @@ def _sets(items):
 
 def _solver_state(folder):
     state, meta = checkpoint.load(folder / "checkpoint")
-    return {k: v for k, v in state.items() if k.startswith("solver__")}, state, meta
+    return {k: v for k, v in state.items() if k.startswith("model.fluid.")}, state, meta
 
 
 def _assert_same(a, b):
@@ -51,7 +50,8 @@ def test_resume_extends_a_finished_run_exactly(tmp_path):
     sa, fa, _ = _solver_state(full)
     sb, fb, _ = _solver_state(part)
     _assert_same(sa, sb)  # positions, velocities, densities, time, step count, ...
-    _assert_same({k: fa[k] for k in ("rec__front", "rec__gauges")}, {k: fb[k] for k in ("rec__front", "rec__gauges")})
+    rows = ("callback.front.rows", "callback.probes.rows")
+    _assert_same({k: fa[k] for k in rows}, {k: fb[k] for k in rows})
     assert (full / "front.csv").read_text() == (part / "front.csv").read_text()
     assert (full / "gauges.csv").read_text() == (part / "gauges.csv").read_text()
     assert (full / "particles" / "particles.pvd").read_text() == (part / "particles" / "particles.pvd").read_text()
@@ -64,7 +64,7 @@ def test_ctrl_c_writes_checkpoint_and_resume_matches(tmp_path, monkeypatch):
 
     sets = BASE + ["run.t_end=0.006"]
     full = RunFolder(tmp_path / "full")
-    sph_run.run(loader.load("dam-break-2d", sets), full, progress=False)
+    runner.run(loader.load("dam-break-2d", sets), full, progress=False)
 
     real_step = solver_mod.SPHSolver.step
     calls = {"n": 0}
@@ -78,14 +78,14 @@ def test_ctrl_c_writes_checkpoint_and_resume_matches(tmp_path, monkeypatch):
     monkeypatch.setattr(solver_mod.SPHSolver, "step", step_then_interrupt)
     cut = RunFolder(tmp_path / "cut")
     with pytest.raises(Interrupted, match="checkpoint was written"):
-        sph_run.run(loader.load("dam-break-2d", sets), cut, progress=False)
+        runner.run(loader.load("dam-break-2d", sets), cut, progress=False)
     monkeypatch.setattr(solver_mod.SPHSolver, "step", real_step)
 
     rep = json.loads((cut.path / "report.json").read_text())
     assert rep["status"] == "interrupted" and rep["steps"] == 6
     assert not [p for p in cut.path.rglob(".*.part")]  # no partial file
 
-    sph_run.run(loader.load(cut.path / "scenario.toml"), RunFolder(cut.path, resume=True), resume=True, progress=False)
+    runner.run(loader.load(cut.path / "scenario.toml"), RunFolder(cut.path, resume=True), resume=True, progress=False)
     _assert_same(_solver_state(full.path)[0], _solver_state(cut.path)[0])
     assert (full.path / "front.csv").read_text() == (cut.path / "front.csv").read_text()
 

@@ -5,14 +5,14 @@ import json
 import numpy as np
 import pytest
 
+from erosim.data import MARTIN_MOYCE_SURGE, reference_csv
 from erosim.validation import martin_moyce as mm
-from erosim.validation.reference import read_csv
 
 G = 9.81
 
 
 def test_metric_is_zero_for_the_experiment_and_scales_with_a_bias():
-    ref = read_csv(mm.SURGE_FILE)
+    ref = reference_csv(MARTIN_MOYCE_SURGE)
     t = ref["T"] / np.sqrt(2 * G / mm.A)
     x = ref["Z"] * mm.A
     err, T_k, _ = mm.front_error(t, x, mm.A, G, ref["T"], ref["Z"])
@@ -23,7 +23,7 @@ def test_metric_is_zero_for_the_experiment_and_scales_with_a_bias():
 
 
 def test_metric_refuses_a_run_that_stops_early():
-    ref = read_csv(mm.SURGE_FILE)
+    ref = reference_csv(MARTIN_MOYCE_SURGE)
     with pytest.raises(Exception, match="run.t_end"):
         mm.front_error(np.array([0.0, 0.05]), np.array([mm.A, mm.A]), mm.A, G, ref["T"], ref["Z"])
 

@@ -16,7 +16,7 @@ SCRIPT = textwrap.dedent(
     import numpy as np
     from erosim.hydrology.model import HydrologyModel
     from erosim.hydrology.params import HydrologyParams, VegetationParams
-    from erosim.terrain.heightmap import Heightmap
+    from erosim.core.heightmap import Heightmap
     n = 40
     yy, xx = np.mgrid[0:n, 0:n].astype(float)
     rng = np.random.default_rng(0)

@@ -35,7 +35,7 @@ def run(size: int = 256, droplets: int | None = None, spinup: int | None = None,
 
     from erosim.hydrology.pools import B_FLOOD_NS, B_STEPS
     from erosim.scenarios import loader
-    from erosim.simulation.hydrology_run import build_model
+    from erosim.scenarios.builders_hydrology import build_model
 
     size = int(size)
     cell = 10240.0 / size

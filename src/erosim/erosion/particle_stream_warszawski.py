@@ -428,10 +428,14 @@ def strata_arrays(strata: Strata, cell_size: float) -> tuple[np.ndarray, np.ndar
 class ParticleStream:
     """A stream (one or several emitters) eroding ``h`` in place over hardness ``d``.
 
-    ``advance(rounds)`` runs that many round-robin sweeps; ``done`` tells when every emitter has
-    emitted all its particles and the last one has acted. ``state()``/``from_state`` give and take
+    ``advance(rounds)`` runs that many round-robin sweeps (``rounds`` given at construction when
+    omitted); ``done`` tells when every emitter has emitted all its particles and the last one has
+    acted. As a model of :class:`~erosim.simulation.simulation.Simulation`, its ``time`` is the number
+    of particles that have finished acting; ``state_dict()`` / ``load_state_dict()`` give and take
     everything needed to resume exactly.
     """
+
+    name = "stream"
 
     def __init__(
         self,
@@ -442,6 +446,7 @@ class ParticleStream:
         seed: int,
         strata: Strata | None = None,
         pool: int = 64,
+        rounds: int = 1,
     ):
         h = np.asarray(h)
         if h.ndim != 2:
@@ -471,6 +476,7 @@ class ParticleStream:
             self.floor = np.empty_like(self.h)
             strata_init(self.h, self._sp, self._se, self._sv, self.d, self.floor)
         self.finished = False
+        self.rounds = max(1, int(rounds))
 
     @property
     def particles_total(self) -> int:
@@ -484,8 +490,16 @@ class ParticleStream:
     def done(self) -> bool:
         return self.finished
 
-    def advance(self, rounds: int) -> int:
+    @property
+    def time(self) -> float:
+        """Particles that have finished acting (emitted and no longer in flight)."""
+        if self.finished:
+            return float(self.particles_total)
+        return float(self.particles_emitted - int((self.serial >= 0).sum()))
+
+    def advance(self, rounds: int | None = None) -> int:
         """Run ``rounds`` sweeps (each slot acts once per sweep); returns the impacts done."""
+        rounds = self.rounds if rounds is None else rounds
         args = (
             self.h,
             self.d,
@@ -523,7 +537,7 @@ class ParticleStream:
         """Removed volume (m³) counted by the kernel: summed lowering × cell area."""
         return self.removed * self.cell_size**2
 
-    def state(self) -> dict[str, np.ndarray]:
+    def state_dict(self) -> dict[str, np.ndarray]:
         """Everything the next sweep reads (for checkpoints)."""
         out = {
             "h": self.h,
@@ -540,8 +554,8 @@ class ParticleStream:
             out["floor"] = self.floor
         return out
 
-    def load_state(self, state: dict[str, np.ndarray]) -> None:
-        """Restore what :meth:`state` gave (same emitters, map size and seed)."""
+    def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
+        """Restore what :meth:`state_dict` gave (same emitters, map size and seed)."""
         names = ("h", "d", "st", "serial", "age", "emitted", "acc")
         if self.strata is not None:
             names += ("floor",)

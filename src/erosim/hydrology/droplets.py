@@ -55,7 +55,7 @@ from erosim.hydrology.params import (
     P_VMIN,
 )
 from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_STEPS, walk_down
-from erosim.kernels.raster import _locate, _nodes, q4_shape
+from erosim.kernels.raster import locate, q4_shape, upper_nodes
 
 ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
 LEFT = 1  # left the map or entered the sea: water and sediment accounted as gone
@@ -148,9 +148,9 @@ def _height(z, x, y):
     """Height of the Q4 interpolant at (x, y), the same operations as
     :func:`erosim.kernels.raster.bilinear` (inlined here: the call cost more than the lookup)."""
     ny, nx = z.shape
-    i0, xi = _locate(nx, x)
-    j0, eta = _locate(ny, y)
-    i1, j1 = _nodes(nx, ny, i0, j0)
+    i0, xi = locate(nx, x)
+    j0, eta = locate(ny, y)
+    i1, j1 = upper_nodes(nx, ny, i0, j0)
     n1, n2, n3, n4 = q4_shape(xi, eta)
     return n1 * z[j0, i0] + n2 * z[j0, i1] + n3 * z[j1, i1] + n4 * z[j1, i0]
 

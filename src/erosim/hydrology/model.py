@@ -41,6 +41,7 @@ import numpy as np
 from numba import njit
 
 from erosim.core.errors import InputError
+from erosim.core.heightmap import Heightmap
 from erosim.hydrology import pools, streams, vegetation
 from erosim.hydrology.batch import (
     PAUSED,
@@ -95,7 +96,6 @@ from erosim.hydrology.pools import (
     settle_in_lake,
     walk_down,
 )
-from erosim.terrain.heightmap import Heightmap
 
 _libc = ctypes.CDLL(ctypes.util.find_library("c"))
 _clock_gettime = _libc.clock_gettime
@@ -339,7 +339,13 @@ def _check_map(name: str, arr, shape) -> np.ndarray:
 
 
 class HydrologyModel:
-    """Heightmap + stream, lakes and trees, advanced one cycle at a time (HY-3)."""
+    """Heightmap + stream, lakes and trees, advanced one cycle at a time (HY-3).
+
+    A model of :class:`~erosim.simulation.simulation.Simulation`: ``advance()`` runs one cycle,
+    ``time`` counts the cycles, ``state_dict()`` / ``load_state_dict()`` resume it exactly.
+    """
+
+    name = "hydrology"
 
     STATE_KEYS = (
         "z",
@@ -532,6 +538,15 @@ class HydrologyModel:
             )
         self.cycles += 1
 
+    def advance(self) -> None:
+        """One cycle (the simulation's unit of work)."""
+        self.cycle()
+
+    @property
+    def time(self) -> float:
+        """Progress in cycles."""
+        return float(self.cycles)
+
     def run(self, cycles: int) -> None:
         for _ in range(cycles):
             self.cycle()
@@ -611,7 +626,7 @@ class HydrologyModel:
         }
 
     # ----------------------------------------------------------------------------- checkpoint
-    def state(self) -> dict:
+    def state_dict(self) -> dict:
         """Everything the next cycle reads, lake heaps included (so a resume is bit-identical)."""
         k = max(int(self.hs[HS_NLAKES]), 1)
         used = int(self.hs[HS_BUMP])
@@ -638,7 +653,7 @@ class HydrologyModel:
             "built": np.int64(self._built),
         }
 
-    def load_state(self, st: dict) -> None:
+    def load_state_dict(self, st: dict) -> None:
         missing = [k for k in self.STATE_KEYS if k not in st]
         if missing or np.shape(st["z"]) != self.z.shape:
             raise InputError(

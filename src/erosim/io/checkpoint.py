@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from erosim.core.atomic import save_npz, to_json
 from erosim.core.errors import InputError
-from erosim.io.atomic import save_npz, to_json
 
 FILE = "state.npz"
 

@@ -19,7 +19,7 @@ so a round trip is within half a step (hi − lo)/65535. :func:`write` returns t
 ``sample:jacksboro`` is the 3-arc-second DEM of the Jacksboro fault (Tennessee) shipped with
 matplotlib. Its cells are 74.5 m (E–W) × 92.4 m (N–S); erosim uses the square cell of equal area,
 83 m, and keeps the geographic CRS and transform. All writes are atomic
-(:func:`erosim.io.atomic.atomic_path`).
+(:func:`erosim.core.atomic.atomic_path`).
 """
 
 from __future__ import annotations
@@ -31,9 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
+from erosim.core.atomic import atomic_path
 from erosim.core.errors import InputError
-from erosim.io.atomic import atomic_path
-from erosim.terrain.heightmap import Heightmap
+from erosim.core.heightmap import Heightmap
 
 Q16 = 65535
 FORMATS = {

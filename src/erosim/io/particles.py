@@ -8,7 +8,7 @@ density, ...). Arrays are stored inline as ``format="binary"``: base64 of a UInt
 followed by the raw little-endian bytes. 2-D positions/vectors are padded with z = 0.
 
 :func:`read_vtp` parses such a file back (tests use it to check frames are well-formed and exact).
-All files are written through :mod:`erosim.io.atomic`, so an interrupted run never leaves a
+All files are written through :mod:`erosim.core.atomic`, so an interrupted run never leaves a
 truncated frame or collection.
 """
 
@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from erosim.core.atomic import write_bytes, write_text
 from erosim.core.errors import InputError
-from erosim.io.atomic import write_bytes, write_text
 
 _VTK_TYPES = {
     np.dtype("<f4"): "Float32",

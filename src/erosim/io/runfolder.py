@@ -6,7 +6,7 @@
     <out>/report.json     erosim version, seed, wall time, steps, metrics, warnings
     <out>/maps/ particles/ figures/ checkpoint/   gauges.csv  front.csv ...
 
-All writes go through :mod:`erosim.io.atomic`, so no partial file is ever left.
+All writes go through :mod:`erosim.core.atomic`, so no partial file is ever left.
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from erosim import __version__
+from erosim.core import atomic
 from erosim.core.errors import ConfigError
-from erosim.io import atomic
 
 
 def default_out(name: str, root: str | os.PathLike = "runs") -> Path:

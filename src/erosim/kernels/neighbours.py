@@ -358,7 +358,7 @@ def transpose_boundary(n_fluid, n_total, start, mid, nbr, count):
     return active
 
 
-class _Grid:
+class Grid:
     """Buffers of one hashed grid (reused between builds, grown only when needed)."""
 
     def __init__(self, dim: int):
@@ -392,7 +392,7 @@ def grid_origin(pos: np.ndarray, cell: float) -> np.ndarray:
     return pos.min(axis=0) - cell
 
 
-def build_grid(grid: _Grid, pos: np.ndarray, cell: float) -> int:
+def build_grid(grid: Grid, pos: np.ndarray, cell: float) -> int:
     """Hash, order (by key) and counting-sort ``pos`` into ``grid``; returns the number of cells.
 
     Raises ``ValueError`` when the particles span more cells than a packed key can hold.
@@ -441,7 +441,7 @@ def find_neighbours(pos, radius: float, n_fluid: int | None = None):
     pos = np.ascontiguousarray(pos, dtype=np.float64)
     n, d = pos.shape
     nf = n if n_fluid is None else int(n_fluid)
-    grid = _Grid(d)
+    grid = Grid(d)
     build_grid(grid, pos, float(radius))
     cf = np.empty(n, np.int64)
     cb = np.empty(n, np.int64)

@@ -46,7 +46,7 @@ def q4_shape(xi, eta):
 
 
 @njit(cache=True, inline="always")
-def _locate(n, x):
+def locate(n, x):
     """Clamp ``x`` to [0, n−1]; return (i₀, ξ) with i₀ the cell's lower node and ξ ∈ [−1, 1].
 
     For a one-node axis (n == 1) returns i₀ = 0 and ξ = −1 (all weight on node 0).
@@ -65,7 +65,7 @@ def _locate(n, x):
 
 
 @njit(cache=True, inline="always")
-def _nodes(nx, ny, i0, j0):
+def upper_nodes(nx, ny, i0, j0):
     """Indices of the cell's upper nodes (collapsed onto the lower ones on 1-node axes)."""
     i1 = i0 + 1 if nx > 1 else i0
     j1 = j0 + 1 if ny > 1 else j0
@@ -76,9 +76,9 @@ def _nodes(nx, ny, i0, j0):
 def bilinear(z, x, y):
     """Height at (x, y) in cell units: F = Σ z_j N_j(ξ, η) (Q4, SPEC HM-2), clamped to the map."""
     ny, nx = z.shape
-    i0, xi = _locate(nx, x)
-    j0, eta = _locate(ny, y)
-    i1, j1 = _nodes(nx, ny, i0, j0)
+    i0, xi = locate(nx, x)
+    j0, eta = locate(ny, y)
+    i1, j1 = upper_nodes(nx, ny, i0, j0)
     n1, n2, n3, n4 = q4_shape(xi, eta)
     return n1 * z[j0, i0] + n2 * z[j0, i1] + n3 * z[j1, i1] + n4 * z[j1, i0]
 
@@ -93,9 +93,9 @@ def gradient(z, x, y):
     last row/column). Divide by the cell size for a slope in m/m.
     """
     ny, nx = z.shape
-    i0, xi = _locate(nx, x)
-    j0, eta = _locate(ny, y)
-    i1, j1 = _nodes(nx, ny, i0, j0)
+    i0, xi = locate(nx, x)
+    j0, eta = locate(ny, y)
+    i1, j1 = upper_nodes(nx, ny, i0, j0)
     z1 = z[j0, i0]
     z2 = z[j0, i1]
     z3 = z[j1, i1]
@@ -112,9 +112,9 @@ def scatter_bilinear(field, x, y, value):
     The four weights sum to one, so the field's total grows by exactly ``value`` (up to rounding).
     """
     ny, nx = field.shape
-    i0, xi = _locate(nx, x)
-    j0, eta = _locate(ny, y)
-    i1, j1 = _nodes(nx, ny, i0, j0)
+    i0, xi = locate(nx, x)
+    j0, eta = locate(ny, y)
+    i1, j1 = upper_nodes(nx, ny, i0, j0)
     n1, n2, n3, n4 = q4_shape(xi, eta)
     field[j0, i0] += value * n1
     field[j0, i1] += value * n2

@@ -1,4 +1,4 @@
-"""Turn an :class:`~erosim.scenarios.schema_sph.SPHScenario` into particles and an SPH solver.
+"""The ``sph`` kind: an :class:`~erosim.scenarios.schema_sph.SPHScenario` → particles, solver, callbacks.
 
 Fluid blocks are filled with a regular lattice of spacing Δx = ``sph.spacing``: along each axis
 n = round(L/Δx) particles at lo + (i + ½)Δx, so a block of width a holds exactly a/Δx columns and
@@ -21,6 +21,9 @@ import numpy as np
 
 from erosim.core.errors import ConfigError
 from erosim.scenarios.schema_sph import SPHScenario
+from erosim.scenarios.setup import Setup
+from erosim.simulation import callbacks as cb
+from erosim.simulation.schedules import TimeInterval
 
 THESIS = {"h": 0.2, "mass": 30.0, "dt": 0.1}  # SC-1/SC-2 as printed in seed 000 (ch. 3)
 
@@ -109,3 +112,120 @@ def build(cfg: SPHScenario) -> Built:
         seed=cfg.seed,
     )
     return Built(solver=solver, fluid_pos=pos, info=derivation(cfg, len(pos)))
+
+
+def column_width(cfg: SPHScenario) -> float:
+    """Width a of the first fluid block along x (the collapsing column)."""
+    return float(cfg.fluid[0].hi[0] - cfg.fluid[0].lo[0])
+
+
+def setup(scenario, out) -> Setup:
+    """The solver and the callbacks of an ``sph`` run (what a run leaves: ``docs/sph.md``).
+
+    * ``particles/frame_NNNNN.vtp`` + ``particles.pvd`` every ``run.output_interval``;
+    * ``gauges.csv`` (``t``, ``p_<probe>`` in Pa, ``depth_<gauge>`` in m) and ``front.csv``
+      (``t,x_front``: s, m from the column's back wall) every ``run.sample_interval``;
+    * ``figures/snapshot_NNN.png`` (particles coloured by speed), ``figures/front.png`` (front vs
+      Martin & Moyce 1952 when ``measure.compare = "martin-moyce"``);
+    * ``report.json``: particle counts, resolution (Δx, h, m and how they were derived), steps, Δt,
+      neighbours, throughput, particles outside the domain, the final front.
+    """
+    cfg: SPHScenario = scenario.config
+    built = build(cfg)
+    solver = built.solver
+    r, p = cfg.run, cfg.sph
+    callbacks: list = []
+    if r.output_interval > 0:
+        callbacks.append(cb.ParticleFrames(TimeInterval(r.output_interval), solver, out.path / "particles"))
+    if cfg.probes or cfg.gauges:
+        callbacks.append(
+            cb.Probes(
+                TimeInterval(r.sample_interval), solver, out.path / "gauges.csv",
+                probes=[(q.name, q.position) for q in cfg.probes], gauges=[(g.name, g.position) for g in cfg.gauges],
+                support=p.support(), spacing=p.spacing, mass=p.rho0 * p.spacing**p.dim, floor=cfg.domain.lo[-1],
+            )
+        )  # fmt: skip
+    front = None
+    if cfg.measure.front:
+        origin = cfg.measure.front_origin if cfg.measure.front_origin is not None else min(b.lo[0] for b in cfg.fluid)
+        compare = cfg.measure.compare == "martin-moyce"
+        front = cb.FrontTracker(
+            TimeInterval(r.sample_interval), solver, out.path / "front.csv", spacing=p.spacing, origin=origin,
+            figure=out.path / "figures" / "front.png" if compare else None, width=column_width(cfg),
+            g=abs(p.gravity_vector()[-1]), title=f"{scenario.name}: surge front",
+        )  # fmt: skip
+        callbacks.append(front)
+    if r.snapshots:
+        callbacks.append(
+            cb.Snapshots(
+                TimeInterval(r.t_end / r.snapshots), solver, out.figures, lo=cfg.domain.lo, hi=cfg.domain.hi,
+                spacing=p.spacing, title=scenario.name,
+            )
+        )  # fmt: skip
+
+    def report(sim) -> dict[str, Any]:
+        return sph_report(cfg, solver, built.info, sim, front)
+
+    def summary(sim, rep: dict) -> dict[str, Any]:
+        return {
+            "status": sim.status,
+            "t": float(solver.t),
+            "steps": int(solver.steps),
+            "fluid_particles": solver.n_fluid,
+            "boundary_particles": solver.n_boundary,
+            **({"x_front": rep["x_front"]} if "x_front" in rep else {}),
+            "wall_time_s": round(sim.wall_time, 2),
+        }
+
+    return Setup(
+        models=[solver], callbacks=callbacks, stop_time=r.t_end, unit="s", report=report, summary=summary,
+        checkpoint_wall_s=r.checkpoint_wall_s, seed=cfg.seed,
+    )  # fmt: skip
+
+
+def sph_report(cfg: SPHScenario, solver, info: dict, sim, front) -> dict[str, Any]:
+    """The ``sph`` kind's entries of ``report.json``."""
+    steps = int(sim.iteration - sim.iteration_start)
+    wall = sim.wall_time
+    n = solver.n_fluid + solver.n_boundary
+    pos = solver.fluid_positions()
+    lo, hi = np.asarray(cfg.domain.lo), np.asarray(cfg.domain.hi)
+    outside = int(np.count_nonzero(np.any((pos < lo) | (pos > hi), axis=1)))
+    figures = sorted(p.name for p in sim.out.path.glob("figures/*.png"))
+    rep: dict[str, Any] = {
+        "dim": cfg.dim,
+        "t": float(solver.t),
+        "t_end": cfg.run.t_end,
+        "steps": int(solver.steps),
+        "steps_this_session": steps,
+        "fluid_particles": solver.n_fluid,
+        "boundary_particles": solver.n_boundary,
+        "resolution": info,
+        "dt_mean": (float(solver.t) / solver.steps) if solver.steps else None,
+        "dt_limit": _safe(solver.dt_limit),
+        "neighbours": _safe(solver.neighbour_stats),
+        # fluid particle-steps per second (the benchmark's measure), and counting boundary particles
+        "particle_steps_per_s": (solver.n_fluid * steps / wall) if wall > 0 and steps else None,
+        "all_particle_steps_per_s": (n * steps / wall) if wall > 0 and steps else None,
+        "outside_domain": outside,
+        "files": {
+            "frames": sum(1 for _ in sim.out.path.glob("particles/frame_*.vtp")),
+            "gauges_csv": bool(cfg.probes or cfg.gauges),
+            "front_csv": bool(cfg.measure.front),
+        },
+        "figures": [f"figures/{f}" for f in figures if f == "front.png"]
+        + [f"figures/{f}" for f in figures if f.startswith("snapshot_")],
+    }
+    if front is not None:
+        rep["column_width"] = column_width(cfg)
+        rep["front_origin"] = front.origin
+        if front.rows:
+            rep["x_front"] = front.rows[-1][1]
+    return rep
+
+
+def _safe(fn):
+    try:
+        return fn()
+    except Exception:  # diagnostics only; never mask the run's own outcome
+        return None

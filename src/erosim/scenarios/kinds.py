@@ -1,4 +1,8 @@
-"""Scenario kinds: which schema validates a scenario file and which runner runs it.
+"""Scenario kinds: which schema validates a scenario file and which builder turns it into a run.
+
+A kind is a schema (a :class:`~erosim.core.config.Section`) and a builder
+``setup(scenario, out) -> Setup`` (models, callbacks, stop time, report); every kind runs through
+:func:`erosim.scenarios.runner.run`.
 
 Import strings keep ``erosim list`` and ``--help`` fast (no Numba import until a run starts).
 """
@@ -15,13 +19,15 @@ from erosim.core.errors import ConfigError
 @dataclass(frozen=True)
 class Kind:
     schema: str  # "module:Class", a Section subclass
-    runner: str  # "module:function", run(scenario, out, *, resume, progress) -> dict
+    builder: str  # "module:function", setup(scenario, out) -> erosim.scenarios.setup.Setup
 
 
 KINDS: dict[str, Kind] = {
-    "sph": Kind("erosim.scenarios.schema_sph:SPHScenario", "erosim.simulation.sph_run:run"),
-    "hydrology": Kind("erosim.scenarios.schema_hydrology:HydrologyScenario", "erosim.simulation.hydrology_run:run"),
-    "particle-stream": Kind("erosim.scenarios.schema_stream:StreamScenario", "erosim.simulation.stream_run:run"),
+    "sph": Kind("erosim.scenarios.schema_sph:SPHScenario", "erosim.scenarios.builders_sph:setup"),
+    "hydrology": Kind(
+        "erosim.scenarios.schema_hydrology:HydrologyScenario", "erosim.scenarios.builders_hydrology:setup"
+    ),
+    "particle-stream": Kind("erosim.scenarios.schema_stream:StreamScenario", "erosim.scenarios.builders_stream:setup"),
 }
 
 

@@ -23,7 +23,7 @@ from pydantic import model_validator
 
 from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
-from erosim.terrain.heightmap import Heightmap
+from erosim.core.heightmap import Heightmap
 
 #: Cell size of generated terrains when the scenario gives none (m): 512 cells span 5.12 km.
 DEFAULT_CELL_SIZE = 10.0

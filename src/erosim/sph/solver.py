@@ -40,7 +40,13 @@ def _as_points(a, dim: int, what: str) -> np.ndarray:
 
 
 class SPHSolver:
-    """Weakly compressible SPH in 2-D or 3-D; see :mod:`erosim.sph` for the interface."""
+    """Weakly compressible SPH in 2-D or 3-D; see :mod:`erosim.sph` for the interface.
+
+    A model of :class:`~erosim.simulation.simulation.Simulation`: ``advance()`` is one step, ``time``
+    the simulated time (s), ``state_dict()`` / ``load_state_dict()`` resume it bit for bit.
+    """
+
+    name = "fluid"
 
     def __init__(
         self,
@@ -171,7 +177,7 @@ class SPHSolver:
         self._disp2 = np.zeros(integrators.NCHUNK, np.float64)
         self._v2 = np.zeros(integrators.NCHUNK, np.float64)
         self._a2 = np.zeros(integrators.NCHUNK, np.float64)
-        self._grid = nb._Grid(d)
+        self._grid = nb.Grid(d)
         self._count_f = np.empty(n, np.int64)
         self._count_b = np.empty(n, np.int64)
         self.start = np.empty(n + 1, np.int64)
@@ -387,6 +393,15 @@ class SPHSolver:
     def dt_limit(self) -> float:
         """Largest stable step now: min(C h_s/(c+|v|max), C sqrt(h_s/|a|max), 0.125 h_s²/ν)."""
         return integrators.step_limit(self.params.cfl, self.hs, self.c, self.vmax, self.amax, self.nu)
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+        return self.t
+
+    def advance(self) -> None:
+        """One step (the simulation's unit of work)."""
+        self.step()
 
     def step(self) -> float:
         """Advance one step (fixed or adaptive Δt); returns the Δt used.

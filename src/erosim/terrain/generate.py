@@ -38,7 +38,7 @@ from pyfastnoiselite.pyfastnoiselite import FastNoiseLite, FractalType, NoiseTyp
 
 from erosim.core.config import Section, param, validate_section
 from erosim.core.errors import ConfigError
-from erosim.terrain.heightmap import Heightmap
+from erosim.core.heightmap import Heightmap
 
 KINDS = ("fbm", "ridged", "warped")
 

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from erosim.core import atomic
 from erosim.core.errors import ConfigError
-from erosim.io import atomic
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import loader
 
@@ -43,7 +43,7 @@ def errors(pos: np.ndarray, p: np.ndarray, rho: np.ndarray, *, rho0: float, g: f
 
 def run(resolution: str = "default", out: Path | None = None, progress: bool = True) -> dict:
     """Run the case; writes ``validation.json`` and ``figures/pressure_profile.png``."""
-    from erosim.simulation.sph_run import execute
+    from erosim.scenarios.runner import execute
     from erosim.viz.plots import pressure_profile
 
     if resolution not in RESOLUTIONS:
@@ -66,7 +66,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     g = abs(cfg.sph.gravity_vector()[-1])
     folder = RunFolder(out if out is not None else default_out(f"validate-hydrostatic-{resolution}"))
     wall0 = time.perf_counter()
-    summary, solver = execute(scenario, folder, progress=progress)
+    summary, sim = execute(scenario, folder, progress=progress)
+    solver = sim.models[0]
     wall = time.perf_counter() - wall0
 
     pos, p, rho = solver.fluid_positions(), solver.fluid_pressure(), solver.fluid_density()

@@ -2,7 +2,7 @@
 
 The ``dam-break-2d`` scenario (column width a = 0.05715 m, height 2a) is run at a chosen resolution
 to T = t√(2g/a) = 3.4. Its surge front x_front(t) (furthest wetted x from the back wall) is compared
-with the experiment's table (``shared/reference/martin_moyce_1952_n2_2_a2.25in_surge_front_Ocellaris.csv``,
+with the experiment's table (:data:`erosim.data.MARTIN_MOYCE_SURGE`, shipped in the package,
 Z = x_front/a): the metric is the mean relative error of Z over the table points with T ≤ 3,
 
     E = mean_k |Z_sim(T_k) − Z_exp(T_k)| / Z_exp(T_k),
@@ -19,12 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
+from erosim.core import atomic
 from erosim.core.errors import ConfigError
-from erosim.io import atomic
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import loader
 
-SURGE_FILE = "martin_moyce_1952_n2_2_a2.25in_surge_front_Ocellaris.csv"
 A = 0.05715  # column width a (m), 2.25 in
 T_MAX_METRIC = 3.0
 T_END = 3.4
@@ -58,13 +57,13 @@ def front_error(
 
 def run(resolution: str = "default", out: Path | None = None, progress: bool = True) -> dict:
     """Run the case; writes ``validation.json`` and ``figures/front_vs_experiment.png`` in the run folder."""
-    from erosim.simulation.sph_run import execute
-    from erosim.validation.reference import read_csv
+    from erosim.data import MARTIN_MOYCE_SURGE, reference_csv
+    from erosim.scenarios.runner import execute
     from erosim.viz.plots import front_vs_experiment
 
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")
-    ref = read_csv(SURGE_FILE)
+    ref = reference_csv(MARTIN_MOYCE_SURGE)
     n_a = RESOLUTIONS[resolution]
     g = 9.81
     t_end = T_END / np.sqrt(2 * g / A)
@@ -80,7 +79,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     g = abs(scenario.config.sph.gravity_vector()[-1])
     folder = RunFolder(out if out is not None else default_out(f"validate-martin-moyce-{resolution}"))
     wall0 = time.perf_counter()
-    summary, solver = execute(scenario, folder, progress=progress)
+    summary, sim = execute(scenario, folder, progress=progress)
+    solver = sim.models[0]
     wall = time.perf_counter() - wall0
 
     rows = np.loadtxt(folder.path / "front.csv", delimiter=",", skiprows=1, ndmin=2)

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from erosim.core.atomic import atomic_path
 from erosim.core.errors import InputError
-from erosim.io.atomic import atomic_path
 
 
 def _frame(f: np.ndarray) -> np.ndarray:

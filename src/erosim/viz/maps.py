@@ -15,7 +15,7 @@ import os
 
 import numpy as np
 
-from erosim.io.atomic import atomic_path
+from erosim.core.atomic import atomic_path
 
 LIGHT_BLUE = np.array([0.55, 0.80, 1.00])
 DARK_BLUE = np.array([0.05, 0.20, 0.55])

@@ -1,4 +1,4 @@
-"""Runner of ``kind = "particle-stream"`` scenarios: terrain + hardness + emitters → carved terrain.
+"""The ``particle-stream`` kind (Warszawski particle-stream erosion, SPEC ST): terrain + hardness + emitters.
 
 What a run leaves (every file written atomically):
 
@@ -17,22 +17,20 @@ What a run leaves (every file written atomically):
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import numpy as np
 
 from erosim.core.errors import InputError
+from erosim.core.heightmap import Heightmap
 from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
-from erosim.io import checkpoint
-from erosim.io.runfolder import RunFolder
-from erosim.scenarios.loader import Scenario, write_resolved
 from erosim.scenarios.schema_common import build_terrain
 from erosim.scenarios.schema_stream import HardnessSection, StreamScenario
-from erosim.simulation.loop import drive
+from erosim.scenarios.setup import Setup
+from erosim.simulation.callbacks import Callback
+from erosim.simulation.schedules import Schedule
 from erosim.terrain import hardness as hardness_mod
 from erosim.terrain.hardness import Strata
-from erosim.terrain.heightmap import Heightmap
 
 #: Emitter fields that are horizontal lengths (scaled by the cell size when length_unit = "cells").
 LENGTH_FIELDS = ("width", "length", "speed", "max_speed", "radius_per_mass", "pivot_offset")
@@ -88,12 +86,16 @@ def emitters_in_metres(cfg: StreamScenario, cell_size: float) -> dict[str, Emitt
 
 
 def build(cfg: StreamScenario) -> tuple[Heightmap, np.ndarray, ParticleStream]:
-    """(initial heightmap, initial hardness, stream ready to run) for a validated scenario."""
+    """(initial heightmap, initial hardness, stream ready to run) for a validated scenario.
+
+    One ``advance()`` of the stream is about ``stream.impacts_per_batch`` impacts (whole sweeps of
+    the pool): the unit between progress updates and checkpoint checks.
+    """
     hm = build_terrain(cfg.terrain, cfg.seed)
     d0, strata = build_hardness(cfg.hardness, hm, cfg.seed)
-    stream = ParticleStream(
-        hm.z, d0, hm.cell_size, emitters_in_metres(cfg, hm.cell_size), cfg.seed, strata, pool=cfg.stream.pool
-    )
+    emitters = emitters_in_metres(cfg, hm.cell_size)
+    rounds = max(1, cfg.stream.impacts_per_batch // max(1, len(emitters) * cfg.stream.pool))
+    stream = ParticleStream(hm.z, d0, hm.cell_size, emitters, cfg.seed, strata, pool=cfg.stream.pool, rounds=rounds)
     return hm, d0, stream
 
 
@@ -116,7 +118,7 @@ def canyon_figure(path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: floa
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from erosim.io.atomic import atomic_path
+    from erosim.core.atomic import atomic_path
 
     erosion = h0 - h
     ny, nx = h.shape
@@ -167,7 +169,7 @@ def canyon_figure(path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: floa
         fig.savefig(tmp, format="png")
 
 
-def write_outputs(out: RunFolder, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) -> dict[str, Any]:
+def write_outputs(out, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) -> dict[str, Any]:
     """Maps and figures of a finished (or interrupted) stream; returns what the report needs."""
     from erosim.io import heightmaps as hio
     from erosim.viz.maps import colormap_png, hillshade, save_png
@@ -196,81 +198,63 @@ def write_outputs(out: RunFolder, hm: Heightmap, d0: np.ndarray, stream: Particl
     }
 
 
-def run(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: bool = True) -> dict:
-    """Run a particle-stream scenario into ``out``; returns a short summary for the CLI."""
+class StreamOutputs(Callback):
+    """Lets the last particles act, then writes the maps and figures of a completed run."""
+
+    def __init__(self, hm: Heightmap, d0: np.ndarray, stream: ParticleStream):
+        super().__init__(Schedule(), name="outputs")
+        self.hm, self.d0, self.stream = hm, d0, stream
+
+    def finalize(self, sim) -> dict[str, Any]:
+        # the loop stops when every particle was emitted *and* has acted; one more sweep marks it done
+        while not self.stream.done:
+            self.stream.advance()
+        return write_outputs(sim.out, self.hm, self.d0, self.stream)
+
+
+def setup(scenario, out) -> Setup:
+    """The stream and its outputs for a ``particle-stream`` run (see the module docstring)."""
     cfg: StreamScenario = scenario.config
     hm, d0, stream = build(cfg)
-    for note in hm.notes:
-        out.warn(note)
-    elapsed = 0.0
-    if resume:
-        state, meta = checkpoint.load(out.checkpoint)
-        stream.load_state(state)
-        elapsed = float(meta.get("elapsed_s", 0.0))
-    write_resolved(scenario, out)
-    rounds = max(1, cfg.stream.impacts_per_batch // max(1, stream.st.shape[0]))
     stream.advance(0)  # compile (or load the cached kernel) outside the timed stream
-    t0 = time.perf_counter()
 
-    def completed() -> float:
-        in_flight = int((stream.serial >= 0).sum())
-        return float(stream.particles_emitted - in_flight) if not stream.done else float(stream.particles_total)
+    def report(sim) -> dict[str, Any]:
+        erosion = hm.z - stream.h
+        area = hm.cell_size**2
+        wall = sim.wall_time_total
+        return {
+            "method": "particle stream over a hardness map (Warszawski, seed 004)",
+            "removed_volume": float(erosion.sum() * area),
+            "removed_volume_unit": "m3",
+            "removed_volume_kernel": stream.removed_volume(),
+            "max_depth": float(erosion.max()),
+            "eroded_area_m2": float((erosion > 0).sum() * area),
+            "particles": stream.particles_emitted,
+            "impacts": stream.impacts,
+            "emitters": list(cfg.emitters),
+            "hardness_source": cfg.hardness.kind,
+            "strata_follow_cut": stream.strata is not None,
+            "terrain": {
+                "shape": list(hm.shape),
+                "cell_size": hm.cell_size,
+                "z_min": float(hm.z.min()),
+                "z_max": float(hm.z.max()),
+            },
+            "stream_wall_s": wall,
+            "impacts_per_s": stream.impacts / wall if wall > 0 else None,
+        }
 
-    def advance() -> float:
-        stream.advance(rounds)
-        return completed()
+    def summary(sim, rep: dict) -> dict[str, Any]:
+        return {
+            "removed_volume_m3": rep["removed_volume"],
+            "max_depth_m": rep["max_depth"],
+            "particles": rep["particles"],
+            "impacts": rep["impacts"],
+            "impacts_per_s": rep["impacts_per_s"],
+        }
 
-    def save_checkpoint() -> None:
-        checkpoint.save(out.checkpoint, stream.state(), {"elapsed_s": elapsed + time.perf_counter() - t0})
-
-    total = float(stream.particles_total)
-    drive(
-        advance,
-        start=completed() if resume else 0.0,
-        total=total,
-        checkpoint=save_checkpoint,
-        checkpoint_wall_s=cfg.stream.checkpoint_wall_s,
-        label=scenario.name,
-        unit="particles",
-        progress=progress,
-    )
-    # the loop stops when every particle was emitted *and* has acted; one more sweep marks it done
-    while not stream.done:
-        stream.advance(rounds)
-    wall = elapsed + time.perf_counter() - t0
-    files = write_outputs(out, hm, d0, stream)
-    erosion = hm.z - stream.h
-    area = hm.cell_size**2
-    removed = float(erosion.sum() * area)
-    report = {
-        "kind": "particle-stream",
-        "status": "completed",
-        "method": "particle stream over a hardness map (Warszawski, seed 004)",
-        "removed_volume": removed,
-        "removed_volume_unit": "m3",
-        "removed_volume_kernel": stream.removed_volume(),
-        "max_depth": float(erosion.max()),
-        "eroded_area_m2": float((erosion > 0).sum() * area),
-        "particles": stream.particles_emitted,
-        "impacts": stream.impacts,
-        "emitters": list(cfg.emitters),
-        "hardness_source": cfg.hardness.kind,
-        "strata_follow_cut": stream.strata is not None,
-        "terrain": {
-            "shape": list(hm.shape),
-            "cell_size": hm.cell_size,
-            "z_min": float(hm.z.min()),
-            "z_max": float(hm.z.max()),
-        },
-        "stream_wall_s": wall,
-        "impacts_per_s": stream.impacts / wall if wall > 0 else None,
-        **files,
-    }
-    out.write_report(report, seed=cfg.seed)
-    return {
-        "removed_volume_m3": removed,
-        "max_depth_m": report["max_depth"],
-        "particles": stream.particles_emitted,
-        "impacts": stream.impacts,
-        "impacts_per_s": report["impacts_per_s"],
-    }
+    return Setup(
+        models=[stream], callbacks=[StreamOutputs(hm, d0, stream)], stop_time=float(stream.particles_total),
+        unit="particles", report=report, summary=summary, checkpoint_wall_s=cfg.stream.checkpoint_wall_s,
+        seed=cfg.seed, warnings=list(hm.notes),
+    )  # fmt: skip

@@ -1,0 +1,184 @@
+"""The ``hydrology`` kind (SPEC HY-1…HY-9): terrain, rain and hardness maps → a hydrology model.
+
+A run cycles :class:`erosim.hydrology.model.HydrologyModel` ``run.cycles`` times and, when done, writes
+
+* ``maps/``: height_initial.tif, height.tif, lake_depth.tif, stream.tif, erosion.tif, deposition.tif,
+  vegetation.tif (GeoTIFF float32, the input's CRS kept); height.png (PNG16) and height.r16 (RAW16
+  little-endian) with their height range in report.json; 16-bit PNG masks mask_stream.png,
+  mask_lake_depth.png, mask_erosion.png, mask_deposition.png, mask_vegetation.png
+  (value = q·vmax/65535, vmax in report.json);
+* ``figures/``: hillshade_before.png, hillshade_after.png, hydrology.png (HY-9: light blue streams,
+  dark blue lakes, green forest), evolution.gif (``run.frames`` pictures over the run);
+* ``report.json``: water_budget, sediment_budget, statistics, output list and ranges.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from erosim.core.errors import ConfigError
+from erosim.scenarios.schema_common import build_terrain
+from erosim.scenarios.setup import Setup
+from erosim.simulation.callbacks import Animation, Callback
+from erosim.simulation.schedules import Schedule, TimeInterval
+
+MAPS = ("height_initial", "height", "lake_depth", "stream", "erosion", "deposition", "vegetation")
+
+
+def _inputs(cfg, shape):
+    rain = erod = None
+    if cfg.inputs.rain_map:
+        from erosim.io.heightmaps import read
+
+        rain = read(cfg.inputs.rain_map).z
+    if cfg.inputs.hardness_map:
+        from erosim.terrain import hardness
+
+        erod = 1.0 - hardness.load(cfg.inputs.hardness_map, shape)
+    return rain, erod
+
+
+def build_model(cfg, *, timing: bool = False):
+    """The terrain and a fresh :class:`HydrologyModel` for a validated ``HydrologyScenario``."""
+    from erosim.hydrology.model import HydrologyModel
+
+    terrain = build_terrain(cfg.terrain, cfg.seed)
+    rain, erod = _inputs(cfg, terrain.shape)
+    model = HydrologyModel(terrain, cfg.hydrology, cfg.vegetation, cfg.seed, rain=rain, erodibility=erod, timing=timing)
+    return terrain, model
+
+
+def picture(model):
+    """The combined hydrology map (HY-9) of the model's current state."""
+    from erosim.viz.maps import hydrology_map
+
+    return hydrology_map(model.z, model.cell_size, model.stream, model.lake_depth(), vegetation=model.vegetation())
+
+
+def _thumbnail(model, size: int = 256):
+    pic = picture(model)
+    step = max(1, pic.shape[0] // size, pic.shape[1] // size)
+    return pic[::step, ::step]
+
+
+def write_outputs(model, terrain, folder) -> dict:
+    """Maps, engine exports and pictures of the model's current state into a run folder; their ranges."""
+    from erosim.io import heightmaps as hio
+    from erosim.viz.maps import hillshade, save_png
+
+    maps = {
+        "height_initial": model.z0,
+        "height": model.z,
+        "lake_depth": model.lake_depth(),
+        "stream": model.stream,
+        "erosion": model.erosion(),
+        "deposition": model.deposition(),
+        "vegetation": model.vegetation(),
+    }
+    info: dict = {"maps": {}, "masks": {}}
+    for name, arr in maps.items():
+        hio.write(folder.maps / f"{name}.tif", np.ascontiguousarray(arr), like=terrain)
+        info["maps"][name] = {"path": f"maps/{name}.tif", "min": float(arr.min()), "max": float(arr.max())}
+    png = hio.write(folder.maps / "height.png", model.z, like=terrain)
+    raw = hio.write(folder.maps / "height.r16", model.z, like=terrain)
+    info["heightmap_16bit"] = {
+        "png": "maps/height.png",
+        "raw16": "maps/height.r16",
+        "raw16_shape": list(model.z.shape),
+        "height_range": png["height_range"],
+        "raw16_height_range": raw["height_range"],
+        "rescale": "z = lo + q·(hi − lo)/65535",
+    }
+    for name in ("stream", "lake_depth", "erosion", "deposition", "vegetation"):
+        vmax = 1.0 if name in ("stream", "vegetation") else None
+        m = hio.write_mask_png16(folder.maps / f"mask_{name}.png", maps[name], vmax=vmax)
+        info["masks"][name] = {"path": f"maps/mask_{name}.png", "vmax": m["vmax"]}
+    save_png(folder.figures / "hillshade_before.png", hillshade(model.z0, model.cell_size))
+    save_png(folder.figures / "hillshade_after.png", hillshade(model.z, model.cell_size))
+    save_png(folder.figures / "hydrology.png", picture(model))
+    return info
+
+
+class HydrologyOutputs(Callback):
+    """The final maps, masks and pictures of a completed run (:func:`write_outputs`)."""
+
+    def __init__(self, model, terrain):
+        super().__init__(Schedule(), name="outputs")
+        self.model, self.terrain = model, terrain
+
+    def finalize(self, sim) -> dict[str, Any]:
+        return {"outputs": write_outputs(self.model, self.terrain, sim.out)}
+
+
+def setup(scenario, out) -> Setup:
+    """The model and callbacks of a ``hydrology`` run (see the module docstring)."""
+    cfg = scenario.config
+    terrain, model = build_model(cfg)
+    warnings = list(terrain.notes)
+    ratio = model.ell / model.cell_size
+    if ratio > 8:
+        warnings.append(
+            f"hydrology.length_scale ({model.ell:g} m) spans {ratio:.0f} cells of {model.cell_size:g} m: "
+            "droplet footprints are large and the run is slow; set terrain.cell_size to the DEM's "
+            "real cell size or lower hydrology.length_scale."
+        )
+    callbacks: list = []
+    if cfg.run.frames > 0:
+        interval = max(1, cfg.run.cycles // cfg.run.frames)
+        callbacks.append(
+            Animation(TimeInterval(interval), lambda sim: _thumbnail(model), out.path / "figures" / "evolution.gif")
+        )
+    outputs = HydrologyOutputs(model, terrain)
+    callbacks.append(outputs)
+
+    def report(sim) -> dict[str, Any]:
+        stats = model.stats()
+        done = sim.iteration - sim.iteration_start
+        stats["droplets_per_s"] = (
+            model.per_cycle * done / sim.wall_time if sim.wall_time > 0 and done and not sim.resumed else None
+        )
+        return {
+            "terrain": {
+                "shape": list(terrain.shape),
+                "cell_size_m": terrain.cell_size,
+                "crs": terrain.crs,
+                "z_min": float(model.z0.min()),
+                "z_max": float(model.z0.max()),
+            },
+            "water_budget": model.water_budget(),
+            "sediment_budget": model.sediment_budget(),
+            "statistics": stats,
+        }
+
+    def summary(sim, rep: dict) -> dict[str, Any]:
+        stats = rep["statistics"]
+        return {
+            "droplets": stats["droplets"],
+            "cycles": stats["cycles"],
+            "lake_fraction": round(stats["lake_fraction"], 4),
+            "tree_fraction": round(stats["tree_fraction"], 4),
+            "water_closure_rel": rep["water_budget"]["closure_rel"],
+            "sediment_closure_rel": rep["sediment_budget"]["closure_rel"],
+            "wall_s": round(sim.wall_time, 2),
+        }
+
+    return Setup(
+        models=[model], callbacks=callbacks, stop_time=float(cfg.run.cycles), unit="cycles", report=report,
+        summary=summary, checkpoint_wall_s=cfg.run.checkpoint_interval, seed=cfg.seed, warnings=warnings,
+    )  # fmt: skip
+
+
+def clear_demo_folder(out: Path) -> None:
+    """Empty ``out`` for a new demo — only if it is empty or a folder erosim wrote."""
+    if not out.exists():
+        return
+    if not out.is_dir():
+        raise ConfigError(f"Demo output '{out}' is a file; pass another --out folder.")
+    entries = list(out.iterdir())
+    if entries and not ((out / "report.json").exists() or (out / "scenario.toml").exists()):
+        raise ConfigError(f"Demo output '{out}' holds files erosim did not write; pass an empty or new --out folder.")
+    shutil.rmtree(out)

@@ -1,0 +1,26 @@
+"""What a scenario kind's builder returns: the models and callbacks of one run, and its report."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass
+class Setup:
+    """A run ready to go: a :class:`~erosim.simulation.simulation.Simulation` is made from it.
+
+    ``report(sim)`` gives the kind's entries of ``report.json`` (whatever the run's status);
+    ``summary(sim, report)`` the few lines the command line prints. ``warnings`` go into the report.
+    """
+
+    models: list
+    callbacks: list
+    stop_time: float
+    unit: str
+    report: Callable[[Any], dict]
+    summary: Callable[[Any, dict], dict]
+    checkpoint_wall_s: float = 300.0
+    seed: int | None = None
+    warnings: list[str] = field(default_factory=list)

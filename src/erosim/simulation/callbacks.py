@@ -1,0 +1,246 @@
+"""Callbacks: small objects a :class:`~erosim.simulation.simulation.Simulation` calls on a schedule.
+
+Each callback has a ``schedule`` (:mod:`erosim.simulation.schedules`) and is called with the
+simulation when it is due. It may keep state that belongs in checkpoints (``state_dict`` /
+``load_state_dict``: arrays go into the checkpoint's arrays, other values into its JSON header), write
+what it gathered at checkpoints and at the end (``flush``), and add to the report when the run
+completes (``finalize``). The fluid callbacks read a particle model through its public interface
+(``fluid_positions()``, ``fluid_velocities()``, ``fluid_pressure()``, ``fluid_density()``, ``t``).
+
+* :class:`Checkpointer` — writes the simulation's checkpoint;
+* :class:`ParticleFrames` — VTK PolyData frames + ``particles.pvd`` (ParaView);
+* :class:`Snapshots` — PNG pictures of the particles coloured by speed;
+* :class:`Probes` — pressure probes and water-level gauges → ``gauges.csv``;
+* :class:`FrontTracker` — the surge front → ``front.csv`` (and its figure against an experiment);
+* :class:`Animation` — pictures of a map over time → an animated GIF;
+* :class:`Callback` — any function of the simulation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from erosim.simulation.schedules import Schedule
+
+
+def csv_text(header: list[str], rows) -> str:
+    """CSV with a header line; numbers written with ``repr`` (round-trip exact)."""
+    lines = [",".join(header)]
+    lines += [",".join(repr(float(v)) for v in r) for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+class Callback:
+    """A function ``func(sim)`` called when ``schedule`` is due; the base of every callback."""
+
+    def __init__(self, schedule: Schedule, func: Callable | None = None, name: str | None = None):
+        self.schedule = schedule
+        self.func = func
+        self.name = name or getattr(func, "__name__", type(self).__name__.lower())
+
+    def __call__(self, sim) -> None:
+        if self.func is not None:
+            self.func(sim)
+
+    def state_dict(self) -> dict[str, Any]:
+        return {}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`state_dict` (missing keys mean a callback added on resume: keep defaults)."""
+
+    def flush(self, sim) -> None:
+        """Write what was gathered so far (called at every checkpoint and at the end)."""
+
+    def finalize(self, sim) -> dict[str, Any]:
+        """When the run has completed: final files; returns entries for ``report.json``."""
+        return {}
+
+
+class Checkpointer(Callback):
+    """Writes the simulation's checkpoint (default: every 5 minutes of wall time)."""
+
+    def __init__(self, schedule: Schedule):
+        super().__init__(schedule, name="checkpointer")
+
+    def __call__(self, sim) -> None:
+        sim.checkpoint()
+
+
+class ParticleFrames(Callback):
+    """``particles/frame_NNNNN.vtp`` (velocity, pressure, density as float32) and ``particles.pvd``."""
+
+    def __init__(self, schedule: Schedule, fluid, folder: Path):
+        super().__init__(schedule, name="frames")
+        from erosim.io.particles import FrameSeries
+
+        self.fluid = fluid
+        self.folder = Path(folder)
+        self.series = FrameSeries(self.folder)
+
+    def __call__(self, sim) -> None:
+        s = self.fluid
+        fields = {
+            "velocity": s.fluid_velocities().astype(np.float32),
+            "pressure": s.fluid_pressure().astype(np.float32),
+            "density": s.fluid_density().astype(np.float32),
+        }
+        self.series.write(float(s.t), s.fluid_positions().astype(np.float32), fields)
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"frames": [list(f) for f in self.series.frames]}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        from erosim.io.particles import FrameSeries
+
+        self.series = FrameSeries(self.folder, frames=state.get("frames", []))
+
+
+class Snapshots(Callback):
+    """``figures/snapshot_NNN.png``: the particles coloured by speed."""
+
+    def __init__(self, schedule: Schedule, fluid, folder: Path, *, lo, hi, spacing: float, title: str):
+        super().__init__(schedule, name="snapshots")
+        self.fluid = fluid
+        self.folder = Path(folder)
+        self.lo, self.hi, self.spacing, self.title = lo, hi, spacing, title
+        self.count = 0
+
+    def __call__(self, sim) -> None:
+        from erosim.viz.plots import snapshot
+
+        s = self.fluid
+        snapshot(
+            self.folder / f"snapshot_{self.count:03d}.png", s.fluid_positions(), s.fluid_velocities(),
+            t=float(s.t), lo=self.lo, hi=self.hi, spacing=self.spacing, title=self.title,
+        )  # fmt: skip
+        self.count += 1
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"count": self.count}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.count = int(state.get("count", 0))
+
+
+class Probes(Callback):
+    """Pressure probes and water-level gauges (:mod:`erosim.analysis.gauges`) sampled into ``gauges.csv``.
+
+    Columns: ``t`` (s), ``p_<probe>`` (Pa), ``depth_<gauge>`` (m above ``floor``).
+    """
+
+    def __init__(
+        self, schedule: Schedule, fluid, path: Path, *, probes, gauges, support: float, spacing: float,
+        mass: float, floor: float,
+    ):  # fmt: skip
+        super().__init__(schedule, name="probes")
+        self.fluid = fluid
+        self.path = Path(path)
+        self.probe_points = np.array([p for _, p in probes], dtype=np.float64)
+        self.gauge_points = np.array([g for _, g in gauges], dtype=np.float64)
+        self.h, self.dx, self.mass, self.floor = support, spacing, mass, floor
+        self.header = ["t"] + [f"p_{n}" for n, _ in probes] + [f"depth_{n}" for n, _ in gauges]
+        self.rows: list[list[float]] = []
+
+    def __call__(self, sim) -> None:
+        from erosim.analysis.gauges import probe_pressure, water_depth
+
+        s = self.fluid
+        pos = s.fluid_positions()
+        row = [float(s.t)]
+        if len(self.probe_points):
+            vol = self.mass / s.fluid_density()
+            row += probe_pressure(pos, s.fluid_pressure(), vol, self.probe_points, self.h).tolist()
+        if len(self.gauge_points):
+            row += water_depth(pos, self.gauge_points, self.dx, self.dx, self.floor).tolist()
+        self.rows.append(row)
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"rows": np.asarray(self.rows, dtype=np.float64).reshape(-1, len(self.header))}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        if "rows" in state:
+            self.rows = np.asarray(state["rows"]).tolist()
+
+    def flush(self, sim) -> None:
+        from erosim.core.atomic import write_text
+
+        write_text(self.path, csv_text(self.header, self.rows))
+
+
+class FrontTracker(Callback):
+    """The surge front (:func:`erosim.analysis.front.front_position`) into ``front.csv`` (``t,x_front``)."""
+
+    def __init__(
+        self, schedule: Schedule, fluid, path: Path, *, spacing: float, origin: float, figure: Path | None = None,
+        width: float = 1.0, g: float = 9.81, title: str = "",
+    ):  # fmt: skip
+        super().__init__(schedule, name="front")
+        self.fluid = fluid
+        self.path = Path(path)
+        self.spacing, self.origin = spacing, origin
+        self.figure, self.width, self.g, self.title = figure, width, g, title
+        self.rows: list[list[float]] = []
+
+    def __call__(self, sim) -> None:
+        from erosim.analysis.front import front_position
+
+        s = self.fluid
+        self.rows.append([float(s.t), front_position(s.fluid_positions(), self.spacing, self.origin, axis=0)])
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"rows": np.asarray(self.rows, dtype=np.float64).reshape(-1, 2)}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        if "rows" in state:
+            self.rows = np.asarray(state["rows"]).tolist()
+
+    def flush(self, sim) -> None:
+        from erosim.core.atomic import write_text
+
+        write_text(self.path, csv_text(["t", "x_front"], self.rows))
+
+    def finalize(self, sim) -> dict[str, Any]:
+        """With ``figure``: the front against Martin & Moyce (1952), n² = 2, non-dimensional
+        (Z = x/a, T = t√(2g/a), a = ``width``)."""
+        if self.figure is None or not self.rows:
+            return {}
+        from erosim.analysis.front import nondimensional_front
+        from erosim.data import MARTIN_MOYCE_SURGE, reference_csv
+        from erosim.viz.plots import front_vs_experiment
+
+        ref = reference_csv(MARTIN_MOYCE_SURGE)
+        rows = np.asarray(self.rows)
+        T, Z = nondimensional_front(rows[:, 0], rows[:, 1], self.width, self.g)
+        label = f"erosim (dx = a/{self.width / self.spacing:.0f})"
+        front_vs_experiment(self.figure, T, Z, ref["T"], ref["Z"], label=label, title=self.title)
+        return {}
+
+
+class Animation(Callback):
+    """Pictures (``picture(sim)`` → RGB array) gathered over the run and saved as a GIF at the end.
+
+    The pictures live in memory only: a resumed run's animation starts at the resume.
+    """
+
+    def __init__(self, schedule: Schedule, picture: Callable, path: Path, *, fps: float = 8.0):
+        super().__init__(schedule, name="animation")
+        self.picture = picture
+        self.path = Path(path)
+        self.fps = fps
+        self.frames: list[np.ndarray] = []
+
+    def __call__(self, sim) -> None:
+        self.frames.append(self.picture(sim))
+
+    def finalize(self, sim) -> dict[str, Any]:
+        if not self.frames:
+            return {}
+        from erosim.viz.animate import save_animation
+
+        self.frames.append(self.picture(sim))
+        save_animation(self.path, self.frames, fps=self.fps)
+        return {"animation": str(self.path.relative_to(sim.out.path))}
