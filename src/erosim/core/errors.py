@@ -29,3 +29,9 @@ class Interrupted(ErosimError):
     """The user pressed Ctrl-C; a checkpoint was written so the run can be resumed."""
 
     exit_code = 130
+
+
+class BudgetError(ErosimError):
+    """A model's increments do not conserve what they must (mass, volume): a bug, stopped at once."""
+
+    exit_code = 3

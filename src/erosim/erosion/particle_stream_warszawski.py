@@ -569,7 +569,7 @@ class ParticleStream:
                     f"Checkpoint array '{name}' has shape {new.shape}, expected {cur.shape}; "
                     "resume with the scenario the run was started with."
                 )
-            setattr(self, name, new)
+            cur[...] = new  # in place: callbacks hold these arrays
         self.impacts = int(state["impacts"])
         # a resumed run may ask for more particles (--set emitters.NAME.particles=...): it is only
         # finished if every emitter has emitted its (possibly new) total

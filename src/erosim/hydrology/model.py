@@ -608,6 +608,11 @@ class HydrologyModel:
             "terrain_change_rel_error": abs(change - (deposited - eroded)) / eroded if eroded > 0 else 0.0,
         }
 
+    def sediment_in_transit(self) -> tuple[float, float]:
+        """(sediment held in the water, sediment carried off the map) so far, m³. Droplets are not kept
+        between cycles, so after a whole cycle nothing is held: the terrain's change is −carried off."""
+        return 0.0, float(self.budget[B_CARRIED])
+
     def stats(self) -> dict:
         B = self.budget
         depth = self.lake_depth()

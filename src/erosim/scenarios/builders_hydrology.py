@@ -23,8 +23,8 @@ import numpy as np
 from erosim.core.errors import ConfigError
 from erosim.scenarios.schema_common import build_terrain
 from erosim.scenarios.setup import Setup
-from erosim.simulation.callbacks import Animation, Callback
-from erosim.simulation.schedules import Schedule, TimeInterval
+from erosim.simulation.callbacks import Animation, BudgetCheck, Callback
+from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
 
 MAPS = ("height_initial", "height", "lake_depth", "stream", "erosion", "deposition", "vegetation")
 
@@ -132,8 +132,12 @@ def setup(scenario, out) -> Setup:
         callbacks.append(
             Animation(TimeInterval(interval), lambda sim: _thumbnail(model), out.path / "figures" / "evolution.gif")
         )
-    outputs = HydrologyOutputs(model, terrain)
-    callbacks.append(outputs)
+    callbacks.append(
+        BudgetCheck(
+            IterationInterval(16), model.z, model.sediment_in_transit, model.cell_size**2, "The hydrology model"
+        )
+    )
+    callbacks.append(HydrologyOutputs(model, terrain))
 
     def report(sim) -> dict[str, Any]:
         stats = model.stats()

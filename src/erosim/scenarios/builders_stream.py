@@ -27,8 +27,8 @@ from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
 from erosim.scenarios.schema_common import build_terrain
 from erosim.scenarios.schema_stream import HardnessSection, StreamScenario
 from erosim.scenarios.setup import Setup
-from erosim.simulation.callbacks import Callback
-from erosim.simulation.schedules import Schedule
+from erosim.simulation.callbacks import BudgetCheck, Callback
+from erosim.simulation.schedules import IterationInterval, Schedule
 from erosim.terrain import hardness as hardness_mod
 from erosim.terrain.hardness import Strata
 
@@ -217,6 +217,10 @@ def setup(scenario, out) -> Setup:
     cfg: StreamScenario = scenario.config
     hm, d0, stream = build(cfg)
     stream.advance(0)  # compile (or load the cached kernel) outside the timed stream
+    # the removed material leaves the map (the method does not deposit): Σ Δz·A = −removed volume
+    budget = BudgetCheck(
+        IterationInterval(1), stream.h, lambda: (0.0, stream.removed_volume()), hm.cell_size**2, "The particle stream"
+    )
 
     def report(sim) -> dict[str, Any]:
         erosion = hm.z - stream.h
@@ -254,7 +258,7 @@ def setup(scenario, out) -> Setup:
         }
 
     return Setup(
-        models=[stream], callbacks=[StreamOutputs(hm, d0, stream)], stop_time=float(stream.particles_total),
+        models=[stream], callbacks=[budget, StreamOutputs(hm, d0, stream)], stop_time=float(stream.particles_total),
         unit="particles", report=report, summary=summary, checkpoint_wall_s=cfg.stream.checkpoint_wall_s,
         seed=cfg.seed, warnings=list(hm.notes),
     )  # fmt: skip

@@ -13,6 +13,7 @@ completes (``finalize``). The fluid callbacks read a particle model through its 
 * :class:`Probes` — pressure probes and water-level gauges → ``gauges.csv``;
 * :class:`FrontTracker` — the surge front → ``front.csv`` (and its figure against an experiment);
 * :class:`Animation` — pictures of a map over time → an animated GIF;
+* :class:`BudgetCheck` — a terrain changed in place must change by what its model says it moved;
 * :class:`Callback` — any function of the simulation.
 """
 
@@ -24,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from erosim.coupling.increments import Increment, IncrementView, check_budget
 from erosim.simulation.schedules import Schedule
 
 
@@ -244,3 +246,48 @@ class Animation(Callback):
         self.frames.append(self.picture(sim))
         save_animation(self.path, self.frames, fps=self.fps)
         return {"animation": str(self.path.relative_to(sim.out.path))}
+
+
+class BudgetCheck(Callback):
+    """Checks the sediment budget of a model that changes its terrain ``z`` in place.
+
+    ``moved()`` returns the model's running totals (ΔS held in the water, C carried off), m³. Each
+    time the check fires, Δz since the last check (an :class:`~erosim.coupling.increments.IncrementView`)
+    with the totals' change must pass :func:`~erosim.coupling.increments.check_budget`; a model whose
+    terrain change and bookkeeping disagree stops with a :class:`~erosim.core.errors.BudgetError`.
+    The report gets the number of checks and the largest relative imbalance seen.
+    """
+
+    def __init__(self, schedule: Schedule, z: np.ndarray, moved: Callable[[], tuple[float, float]], cell_area: float,
+                 who: str):  # fmt: skip
+        super().__init__(schedule, name="budget_check")
+        self.z, self.moved, self.cell_area, self.who = z, moved, cell_area, who
+        self._sync()
+        self.checks = 0
+        self.worst = 0.0
+
+    def _sync(self) -> None:
+        self.view = IncrementView(self.z)
+        self.last = self.moved()
+
+    def __call__(self, sim) -> None:
+        s, c = self.moved()
+        inc = Increment(self.view.take(), s - self.last[0], c - self.last[1])
+        self.last = (s, c)
+        t = check_budget(inc, self.z.shape, self.cell_area, self.who)
+        scale = max(t["eroded"], t["deposited"], abs(t["suspended"]), abs(t["carried_off"]))
+        if scale > 0:
+            self.worst = max(self.worst, abs(t["imbalance"]) / scale)
+        self.checks += 1
+
+    def state_dict(self) -> dict[str, Any]:
+        self(None)  # the checkpoint's terrain is the reference of the next check
+        return {"checks": self.checks, "worst": self.worst}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self._sync()  # the model was restored first: its terrain and totals are the reference
+        self.checks = int(state.get("checks", 0))
+        self.worst = float(state.get("worst", 0.0))
+
+    def finalize(self, sim) -> dict[str, Any]:
+        return {"budget_check": {"checks": self.checks, "max_imbalance_rel": self.worst}}

@@ -13,9 +13,10 @@ Per fluid particle i, over its neighbour list (fluid j first, then fixed boundar
   ρ_j^H − ρ_i^H = −ρ₀ g·r_ij / c²  (r_ij = r_i − r_j, ∇W_ij = f_ij r_ij, η² = 0.01 h_s²);
 * gravity (SPH-7) added once.
 
-Boundary particles (fixed, "dynamic boundary particles" of Crespo et al. 2007) get dρ/dt from their
-fluid neighbours only; their pressure from the same EOS pushes fluid away. h is the kernel support
-radius, h_s = h/2 the smoothing length used in ν, δ and ε.
+Boundary particles (fixed, "dynamic boundary particles" of Crespo et al. 2007) are neighbours like
+any other (v_j = 0, no density diffusion); their own density passes belong to their boundary model
+(:mod:`erosim.sph.boundaries.particles`). h is the kernel support radius, h_s = h/2 the smoothing
+length used in ν, δ and ε.
 
 The variants are scalar Numba functions passed to the per-particle bodies; the parallel loop drivers
 below are one small cached function per combination (Numba cannot cache a driver that takes functions
@@ -237,31 +238,8 @@ def fluid_particle_2d(
 
 
 @njit(inline="always")
-def boundary_particle(gradf, i, pos, vel, start, mid, nbr, m, h, drho):
-    """dρ/dt of fixed boundary particle i: Σ_fluid m_j (0 − v_j)·∇W_ij."""
-    h2 = h * h
-    d = pos.shape[1]
-    dr = 0.0
-    for s in range(start[i], mid[i]):
-        j = nbr[s]
-        r2 = 0.0
-        vdotr = 0.0
-        for a in range(d):
-            t = pos[i, a] - pos[j, a]
-            r2 += t * t
-            vdotr -= vel[j, a] * t
-        if r2 >= h2:
-            continue
-        dr += vdotr * gradf(math.sqrt(r2), h)
-    drho[i] = m * dr
-
-
-@njit(inline="always")
-def summation_particle(w, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho):
-    """SPH-3: ρ_i = m (W(0) + Σ_j W(r_ij)) for fluid; boundary ρ = ρ_base + m Σ_fluid W, at least ρ₀.
-
-    ``rho_base`` holds, for boundary particles, the constant part m (W(0) + Σ_boundary W).
-    """
+def summation_particle(w, i, pos, start, nbr, m, h, rho):
+    """SPH-3: ρ_i = m (W(0) + Σ_j W(r_ij)) of fluid particle i (fluid and boundary neighbours)."""
     h2 = h * h
     d = pos.shape[1]
     w0 = w(0.0, h)
@@ -274,10 +252,7 @@ def summation_particle(w, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho
             r2 += t * t
         if r2 < h2:
             acc += w(math.sqrt(r2), h)
-    if i < n_fluid:
-        rho[i] = m * (w0 + acc)
-    else:
-        rho[i] = max(rho0, rho_base[i] + m * acc)
+    rho[i] = m * (w0 + acc)
 
 
 # ---------------------------------------------------------------- drivers, one per variant
@@ -464,55 +439,27 @@ def fluid_pass_3d_muller_symmetric_laminar(
 
 
 @njit(parallel=True, cache=True)
-def boundary_pass_2d_wendland(pos, vel, start, mid, nbr, active, m, h, drho):
-    for k in prange(active.size):
-        i = active[k]
-        boundary_particle(K.wendland_f_2d, i, pos, vel, start, mid, nbr, m, h, drho)
+def summation_density_2d_wendland(pos, start, nbr, n_fluid, m, h, rho):
+    for i in prange(n_fluid):
+        summation_particle(K.wendland_w_2d, i, pos, start, nbr, m, h, rho)
 
 
 @njit(parallel=True, cache=True)
-def summation_density_2d_wendland(pos, start, nbr, n_fluid, n_total, m, h, rho_base, rho0, rho):
-    for i in prange(n_total):
-        summation_particle(K.wendland_w_2d, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho)
+def summation_density_2d_muller(pos, start, nbr, n_fluid, m, h, rho):
+    for i in prange(n_fluid):
+        summation_particle(K.muller_w_2d, i, pos, start, nbr, m, h, rho)
 
 
 @njit(parallel=True, cache=True)
-def boundary_pass_2d_muller(pos, vel, start, mid, nbr, active, m, h, drho):
-    for k in prange(active.size):
-        i = active[k]
-        boundary_particle(K.muller_f_2d, i, pos, vel, start, mid, nbr, m, h, drho)
+def summation_density_3d_wendland(pos, start, nbr, n_fluid, m, h, rho):
+    for i in prange(n_fluid):
+        summation_particle(K.wendland_w_3d, i, pos, start, nbr, m, h, rho)
 
 
 @njit(parallel=True, cache=True)
-def summation_density_2d_muller(pos, start, nbr, n_fluid, n_total, m, h, rho_base, rho0, rho):
-    for i in prange(n_total):
-        summation_particle(K.muller_w_2d, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho)
-
-
-@njit(parallel=True, cache=True)
-def boundary_pass_3d_wendland(pos, vel, start, mid, nbr, active, m, h, drho):
-    for k in prange(active.size):
-        i = active[k]
-        boundary_particle(K.wendland_f_3d, i, pos, vel, start, mid, nbr, m, h, drho)
-
-
-@njit(parallel=True, cache=True)
-def summation_density_3d_wendland(pos, start, nbr, n_fluid, n_total, m, h, rho_base, rho0, rho):
-    for i in prange(n_total):
-        summation_particle(K.wendland_w_3d, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho)
-
-
-@njit(parallel=True, cache=True)
-def boundary_pass_3d_muller(pos, vel, start, mid, nbr, active, m, h, drho):
-    for k in prange(active.size):
-        i = active[k]
-        boundary_particle(K.muller_f_3d, i, pos, vel, start, mid, nbr, m, h, drho)
-
-
-@njit(parallel=True, cache=True)
-def summation_density_3d_muller(pos, start, nbr, n_fluid, n_total, m, h, rho_base, rho0, rho):
-    for i in prange(n_total):
-        summation_particle(K.muller_w_3d, i, pos, start, nbr, n_fluid, m, h, rho_base, rho0, rho)
+def summation_density_3d_muller(pos, start, nbr, n_fluid, m, h, rho):
+    for i in prange(n_fluid):
+        summation_particle(K.muller_w_3d, i, pos, start, nbr, m, h, rho)
 
 
 _FLUID = {
@@ -538,11 +485,6 @@ _FLUID = {
 def fluid_driver(dim: int, kernel: str, pressure_form: str, viscosity: str):
     """The fused fluid pass for this combination of variants."""
     return _FLUID[(dim, kernel, pressure_form, viscosity)]
-
-
-def boundary_driver(dim: int, kernel: str):
-    """dρ/dt of the active boundary particles (those with fluid neighbours) with this kernel."""
-    return globals()[f"boundary_pass_{dim}d_{kernel}"]
 
 
 def summation_driver(dim: int, kernel: str):

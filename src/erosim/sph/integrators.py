@@ -16,11 +16,11 @@ predictor ρ* = ρ_n + Δt D_n and the corrector ρ_{n+1} = ρ_n + Δt D_{n+1} f
 with the previous step's D alone is forward Euler for the acoustic (ρ, v) pair and grows sound-wave
 noise at CFL 0.2; the corrector removes that.)
 
-:func:`kick_drift` (first kick, drift, walls, predictor, EOS) and :func:`correct` (second kick,
+:func:`kick_drift` (first kick, drift, predictor, EOS) and :func:`correct` (second kick,
 corrector, EOS) serve both integrators with different weights: leapfrog kicks ½Δt in each,
-symplectic Euler Δt in the first and 0 in the second. Boundary particles' density follows the same
-predictor/corrector inside the same two loops (only the "active" ones, with fluid neighbours), kept
-≥ ρ₀ (Crespo et al. 2007). Fusing these per-particle updates keeps the step at four parallel loops.
+symplectic Euler Δt in the first and 0 in the second. Between the drift and the neighbour-list check
+the boundary models keep particles out of walls (:mod:`erosim.sph.boundaries`), then
+:func:`max_displacement` measures how far particles moved since the lists were built.
 
 Step limits (Monaghan 1992; Morris et al. 1997), h_s the smoothing length:
 Δt ≤ C h_s/(c + |v|max),  Δt ≤ C sqrt(h_s/|a|max),  Δt ≤ 0.125 h_s²/ν (laminar viscosity, ν = μ/ρ₀).
@@ -32,7 +32,6 @@ import math
 
 from numba import njit, prange
 
-from erosim.sph.boundaries.box import enforce
 from erosim.sph.eos import tait
 
 NCHUNK = 64  # fixed chunk count of the max-reductions (deterministic for any thread count)
@@ -45,63 +44,39 @@ def _chunk(n, c):
 
 
 @njit(parallel=True, cache=True)
-def kick_drift(
-    pos,
-    vel,
-    acc,
-    rho,
-    rho_old,
-    drho,
-    p,
-    n_fluid,
-    active,
-    dt_kick,
-    dt,
-    rho0,
-    b,
-    gamma,
-    pmin,
-    lo,
-    hi,
-    olo,
-    ohi,
-    ref,
-    out_disp2,
-):
-    """Fluid: v += dt_kick·a; r += dt·v; walls; predictor ρ* = ρ + dt·D (ρ kept in rho_old); p = EOS(ρ*).
-    Active boundary particles: the same predictor, ρ* ≥ ρ₀. out_disp2[c] = max |r − ref|² over chunk c.
-    """
+def kick_drift(pos, vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin):
+    """Fluid: v += dt_kick·a; r += dt·v; predictor ρ* = ρ + dt·D (ρ kept in rho_old); p = EOS(ρ*)."""
+    d = pos.shape[1]
+    for i in prange(n_fluid):
+        for a in range(d):
+            vel[i, a] += dt_kick * acc[i, a]
+            pos[i, a] += dt * vel[i, a]
+        rho_old[i] = rho[i]
+        rho[i] += dt * drho[i]
+        p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
+
+
+@njit(parallel=True, cache=True)
+def max_displacement(pos, ref, n_fluid, out_disp2):
+    """out_disp2[c] = max |r − ref|² over the fluid particles of chunk c (after the boundaries' constraints)."""
     d = pos.shape[1]
     for c in prange(NCHUNK):
         mx = 0.0
         i0, i1 = _chunk(n_fluid, c)
         for i in range(i0, i1):
-            for a in range(d):
-                vel[i, a] += dt_kick * acc[i, a]
-                pos[i, a] += dt * vel[i, a]
-            enforce(pos, vel, i, lo, hi, olo, ohi)
-            rho_old[i] = rho[i]
-            rho[i] += dt * drho[i]
-            p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
             s = 0.0
             for a in range(d):
                 t = pos[i, a] - ref[i, a]
                 s += t * t
             mx = max(mx, s)
         out_disp2[c] = mx
-        k0, k1 = _chunk(active.size, c)
-        for k in range(k0, k1):
-            i = active[k]
-            rho_old[i] = rho[i]
-            rho[i] = max(rho0, rho[i] + dt * drho[i])
-            p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
 
 
 @njit(parallel=True, cache=True)
-def correct(vel, acc, rho, rho_old, drho, p, n_fluid, active, dt_kick, dt, rho0, b, gamma, pmin, out_v2, out_a2):
-    """After the force pass. Fluid: v += dt_kick·a (leapfrog's second half kick; 0 for symplectic
-    Euler); corrector ρ = ρ_old + dt·D_new; p = EOS(ρ). Active boundary particles: ρ = max(ρ₀, ρ_old + dt·D).
-    out_v2[c], out_a2[c]: chunk maxima of |v|², |a|² (+inf if any is NaN).
+def correct(vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin, out_v2, out_a2):
+    """After the force pass: v += dt_kick·a (leapfrog's second half kick; 0 for symplectic Euler);
+    corrector ρ = ρ_old + dt·D_new; p = EOS(ρ). out_v2[c], out_a2[c]: chunk maxima of |v|², |a|²
+    (+inf if any is NaN).
     """
     d = vel.shape[1]
     for c in prange(NCHUNK):
@@ -124,11 +99,6 @@ def correct(vel, acc, rho, rho_old, drho, p, n_fluid, active, dt_kick, dt, rho0,
             ma = max(ma, sa)
         out_v2[c] = mv
         out_a2[c] = ma
-        k0, k1 = _chunk(active.size, c)
-        for k in range(k0, k1):
-            i = active[k]
-            rho[i] = max(rho0, rho_old[i] + dt * drho[i])
-            p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
 
 
 @njit(parallel=True, cache=True)

@@ -4,10 +4,16 @@ Step order (SPH-13, with leapfrog's kicks around it): kick + drift + walls + EOS
 (rebuilt only when some particle moved more than half the Verlet skin; particles re-sorted by cell at
 the rebuild) → [summation density] → one fused pressure/viscosity/continuity pass → kick.
 
-Storage is structure-of-arrays in one index space: fluid particles ``0 … n_fluid−1`` (kept sorted
-by cell, so their internal order changes; ``ids`` maps back to the caller's order), then the fixed
-boundary particles. The variants of :class:`~erosim.sph.params.SPHParams` are resolved here, once,
-into the scalar Numba functions handed to the loop drivers (no flags in the hot loops).
+With boundary models (:mod:`erosim.sph.boundaries`) the step is: kick + drift + EOS → each
+boundary's ``constrain`` and ``predict`` → neighbour lists → boundaries' ``density`` → [summation
+density] → the fused fluid pass → boundaries' ``forces`` → kick + corrector → boundaries' ``correct``.
+
+Storage is :class:`~erosim.sph.state.ParticleState` (structure-of-arrays, one index space): fluid
+particles ``0 … n_fluid−1`` (kept sorted by cell, so their internal order changes; ``ids`` labels
+each particle, and outputs come in label order), then the fixed boundary particles. Particles can be
+added and removed between steps (:meth:`SPHSolver.add_fluid`, :meth:`SPHSolver.remove_fluid`). The
+variants of :class:`~erosim.sph.params.SPHParams` and the boundary models are resolved here, once,
+into the functions the step calls (no flags in the hot loops).
 """
 
 from __future__ import annotations
@@ -22,10 +28,13 @@ from erosim.kernels import neighbours as nb
 from erosim.sph import eos as eos_mod
 from erosim.sph import forces, integrators
 from erosim.sph.boundaries import particles as bparticles
+from erosim.sph.boundaries.base import Boundary
+from erosim.sph.boundaries.box import BoxWalls
 from erosim.sph.params import SPHParams
+from erosim.sph.state import ParticleState
 
-_STATE_ARRAYS = ("pos", "vel", "rho", "p", "acc", "drho", "ids", "ref")
 _STATE_SCALARS = ("t", "steps", "c", "b", "gamma", "m", "rebuilds", "vmax", "amax")
+_FIELDS = ("pos", "vel", "rho", "p", "acc", "drho", "rho_old", "ids", "ref")
 
 
 def _as_points(a, dim: int, what: str) -> np.ndarray:
@@ -59,6 +68,7 @@ class SPHSolver:
         obstacles=(),
         fluid_vel=None,
         seed: int = 0,
+        boundaries: list[Boundary] = (),
     ):
         self.params = prm = params
         self.dim = d = int(prm.dim)
@@ -96,18 +106,14 @@ class SPHSolver:
                     "move the fluid block or the obstacle."
                 )
 
-        # ---- boundary particles
-        parts = []
-        if boundary_pos is not None:
-            parts.append(_as_points(boundary_pos, d, "boundary positions"))
-        if prm.walls == "particles":
-            parts.append(bparticles.box_walls(self.lo, self.hi, prm.spacing, prm.layers()))
-            for k in range(len(obs)):
-                parts.append(bparticles.box_obstacle(self.olo[k], self.ohi[k], prm.spacing, prm.layers()))
-        bnd = np.concatenate(parts) if parts else np.zeros((0, d))
-        self.n_fluid = nf = fluid.shape[0]
-        self.n_boundary = bnd.shape[0]
-        self.n = n = nf + self.n_boundary
+        # ---- boundary models (chosen here, once) and the particles they lay
+        self.boundaries = self._default_boundaries(boundary_pos) + list(boundaries)
+        names = [bd.name for bd in self.boundaries]
+        if len(set(names)) != len(names):
+            raise ConfigError(f"Boundary models must have distinct names, got {names}.")
+        parts = [x for x in (bd.particles() for bd in self.boundaries) if x is not None]
+        bnd = np.concatenate([_as_points(x, d, "boundary positions") for x in parts]) if parts else np.zeros((0, d))
+        nf = fluid.shape[0]
 
         # ---- constants
         g = np.asarray(prm.gravity_vector(), np.float64)
@@ -145,53 +151,39 @@ class SPHSolver:
         # ---- variants, chosen once
         self.kv = 2.0 * prm.alpha * self.hs * self.c if prm.viscosity == "artificial" else prm.mu
         self._pass = forces.fluid_driver(d, prm.kernel, prm.pressure_form, prm.viscosity)
-        self._bpass = forces.boundary_driver(d, prm.kernel)
         self._sumpass = forces.summation_driver(d, prm.kernel)
         self._leapfrog = prm.integrator == "leapfrog"
-        self._summation = prm.density == "summation"
+        self._summation = self.summation = prm.density == "summation"
         self.eps2 = 0.01 * self.hs**2
         self.kdiff = 0.0 if self._summation else 2.0 * prm.density_diffusion * self.hs * self.c
         self.kh = prm.rho0 / self.c**2
 
-        # ---- state arrays (fluid first, then boundary)
-        dt_ = self.dtype
-        self.pos = np.ascontiguousarray(np.concatenate([fluid, bnd]), dtype=dt_)
-        self.vel = np.zeros((n, d), dt_)
-        self.vel[:nf] = vel0
-        self.rho = np.full(n, prm.rho0, dt_)
-        self.p = np.zeros(n, dt_)
-        self.acc = np.zeros((nf, d), dt_)
-        self.drho = np.zeros(n, dt_)
-        self.rho_old = np.zeros(n, dt_)
-        self.ids = np.arange(nf, dtype=np.int64)
-        self.ref = self.pos[:nf].copy()
+        # ---- state (fluid first, then boundary)
+        self.state = st = ParticleState(d, self.dtype, nf, bnd.shape[0])
+        st.pos[:nf] = fluid
+        st.pos[nf:] = bnd
+        st.vel[:nf] = vel0
+        st.rho[:] = prm.rho0
+        st.ref[:] = st.pos[:nf]
         self.m = prm.rho0 * prm.spacing**d
-        self.rho_base = np.zeros(n, np.float64)
         self.t = 0.0
         self.steps = 0
         self.rebuilds = 0
-        self._lo = self.lo.astype(dt_)
-        self._hi = self.hi.astype(dt_)
-        self._olo = self.olo.astype(dt_)
-        self._ohi = self.ohi.astype(dt_)
         self._disp2 = np.zeros(integrators.NCHUNK, np.float64)
         self._v2 = np.zeros(integrators.NCHUNK, np.float64)
         self._a2 = np.zeros(integrators.NCHUNK, np.float64)
         self._grid = nb.Grid(d)
-        self._count_f = np.empty(n, np.int64)
-        self._count_b = np.empty(n, np.int64)
-        self.start = np.empty(n + 1, np.int64)
-        self.mid = np.empty(n, np.int64)
         self.nbr = np.empty(0, np.int32)
-        self._cstart = np.empty(nf + 1, np.int64)
         self._tmp = np.empty(64, np.int32)
-        self._have_counts = False
-        self._tcount = np.empty(max(1, n - nf), np.int64)
         self.rc = self.h * (1.0 + prm.skin)
+        self._workspace()
 
         self._rebuild(reorder=True)
         if self._summation:
             self._calibrate_mass()
+        for bd in self.boundaries:
+            bd.bind(self)
+        self._hooks()
         if prm.initial_pressure == "hydrostatic" and gnorm > 0:
             self._hydrostatic_start(up, gnorm)
         self._pressure_all()
@@ -209,47 +201,100 @@ class SPHSolver:
 
     # ------------------------------------------------------------------ set-up helpers
 
+    def _default_boundaries(self, boundary_pos) -> list[Boundary]:
+        """Box reflection always; boundary particles for ``walls = "particles"`` and for given positions
+        (given ones first, then the box walls, then the obstacles)."""
+        prm, d = self.params, self.dim
+        models: list[Boundary] = [BoxWalls(self.lo, self.hi, self.olo, self.ohi)]
+        parts = []
+        if boundary_pos is not None:
+            parts.append(_as_points(boundary_pos, d, "boundary positions"))
+        if prm.walls == "particles":
+            parts.append(bparticles.box_walls(self.lo, self.hi, prm.spacing, prm.layers()))
+            for k in range(self.olo.shape[0]):
+                parts.append(bparticles.box_obstacle(self.olo[k], self.ohi[k], prm.spacing, prm.layers()))
+        if parts:
+            models.append(bparticles.BoundaryParticles(np.concatenate(parts)))
+        return models
+
+    def _hooks(self) -> None:
+        """The boundary passes of every step, collected once (no per-step branching on models)."""
+        bs = self.boundaries
+        self._constrain = [b.constrain for b in bs if b.constrain is not None]
+        self._predict = [b.predict for b in bs if b.predict is not None]
+        self._density = [b.density for b in bs if b.density is not None]
+        self._forces = [b.forces for b in bs if b.forces is not None]
+        self._correct = [b.correct for b in bs if b.correct is not None]
+
+    def _workspace(self) -> None:
+        """Neighbour-list buffers sized for the current particle counts (after particles come or go)."""
+        n, nf, nb_ = self.state.n, self.state.n_fluid, self.state.n_boundary
+        self._count_f = np.empty(n, np.int64)
+        self._count_b = np.empty(n, np.int64)
+        self.start = np.empty(n + 1, np.int64)
+        self.mid = np.empty(n, np.int64)
+        self._cstart = np.empty(nf + 1, np.int64)
+        self._tcount = np.empty(max(1, nb_), np.int64)
+        self._have_counts = False
+
     def _calibrate_mass(self) -> None:
         """Summation density: m such that an interior lattice particle has ρ = ρ₀ (not ρ₀Δx^d·ΣW)."""
+        from erosim.kernels.sph_kernels import kernel_w
+
         dx, d, h = self.params.spacing, self.dim, self.h
         k = int(math.ceil(self.h / dx))
         ax = np.arange(-k, k + 1) * dx
         grid = np.stack([g.ravel() for g in np.meshgrid(*([ax] * d), indexing="ij")], axis=1)
         r = np.sqrt((grid**2).sum(axis=1))
-        from erosim.kernels.sph_kernels import kernel_w
-
         self.m = self.params.rho0 / float(kernel_w(r[r < h], h, d, self.params.kernel).sum())
-        # constant part of the boundary particles' density: themselves and their boundary neighbours
-        if self.n_boundary:
-            bpos = self.pos[self.n_fluid :].astype(np.float64)
-            st, _, lst = nb.find_neighbours(bpos, h)
-            w0 = float(kernel_w(np.zeros(1), h, d, self.params.kernel)[0])
-            i_idx = np.repeat(np.arange(bpos.shape[0]), np.diff(st))
-            rr = np.sqrt(((bpos[i_idx] - bpos[lst]) ** 2).sum(axis=1))
-            sums = np.bincount(i_idx, weights=kernel_w(rr, h, d, self.params.kernel), minlength=bpos.shape[0])
-            self.rho_base[self.n_fluid :] = self.m * (w0 + sums)
 
     def _hydrostatic_start(self, up: np.ndarray, gnorm: float) -> None:
         """ρ from p = ρ₀|g|(H − z) below the fluid's top H (boundary particles: at least ρ₀)."""
-        prm = self.params
-        z = self.pos.astype(np.float64) @ up
-        top = float(z[: self.n_fluid].max()) + 0.5 * prm.spacing
+        prm, st = self.params, self.state
+        z = st.pos.astype(np.float64) @ up
+        top = float(z[: st.n_fluid].max()) + 0.5 * prm.spacing
         depth = np.clip(top - z, 0.0, None)
         rho = eos_mod.density_for_pressure(prm.rho0 * gnorm * depth, prm.rho0, self.b, self.gamma)
         if not self._summation:
-            self.rho[:] = rho
-        self.rho[self.n_fluid :] = np.maximum(self.rho[self.n_fluid :], prm.rho0)
+            st.rho[:] = rho
+        st.rho[st.n_fluid :] = np.maximum(st.rho[st.n_fluid :], prm.rho0)
+
+    def eos_args(self) -> tuple[float, float, float, float]:
+        """(ρ₀, B, γ, p_min) of :func:`erosim.sph.eos.tait`, for boundary passes."""
+        return self.params.rho0, self.b, self.gamma, self.pmin
 
     def _pressure_all(self) -> None:
-        prm = self.params
-        forces.pressure_pass(self.rho, prm.rho0, self.b, self.gamma, self.pmin, 0, self.n, self.p)
+        st = self.state
+        forces.pressure_pass(st.rho, self.params.rho0, self.b, self.gamma, self.pmin, 0, st.n, st.p)
+
+    # ------------------------------------------------------------------ state views
+    @property
+    def n_fluid(self) -> int:
+        return self.state.n_fluid
+
+    @property
+    def n_boundary(self) -> int:
+        return self.state.n_boundary
+
+    @property
+    def n(self) -> int:
+        return self.state.n
+
+    pos = property(lambda self: self.state.pos, doc="(n, dim) positions, internal order (fluid, then boundary)")
+    vel = property(lambda self: self.state.vel, doc="(n, dim) velocities, internal order")
+    rho = property(lambda self: self.state.rho, doc="(n,) densities, internal order")
+    p = property(lambda self: self.state.p, doc="(n,) pressures, internal order")
+    acc = property(lambda self: self.state.acc, doc="(n_fluid, dim) accelerations, internal order")
+    drho = property(lambda self: self.state.drho, doc="(n,) density rates, internal order")
+    ids = property(lambda self: self.state.ids, doc="(n_fluid,) particle labels, internal order")
 
     # ------------------------------------------------------------------ neighbour lists
 
     def _rebuild(self, reorder: bool, source: np.ndarray | None = None) -> None:
         """Hash grid + Verlet lists from ``source`` positions (default: current), optional cell re-sort."""
-        nf, grid = self.n_fluid, self._grid
-        src = self.pos if source is None else source
+        st, grid = self.state, self._grid
+        nf, n = st.n_fluid, st.n
+        src = st.pos if source is None else source
         try:
             nb.build_grid(grid, src, self.rc)
         except ValueError as exc:
@@ -258,20 +303,16 @@ class SPHSolver:
                 "enlarge sph.spacing or shrink the domain."
             ) from None
         if reorder:
-            ci = grid.cell_index[: self.n]
+            ci = grid.cell_index[:n]
             fl = ci < nf
             perm = ci[fl]
             if not np.array_equal(perm, np.arange(nf)):
-                for name in ("pos", "vel", "rho", "rho_old", "p", "drho"):
-                    arr = getattr(self, name)
-                    arr[:nf] = arr[:nf][perm]
-                self.acc[:] = self.acc[perm]
-                self.ids[:] = self.ids[perm]
+                st.permute_fluid(perm, skip=("ref",))
                 self._count_f[:nf] = self._count_f[:nf][perm]
                 self._count_b[:nf] = self._count_b[:nf][perm]
                 grid.particle_cell[:nf] = grid.particle_cell[:nf][perm]
                 ci[fl] = np.arange(nf)
-            src = self.pos
+            src = st.pos
         r2 = self.rc * self.rc
         done = False
         if self._have_counts:
@@ -281,112 +322,108 @@ class SPHSolver:
             if self.nbr.size < need:
                 self.nbr = np.empty(int(need * 1.2), np.int32)
             over = nb.fill_capped(
-                src,
-                grid.spos,
-                nf,
-                grid.particle_cell,
-                grid.cell_nbrs,
-                grid.cell_start,
-                grid.cell_index,
-                r2,
-                self._cstart,
-                self.nbr,
-                self._count_f,
-                self._count_b,
-            )
+                src, grid.spos, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, r2,
+                self._cstart, self.nbr, self._count_f, self._count_b,
+            )  # fmt: skip
             if over == 0:
-                tmp = (
-                    self._tmp
-                    if self._tmp.size >= int(self._count_b[:nf].max(initial=0))
-                    else np.empty(int(self._count_b[:nf].max(initial=0)) * 2 + 16, np.int32)
-                )
-                self._tmp = tmp
-                nb.compact(self._cstart, self._count_f, self._count_b, nf, self.start, self.mid, self.nbr, tmp)
+                bmax = int(self._count_b[:nf].max(initial=0))
+                if self._tmp.size < bmax:
+                    self._tmp = np.empty(bmax * 2 + 16, np.int32)
+                nb.compact(self._cstart, self._count_f, self._count_b, nf, self.start, self.mid, self.nbr, self._tmp)
                 total = int(self.start[nf]) + int(self._count_b[:nf].sum())
                 done = total <= self.nbr.size
         if not done:
             nb.count_neighbours(
-                src,
-                grid.spos,
-                nf,
-                nf,
-                grid.particle_cell,
-                grid.cell_nbrs,
-                grid.cell_start,
-                grid.cell_index,
-                r2,
-                self._count_f,
-                self._count_b,
-            )
+                src, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, r2,
+                self._count_f, self._count_b,
+            )  # fmt: skip
             total = nb.offsets(self._count_f, self._count_b, nf, self.start, self.mid)
             total += int(self._count_b[:nf].sum())  # room for the boundary particles' (transposed) lists
             if self.nbr.size < total:
                 self.nbr = np.empty(int(total * 1.2) + 64, np.int32)
             nb.fill_neighbours(
-                src,
-                grid.spos,
-                nf,
-                nf,
-                grid.particle_cell,
-                grid.cell_nbrs,
-                grid.cell_start,
-                grid.cell_index,
-                r2,
-                self.start,
-                self.mid,
-                self.nbr,
-            )
+                src, grid.spos, nf, nf, grid.particle_cell, grid.cell_nbrs, grid.cell_start, grid.cell_index, r2,
+                self.start, self.mid, self.nbr,
+            )  # fmt: skip
             self._have_counts = True
-        self.active = nb.transpose_boundary(nf, self.n, self.start, self.mid, self.nbr, self._tcount)
-        self.ref[:] = src[:nf]
+        self.active = nb.transpose_boundary(nf, n, self.start, self.mid, self.nbr, self._tcount)
+        st.ref[:] = src[:nf]
         self.rebuilds += 1
 
     def _maybe_rebuild(self) -> None:
+        integrators.max_displacement(self.state.pos, self.state.ref, self.state.n_fluid, self._disp2)
         half = 0.5 * (self.rc - self.h)
         if float(self._disp2.max()) >= half * half:
             self._rebuild(reorder=(self.rebuilds % self.params.reorder_every) == 0)
 
+    # ------------------------------------------------------------------ sources and sinks
+
+    def add_fluid(self, pos, vel=None, *, source: str, **fields) -> int:
+        """Add fluid particles (m, ρ₀, EOS pressure) between steps; returns how many were added.
+
+        ``fields`` gives values of registered per-particle fields for them. Until the next force
+        evaluation their acceleration is gravity alone and their density rate 0 (a new particle's
+        first half kick; the pair forces act from the next step on).
+        """
+        st = self.state
+        pos = _as_points(pos, self.dim, "new fluid positions")
+        if vel is not None:
+            vel = _as_points(vel, self.dim, "new fluid velocities")
+        new = st.add_fluid(pos, vel, rho=self.params.rho0, source=source, **fields)
+        st.p[new] = max(eos_mod.tait(self.params.rho0, self.params.rho0, self.b, self.gamma), self.pmin)
+        st.acc[new] = self.g
+        self._particles_changed()
+        return new.stop - new.start
+
+    def remove_fluid(self, mask, *, sink: str) -> int:
+        """Remove the fluid particles where ``mask`` (n_fluid, internal order) is true; returns how many."""
+        k = self.state.remove_fluid(mask, sink=sink)
+        if k:
+            self._particles_changed()
+        return k
+
+    def replace_boundary(self, positions) -> None:
+        """New fixed boundary particles (a refreshed terrain); densities restart at ρ₀."""
+        self.state.set_boundary(_as_points(positions, self.dim, "boundary positions"), rho=self.params.rho0)
+        self._pressure_all()
+        self._particles_changed()
+
+    def _particles_changed(self) -> None:
+        """Counts changed: new buffers, new lists (re-sorted), fresh speed maxima."""
+        if self.state.n_fluid == 0:
+            raise ConfigError("Every fluid particle has been removed; nothing is left to simulate.")
+        self._workspace()
+        self._rebuild(reorder=True)
+        self._norms()
+
+    def budget(self) -> dict:
+        """Fluid mass added and removed by source and sink (:meth:`ParticleState.budget`)."""
+        return self.state.budget(self.m, self.params.rho0)
+
     # ------------------------------------------------------------------ physics
 
     def _evaluate(self) -> None:
-        """Accelerations and density rates at the current state (one fused neighbour pass)."""
-        prm = self.params
+        """Accelerations and density rates at the current state (one fused neighbour pass + boundary passes)."""
+        st = self.state
         g = self.g
         gz = g[2] if self.dim == 3 else 0.0
         if self._summation:
-            self._sumpass(
-                self.pos, self.start, self.nbr, self.n_fluid, self.n, self.m, self.h, self.rho_base, prm.rho0, self.rho
-            )
+            self._sumpass(st.pos, self.start, self.nbr, st.n_fluid, self.m, self.h, st.rho)
+        for fn in self._density:
+            fn(self)
+        if self._summation:
             self._pressure_all()
         self._pass(
-            self.pos,
-            self.vel,
-            self.rho,
-            self.p,
-            self.start,
-            self.mid,
-            self.nbr,
-            self.n_fluid,
-            self.m,
-            self.h,
-            self.kv,
-            self.eps2,
-            self.kdiff,
-            self.eps2,
-            self.kh,
-            g[0],
-            g[1],
-            gz,
-            self.acc,
-            self.drho,
-        )
+            st.pos, st.vel, st.rho, st.p, self.start, self.mid, self.nbr, st.n_fluid, self.m, self.h, self.kv,
+            self.eps2, self.kdiff, self.eps2, self.kh, g[0], g[1], gz, st.acc, st.drho,
+        )  # fmt: skip
         if self._summation:
-            self.drho.fill(0)
-        elif self.n_boundary:
-            self._bpass(self.pos, self.vel, self.start, self.mid, self.nbr, self.active, self.m, self.h, self.drho)
+            st.drho.fill(0)
+        for fn in self._forces:
+            fn(self)
 
     def _norms(self) -> None:
-        integrators.max_norms(self.vel, self.acc, self.n_fluid, self._v2, self._a2)
+        integrators.max_norms(self.state.vel, self.state.acc, self.state.n_fluid, self._v2, self._a2)
         self.vmax = math.sqrt(float(self._v2.max()))
         self.amax = math.sqrt(float(self._a2.max()))
 
@@ -409,7 +446,7 @@ class SPHSolver:
         Small systems run on one thread (``parallel_min_particles``); the result does not depend on
         the thread count (per-particle sums run in a fixed order; reductions are maxima).
         """
-        if self.n_fluid >= self.params.parallel_min_particles:
+        if self.state.n_fluid >= self.params.parallel_min_particles:
             return self._step()
         prev = numba.get_num_threads()
         numba.set_num_threads(1)
@@ -419,50 +456,24 @@ class SPHSolver:
             numba.set_num_threads(prev)
 
     def _step(self) -> float:
-        prm = self.params
+        prm, st = self.params, self.state
         dt = prm.dt if prm.dt > 0 else self.dt_limit()
-        nf = self.n_fluid
-        args = (prm.rho0, self.b, self.gamma, self.pmin)
+        args = self.eos_args()
         k1, k2 = (0.5 * dt, 0.5 * dt) if self._leapfrog else (dt, 0.0)
-        integrators.kick_drift(
-            self.pos,
-            self.vel,
-            self.acc,
-            self.rho,
-            self.rho_old,
-            self.drho,
-            self.p,
-            nf,
-            self.active,
-            k1,
-            dt,
-            *args,
-            self._lo,
-            self._hi,
-            self._olo,
-            self._ohi,
-            self.ref,
-            self._disp2,
-        )
+        integrators.kick_drift(st.pos, st.vel, st.acc, st.rho, st.rho_old, st.drho, st.p, st.n_fluid, k1, dt, *args)
+        for fn in self._constrain:
+            fn(self)
+        for fn in self._predict:
+            fn(self, dt)
         self._maybe_rebuild()
         self._evaluate()
         if self._summation:
-            np.copyto(self.rho_old, self.rho)
+            np.copyto(st.rho_old, st.rho)
         integrators.correct(
-            self.vel,
-            self.acc,
-            self.rho,
-            self.rho_old,
-            self.drho,
-            self.p,
-            nf,
-            self.active,
-            k2,
-            dt,
-            *args,
-            self._v2,
-            self._a2,
+            st.vel, st.acc, st.rho, st.rho_old, st.drho, st.p, st.n_fluid, k2, dt, *args, self._v2, self._a2
         )
+        for fn in self._correct:
+            fn(self, dt)
         self.vmax = math.sqrt(float(self._v2.max()))
         self.amax = math.sqrt(float(self._a2.max()))
         self.t += dt
@@ -480,45 +491,56 @@ class SPHSolver:
             )
         return dt
 
-    # ------------------------------------------------------------------ outputs (caller's order)
+    # ------------------------------------------------------------------ outputs (label order)
 
     def _fluid(self, arr: np.ndarray) -> np.ndarray:
-        out = np.empty((self.n_fluid,) + arr.shape[1:], np.float64)
-        out[self.ids] = arr[: self.n_fluid]
+        """Fluid rows in label order (the order the fluid was given, then added particles by arrival)."""
+        st = self.state
+        nf = st.n_fluid
+        out = np.empty((nf,) + arr.shape[1:], np.float64)
+        if st.next_id == nf:  # labels are a permutation of 0 … n_fluid−1: scatter
+            out[st.ids] = arr[:nf]
+        else:
+            out[:] = arr[:nf][np.argsort(st.ids, kind="stable")]
         return out
 
     def fluid_positions(self) -> np.ndarray:
-        """(n_fluid, dim) positions in the order the fluid was given."""
-        return self._fluid(self.pos)
+        """(n_fluid, dim) positions in label order (the order fluid_pos was given)."""
+        return self._fluid(self.state.pos)
 
     def fluid_velocities(self) -> np.ndarray:
-        """(n_fluid, dim) velocities (full step) in the given order."""
-        return self._fluid(self.vel)
+        """(n_fluid, dim) velocities (full step) in label order."""
+        return self._fluid(self.state.vel)
 
     def fluid_density(self) -> np.ndarray:
-        """(n_fluid,) densities in the given order."""
-        return self._fluid(self.rho)
+        """(n_fluid,) densities in label order."""
+        return self._fluid(self.state.rho)
 
     def fluid_pressure(self) -> np.ndarray:
-        """(n_fluid,) pressures in the given order."""
-        return self._fluid(self.p)
+        """(n_fluid,) pressures in label order."""
+        return self._fluid(self.state.p)
 
     def fluid_accelerations(self) -> np.ndarray:
-        """(n_fluid, dim) accelerations of the last evaluation, in the given order."""
-        return self._fluid(self.acc)
+        """(n_fluid, dim) accelerations of the last evaluation, in label order."""
+        return self._fluid(self.state.acc)
+
+    def fluid_field(self, name: str) -> np.ndarray:
+        """A registered per-particle field (``state.register``) of the fluid, in label order."""
+        return self._fluid(getattr(self.state, name))
 
     def boundary_positions(self) -> np.ndarray:
         """(n_boundary, dim) fixed boundary particle positions (given ones first, then walls, obstacles)."""
-        return self.pos[self.n_fluid :].astype(np.float64)
+        return self.state.pos[self.state.n_fluid :].astype(np.float64)
 
     def boundary_pressure(self) -> np.ndarray:
         """(n_boundary,) boundary particle pressures."""
-        return self.p[self.n_fluid :].astype(np.float64)
+        return self.state.p[self.state.n_fluid :].astype(np.float64)
 
     def neighbour_stats(self) -> dict:
         """Mean/min/max number of neighbours within the support h per fluid particle, and list length."""
-        cnt = _count_within(self.pos, self.start, self.nbr, self.n_fluid, self.h * self.h)
-        lens = np.diff(self.start[: self.n_fluid + 1])
+        nf = self.state.n_fluid
+        cnt = _count_within(self.state.pos, self.start, self.nbr, nf, self.h * self.h)
+        lens = np.diff(self.start[: nf + 1])
         return {
             "mean": float(cnt.mean()),
             "min": int(cnt.min()),
@@ -530,33 +552,38 @@ class SPHSolver:
     # ------------------------------------------------------------------ checkpoints
 
     def state_dict(self) -> dict:
-        """Everything the next step reads (arrays in internal order plus scalars)."""
-        out = {k: getattr(self, k).copy() for k in _STATE_ARRAYS}
+        """Everything the next step reads: the particle state (internal order), scalars, boundary models."""
+        out = self.state.state_dict()
         out.update({k: getattr(self, k) for k in _STATE_SCALARS})
-        out["n_boundary"] = self.n_boundary
+        for bd in self.boundaries:
+            out.update({f"boundary.{bd.name}.{k}": v for k, v in bd.state_dict().items()})
         return out
 
     def load_state_dict(self, state: dict) -> None:
         """Restore :meth:`state_dict`; the next steps are bit-identical to the uninterrupted run."""
-        if int(np.asarray(state["n_boundary"])) != self.n_boundary or np.asarray(state["ids"]).shape[0] != self.n_fluid:
+        pos = np.asarray(state.get("pos", np.zeros((0, 0))))
+        if pos.ndim != 2 or pos.shape[1] != self.dim or int(np.asarray(state.get("initial", -1))) != self.state.initial:
             raise ConfigError(
                 "The checkpoint was written for a different particle set; resume with the scenario that wrote it."
             )
-        for k in _STATE_ARRAYS:
-            getattr(self, k)[...] = np.asarray(state[k])
+        self.state.load_state_dict(state)
         for k in ("t", "c", "b", "gamma", "m", "vmax", "amax"):
             setattr(self, k, float(np.asarray(state[k])))
         for k in ("steps", "rebuilds"):
             setattr(self, k, int(np.asarray(state[k])))
+        for bd in self.boundaries:
+            prefix = f"boundary.{bd.name}."
+            bd.load_state_dict({k[len(prefix) :]: v for k, v in state.items() if k.startswith(prefix)})
         self.kv = (
             2.0 * self.params.alpha * self.hs * self.c if self.params.viscosity == "artificial" else self.params.mu
         )
         self.kdiff = 0.0 if self._summation else 2.0 * self.params.density_diffusion * self.hs * self.c
         self.kh = self.params.rho0 / self.c**2
         # lists exactly as built at the last rebuild (from the positions then), without re-sorting
+        self._workspace()
         rebuilds = self.rebuilds
-        src = self.pos.copy()
-        src[: self.n_fluid] = self.ref
+        src = self.state.pos.copy()
+        src[: self.state.n_fluid] = self.state.ref
         self._rebuild(reorder=False, source=src)
         self.rebuilds = rebuilds
         self._disp2[:] = 0.0

@@ -1,1 +1,12 @@
-"""Boundary handling: box walls and obstacles by reflection (``box``), fixed boundary particles (``particles``)."""
+"""Boundary models of the SPH fluid, one protocol (:class:`~erosim.sph.boundaries.base.Boundary`).
+
+* :class:`~erosim.sph.boundaries.box.BoxWalls` — the domain box and box obstacles by reflection (SPH-11);
+* :class:`~erosim.sph.boundaries.particles.BoundaryParticles` — fixed (dynamic) boundary particles.
+
+A boundary adds its own per-particle passes to the step, chosen when the solver is built; it never
+adds a branch or an axis to the fused fluid pass.
+"""
+
+from erosim.sph.boundaries.base import Boundary
+
+__all__ = ["Boundary"]

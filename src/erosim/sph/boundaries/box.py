@@ -10,7 +10,10 @@ boundary particles' pressure normally keeps fluid away from walls before it reac
 
 from __future__ import annotations
 
-from numba import njit
+import numpy as np
+from numba import njit, prange
+
+from erosim.sph.boundaries.base import Boundary
 
 
 @njit(inline="always", cache=True)
@@ -58,3 +61,32 @@ def enforce(pos, vel, i, lo, hi, olo, ohi):
             pos[i, ba] = ohi[k, ba]
             if vel[i, ba] < 0.0:
                 vel[i, ba] = -vel[i, ba]
+
+
+@njit(parallel=True, cache=True)
+def reflect(pos, vel, n_fluid, lo, hi, olo, ohi):
+    """:func:`enforce` for every fluid particle."""
+    for i in prange(n_fluid):
+        enforce(pos, vel, i, lo, hi, olo, ohi)
+
+
+class BoxWalls(Boundary):
+    """The domain box [lo, hi] and axis-aligned obstacle boxes, kept by reflection after each drift."""
+
+    name = "box"
+
+    def __init__(self, lo, hi, obstacles_lo=None, obstacles_hi=None):
+        self.lo = np.asarray(lo, np.float64)
+        d = self.lo.size
+        self.hi = np.asarray(hi, np.float64).reshape(d)
+        self.olo = np.asarray(obstacles_lo if obstacles_lo is not None else np.zeros((0, d)), np.float64).reshape(-1, d)
+        self.ohi = np.asarray(obstacles_hi if obstacles_hi is not None else np.zeros((0, d)), np.float64).reshape(-1, d)
+
+    def bind(self, solver) -> None:
+        dt = solver.dtype
+        self._lo, self._hi = self.lo.astype(dt), self.hi.astype(dt)
+        self._olo, self._ohi = self.olo.astype(dt), self.ohi.astype(dt)
+
+    def constrain(self, solver) -> None:
+        st = solver.state
+        reflect(st.pos, st.vel, st.n_fluid, self._lo, self._hi, self._olo, self._ohi)
