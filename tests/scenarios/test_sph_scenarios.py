@@ -36,6 +36,8 @@ def test_scenario_runs_a_few_steps(tmp_path, name):
     assert report["t"] >= report["t_end"] * (1 - 1e-9)  # the loop stops within rounding of t_end
     assert report["outside_domain"] == 0
     assert report["fluid_particles"] > 0
+    wb = report["water_budget"]  # no source or sink: the fluid keeps its mass exactly
+    assert wb["in_fluid"] == wb["initial"] == report["fluid_particles"] * wb["particle_mass"] and wb["closure_rel"] == 0
 
     # the resolved scenario re-loads as it is
     again = loader.load(out / "scenario.toml")

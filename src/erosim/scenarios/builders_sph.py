@@ -128,7 +128,8 @@ def setup(scenario, out) -> Setup:
     * ``figures/snapshot_NNN.png`` (particles coloured by speed), ``figures/front.png`` (front vs
       Martin & Moyce 1952 when ``measure.compare = "martin-moyce"``);
     * ``report.json``: particle counts, resolution (Δx, h, m and how they were derived), steps, Δt,
-      neighbours, throughput, particles outside the domain, the final front.
+      neighbours, throughput, particles outside the domain, the water budget (mass initial, added
+      by each source, removed by each sink, in the fluid), the final front.
     """
     cfg: SPHScenario = scenario.config
     built = build(cfg)
@@ -208,6 +209,7 @@ def sph_report(cfg: SPHScenario, solver, info: dict, sim, front) -> dict[str, An
         "particle_steps_per_s": (solver.n_fluid * steps / wall) if wall > 0 and steps else None,
         "all_particle_steps_per_s": (n * steps / wall) if wall > 0 and steps else None,
         "outside_domain": outside,
+        "water_budget": solver.budget(),
         "files": {
             "frames": sum(1 for _ in sim.out.path.glob("particles/frame_*.vtp")),
             "gauges_csv": bool(cfg.probes or cfg.gauges),

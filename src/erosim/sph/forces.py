@@ -238,11 +238,10 @@ def fluid_particle_2d(
 
 
 @njit(inline="always")
-def summation_particle(w, i, pos, start, nbr, m, h, rho):
-    """SPH-3: ρ_i = m (W(0) + Σ_j W(r_ij)) of fluid particle i (fluid and boundary neighbours)."""
+def kernel_sum(w, i, pos, start, nbr, h):
+    """Σ_j W(r_ij) over the neighbour list of particle i (i itself not included)."""
     h2 = h * h
     d = pos.shape[1]
-    w0 = w(0.0, h)
     acc = 0.0
     for s in range(start[i], start[i + 1]):
         j = nbr[s]
@@ -252,7 +251,13 @@ def summation_particle(w, i, pos, start, nbr, m, h, rho):
             r2 += t * t
         if r2 < h2:
             acc += w(math.sqrt(r2), h)
-    rho[i] = m * (w0 + acc)
+    return acc
+
+
+@njit(inline="always")
+def summation_particle(w, i, pos, start, nbr, m, h, rho):
+    """SPH-3: ρ_i = m (W(0) + Σ_j W(r_ij)) of fluid particle i (fluid and boundary neighbours)."""
+    rho[i] = m * (w(0.0, h) + kernel_sum(w, i, pos, start, nbr, h))
 
 
 # ---------------------------------------------------------------- drivers, one per variant

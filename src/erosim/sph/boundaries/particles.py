@@ -28,6 +28,7 @@ from numba import njit, prange
 from erosim.kernels import sph_kernels as K
 from erosim.sph.boundaries.base import Boundary
 from erosim.sph.eos import tait
+from erosim.sph.forces import kernel_sum
 
 
 def _lattice(lo, hi, dx):
@@ -107,18 +108,7 @@ def density_rate_particle(gradf, i, pos, vel, start, mid, nbr, m, h, drho):
 @njit(inline="always")
 def summation_particle(w, i, pos, start, nbr, m, h, rho_base, rho0, rho):
     """ρ_i = max(ρ₀, ρ_base,i + m Σ_fluid W(r_ij)); ``rho_base`` = m (W(0) + Σ_boundary W), constant."""
-    h2 = h * h
-    d = pos.shape[1]
-    acc = 0.0
-    for s in range(start[i], start[i + 1]):
-        j = nbr[s]
-        r2 = 0.0
-        for a in range(d):
-            t = pos[i, a] - pos[j, a]
-            r2 += t * t
-        if r2 < h2:
-            acc += w(math.sqrt(r2), h)
-    rho[i] = max(rho0, rho_base[i] + m * acc)
+    rho[i] = max(rho0, rho_base[i] + m * kernel_sum(w, i, pos, start, nbr, h))
 
 
 @njit(parallel=True, cache=True)
