@@ -186,6 +186,15 @@ def kernel_w(r, h: float, dim: int, kernel: str = "wendland") -> np.ndarray:
     return out.reshape(r.shape)
 
 
+def kernel_f(r, h: float, dim: int, kernel: str = "wendland") -> np.ndarray:
+    """Gradient factor f(|r|, h) (∇W = f r⃗) for an array of distances ``r``."""
+    _, f, _ = kernel_functions(kernel, dim)
+    r = np.ascontiguousarray(r, dtype=np.float64)
+    out = np.empty(r.size)
+    _apply_scalar(f, r.ravel(), float(h), out)
+    return out.reshape(r.shape)
+
+
 def kernel_lap(r, h: float, dim: int, kernel: str = "wendland") -> np.ndarray:
     """Viscosity Laplacian weight L(|r|, h) for an array of distances ``r``."""
     _, _, lap = kernel_functions(kernel, dim)

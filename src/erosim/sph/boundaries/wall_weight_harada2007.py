@@ -1,0 +1,179 @@
+"""Wall weight functions (Harada, Koshizuka & Kawaguchi 2007; SPEC VX-4): a wall known only by the
+distance l of a particle to it and the wall's normal n, with no boundary particles and no neighbour
+loop.
+
+What a wall does to fluid particle i is what a flat, semi-infinite layer of fixed wall particles
+(the lattice of the fluid's spacing Δx, first layer Δx/2 behind the wall, like
+:mod:`erosim.sph.boundaries.particles`) would do to a particle at distance l; those sums depend on l
+only, so they are computed once ("baked", :func:`bake`) as curves of l ∈ [0, h] and looked up at
+run time. With n the unit normal pointing into the fluid, g⊥ = −g·n and g_t = g + g⊥ n the
+gravity's normal and tangential parts, m the particle mass and the wall particles taking the fluid
+particle's density (ρ_w = ρ_i) and the hydrostatically extrapolated pressure
+p_w = p_i − ρ₀ g·(r_i − r_w) (Adami et al. 2012), the curves and what they give are
+
+* Z(l)  = m Σ_w W(r_iw)                       summation density:  ρ_i += Z(l)
+* G(l)  = Σ_w f(r_iw) (l − l_w)                continuity:  dρ_i/dt += m (v_i·n) G(l)
+* H(l)  = Σ_w f(r_iw) (l − l_w)²,  T(l) = Σ_w f(r_iw) x_iw²  (x along the wall)
+                                               pressure:  a_i += −c_p m [(2 p_i G + ρ₀ g⊥ H) n − ρ₀ T g_t]/ρ_i²
+                                                (c_p = 1 for SPH-5b "wcsph", ½ for SPH-5a "symmetric";
+                                                the T term holds the water up along a steep wall)
+* viscosity, artificial (SPH-6b, ν from k_v = 2αh_s c):
+  A(l) = Σ_w f (l − l_w)²/(r² + ε²),  B(l) = Σ_{ahead} f x_iw²/(r² + ε²),  C(l) = Σ_{ahead} f x_iw (l − l_w)/(r² + ε²)
+  (for a tangential velocity along x, "ahead" = the wall particles it moves towards):
+  a_i += m k_v/(2ρ_i) [min(v_n, 0) A n + B v_t + C |v_t| n];
+  laminar (SPH-6a): A = B = Σ_w L(r_iw), C = 0, a_i += −μ m/ρ_i² (A v_n n + B v_t).
+
+with ∇_i W_iw = f(r) r_iw (f < 0, so G, H < 0 and the pressure pushes out of the wall). The sums
+are averaged over the particle's position across one lattice cell of the wall, which makes the
+curves smooth and the tangential sums exact halves of the full ones.
+
+Why not SPlisHSPlasH's volume/density maps: those sample a signed-distance field of a mesh on a
+3-D grid; a heightfield or a voxel density field already is such a field (the heightfield gives l
+and n in closed form), so the flat-wall curves are all that is needed here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from erosim.kernels.sph_kernels import kernel_f, kernel_lap, kernel_w
+
+# rows of WallCurves.table
+Z, G, H, T, VN, VT, VTN = range(7)
+
+
+@dataclass(frozen=True)
+class WallCurves:
+    """Baked wall sums on l = k·dl, k = 0 … n−1 (dl = h/(n−1)); ``table`` rows Z, G, H, T, A, B, C."""
+
+    table: np.ndarray
+    dl: float
+    support: float
+    approach_only: bool  # artificial viscosity acts only on approach (SPH-6b); laminar always
+
+    def at(self, l: float) -> np.ndarray:
+        """The seven curves at distance ``l`` (linear interpolation; 0 beyond the support)."""
+        return np.array(lookup(self.table, self.dl, float(l)))
+
+
+def _wall_lattice(spacing: float, support: float, dim: int) -> np.ndarray:
+    """Wall particles (lateral coordinates, depth below the wall) near the origin: the fluid lattice
+    continued below the wall, first layer Δx/2 behind it."""
+    k = int(math.ceil(support / spacing)) + 2
+    lat = np.arange(-k, k + 1) * spacing
+    depth = -(np.arange(k + 1) + 0.5) * spacing
+    axes = [lat] * (dim - 1) + [depth]
+    return np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)
+
+
+def bake(kernel: str, dim: int, spacing: float, support: float, rho0: float, viscosity: str,
+         *, n: int = 256, lateral: int = 4) -> WallCurves:  # fmt: skip
+    """The curves of the module docstring for this kernel, dimension, spacing Δx and support h."""
+    wall = _wall_lattice(spacing, support, dim)
+    m = rho0 * spacing**dim
+    eps2 = 0.01 * (0.5 * support) ** 2
+    ls = np.linspace(0.0, support, n)
+    offs = (np.arange(lateral) + 0.5) / lateral * spacing
+    lateral_pts = np.stack([g.ravel() for g in np.meshgrid(*([offs] * (dim - 1)), indexing="ij")], axis=1)
+    table = np.zeros((7, n))
+    for k, l in enumerate(ls):
+        acc = np.zeros(7)
+        for off in lateral_pts:
+            probe = np.concatenate([off, [l]])
+            r = probe - wall  # r_iw
+            dist = np.sqrt((r * r).sum(axis=1))
+            near = dist < support
+            r, dist = r[near], dist[near]
+            fr = kernel_f(dist, support, dim, kernel)
+            nz = r[:, -1]  # l − l_w > 0
+            x = r[:, 0]  # along the tangential direction
+            ahead = x < 0
+            den = dist * dist + eps2
+            acc[Z] += m * kernel_w(dist, support, dim, kernel).sum()
+            acc[G] += (fr * nz).sum()
+            acc[H] += (fr * nz * nz).sum()
+            acc[T] += (fr * x * x).sum()
+            if viscosity == "laminar":
+                lsum = kernel_lap(dist, support, dim, kernel).sum()
+                acc[VN] += lsum
+                acc[VT] += lsum
+            else:
+                acc[VN] += (fr * nz * nz / den).sum()
+                acc[VT] += (fr * x * x / den)[ahead].sum()
+                acc[VTN] += (fr * x * nz / den)[ahead].sum()
+        table[:, k] = acc / len(lateral_pts)
+    return WallCurves(table=table, dl=ls[1] - ls[0], support=support, approach_only=viscosity != "laminar")
+
+
+@njit(inline="always", cache=True)
+def lookup(table, dl, l):
+    """The seven curves at distance l (clamped to 0 below the wall, zero beyond the table), as a tuple."""
+    if l < 0.0:
+        l = 0.0
+    x = l / dl
+    k = int(x)
+    if k >= table.shape[1] - 1:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    t = x - k
+    u = 1.0 - t
+    return (
+        u * table[0, k] + t * table[0, k + 1],
+        u * table[1, k] + t * table[1, k + 1],
+        u * table[2, k] + t * table[2, k + 1],
+        u * table[3, k] + t * table[3, k + 1],
+        u * table[4, k] + t * table[4, k + 1],
+        u * table[5, k] + t * table[5, k + 1],
+        u * table[6, k] + t * table[6, k + 1],
+    )
+
+
+@njit(inline="always", cache=True)
+def wall_rates(table, dl, approach_only, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, cpress, cvisc, summation,
+               acc, drho):  # fmt: skip
+    """Add the wall's contribution to particle i's acceleration and (continuity) density rate.
+
+    (n0, n1[, n2]) is the unit normal into the fluid (2-D: (n0, n1)), ``l`` the distance, ``gvec``
+    gravity, ``cpress`` c_p, ``cvisc`` the viscous coefficient (k_v m/2 for artificial, −μ m for
+    laminar; divided here by ρ_i or ρ_i²); with ``summation`` the density is not touched here (see
+    :func:`wall_density`).
+    """
+    _, cg, ch, ctt, cvn, cvt, cvtn = lookup(table, dl, l)
+    d = vel.shape[1]
+    rhoi = rho[i]
+    g0 = gvec[0]
+    g1 = gvec[1]
+    g2 = gvec[2] if d == 3 else 0.0
+    gn = g0 * n0 + g1 * n1 + g2 * n2  # = −g⊥
+    v0 = vel[i, 0]
+    v1 = vel[i, 1]
+    v2 = vel[i, 2] if d == 3 else 0.0
+    vn = v0 * n0 + v1 * n1 + v2 * n2
+    t0 = v0 - vn * n0
+    t1 = v1 - vn * n1
+    t2 = v2 - vn * n2
+    scale = -cpress * m / (rhoi * rhoi)
+    ap = scale * (2.0 * p[i] * cg - rho0 * gn * ch)
+    cg_t = -scale * rho0 * ctt  # times g_t: the hydrostatic support along the wall
+    if approach_only:
+        cv = cvisc / rhoi
+        an = ap + cv * (min(vn, 0.0) * cvn + math.sqrt(t0 * t0 + t1 * t1 + t2 * t2) * cvtn)
+    else:
+        cv = cvisc / (rhoi * rhoi)
+        an = ap + cv * vn * cvn
+    ct = cv * cvt
+    acc[i, 0] += an * n0 + ct * t0 + cg_t * (g0 - gn * n0)
+    acc[i, 1] += an * n1 + ct * t1 + cg_t * (g1 - gn * n1)
+    if d == 3:
+        acc[i, 2] += an * n2 + ct * t2 + cg_t * (g2 - gn * n2)
+    if not summation:
+        drho[i] += m * vn * cg
+
+
+@njit(inline="always", cache=True)
+def wall_density(table, dl, l):
+    """Z(l): the wall's share of a summation density."""
+    return lookup(table, dl, l)[0]
