@@ -230,6 +230,7 @@ def describe(scenario, overrides, preset):
 VALIDATION_CASES = {
     "martin-moyce": "erosim.validation.martin_moyce:run",
     "hydrostatic": "erosim.validation.hydrostatic:run",
+    "basin-at-rest": "erosim.validation.basin_at_rest:run",
 }
 
 
@@ -240,12 +241,21 @@ VALIDATION_CASES = {
     "--out", type=click.Path(file_okay=False), default=None, help="Run folder (default runs/validate-<case>)."
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def validate(case, resolution, out, as_json):
+@click.option(
+    "--ground",
+    type=click.Choice(["box", "heightfield"]),
+    default=None,
+    help="martin-moyce only: the tank floor as boundary particles (box, default) or a flat heightmap.",
+)
+def validate(case, resolution, out, as_json, ground):
     """Run a validation CASE against published experimental or analytic data."""
     from erosim.scenarios.kinds import resolve
 
+    if ground is not None and case != "martin-moyce":
+        _fail(ErosimError(f"--ground applies to martin-moyce only, not '{case}'; leave it out."))
     fn = _guard(resolve, VALIDATION_CASES[case])
-    result = _guard(fn, resolution, Path(out) if out else None, not (STATE.quiet or as_json))
+    extra = {"ground": ground} if ground else {}
+    result = _guard(fn, resolution, Path(out) if out else None, not (STATE.quiet or as_json), **extra)
     _print_result(result, as_json)
     if not result.get("passed", False):
         sys.exit(1)
@@ -272,6 +282,23 @@ def bench_sph(particles, steps, dim, as_json):
 
     fn = _guard(resolve, "erosim.bench.sph:run")
     _print_result(_guard(fn, particles, steps, int(dim)), as_json)
+
+
+@bench.command(name="sph-terrain")
+@click.option(
+    "--particles", type=click.IntRange(min=1000), default=100_000, show_default=True, help="Fluid particles (about)."
+)
+@click.option("--steps", type=click.IntRange(min=1), default=None, help="Timed steps (default: a few seconds' worth).")
+@click.option(
+    "--every", type=click.IntRange(min=1), default=20, show_default=True, help="SPH steps between erosion updates."
+)
+@click.option("--json", "as_json", is_flag=True)
+def bench_sph_terrain(particles, steps, every, as_json):
+    """SPH on an eroding heightmap (heightfield ground, coupling) against the same fluid in a box."""
+    from erosim.scenarios.kinds import resolve
+
+    fn = _guard(resolve, "erosim.bench.sph_terrain:run")
+    _print_result(_guard(fn, particles, steps, every=every), as_json)
 
 
 @bench.command(name="hydrology")

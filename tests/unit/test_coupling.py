@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from erosim.core.errors import BudgetError, ConfigError, Interrupted
+from erosim.core.increments import Increment, check_budget
 from erosim.coupling.binning import FluidGrid
 from erosim.coupling.coupler import Coupler
-from erosim.coupling.increments import Increment, check_budget
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.io.runfolder import RunFolder

@@ -5,14 +5,15 @@ Each time its schedule fires (every N fluid steps, an ``IterationInterval``), th
 1. bins the fluid onto the terrain's raster (:class:`~erosim.coupling.binning.FluidGrid`);
 2. asks the eroder for increments: ``eroder.increments(terrain, grid, dt)`` with ``dt`` the simulated
    time since the last coupling; the eroder reads what it declared in ``eroder.needs`` and returns an
-   :class:`~erosim.coupling.increments.Increment` — it never writes the terrain;
-3. checks the increment's budget (:func:`~erosim.coupling.increments.check_budget`: shape, finite,
+   :class:`~erosim.core.increments.Increment` — it never writes the terrain;
+3. checks the increment's budget (:func:`~erosim.core.increments.check_budget`: shape, finite,
    Σ Δz·A + ΔS + C = 0) and refuses it with a clear error otherwise;
 4. applies it once — z += Δz, never below ``bedrock`` where one is given (an eroder that cuts into it
    is refused: it must honour the bedrock itself);
 5. refreshes every boundary model of the solver with the new terrain (``refresh(solver, terrain=z,
    changed=mask)``), and adds the terms to the run's sediment budget.
 
+Without an eroder the coupler only bins (water depth, speeds and their running maxima for the maps).
 An eroder is any object with ``name``, ``needs`` (a tuple of :attr:`FluidGrid.FIELDS`) and
 ``increments(terrain, grid, dt) -> Increment``, optionally ``state_dict`` / ``load_state_dict``
 (its suspended sediment, for instance). One that needs a field the grid does not provide is refused
@@ -24,13 +25,14 @@ The coupler is a callback of :class:`~erosim.simulation.simulation.Simulation` (
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import numpy as np
 
 from erosim.core.errors import BudgetError, ConfigError
+from erosim.core.increments import check_budget
 from erosim.coupling.binning import FluidGrid
-from erosim.coupling.increments import check_budget
 from erosim.coupling.raster import Raster
 
 _TERMS = ("eroded", "deposited", "suspended", "carried_off")
@@ -40,7 +42,7 @@ class Coupler:
     """Couple ``solver`` to ``terrain`` (raster.shape, SPH frame) through ``eroder`` on ``schedule``."""
 
     def __init__(self, schedule, solver, eroder, raster: Raster, terrain: np.ndarray, *, bedrock=None,
-                 name: str = "coupler"):  # fmt: skip
+                 near_bed: float = np.inf, name: str = "coupler"):  # fmt: skip
         self.schedule = schedule
         self.name = name
         self.solver = solver
@@ -52,22 +54,33 @@ class Coupler:
                 f"Erosion model '{eroder.name}' needs {', '.join(missing)}, which the fluid grid does not provide "
                 f"(it gives {', '.join(FluidGrid.FIELDS)}); choose another model or extend the grid."
             )
-        self.terrain = np.ascontiguousarray(terrain, dtype=np.float64).copy()
+        self.terrain = np.ascontiguousarray(terrain, dtype=np.float64)  # shared: boundaries read it live
         if self.terrain.shape != raster.shape:
             raise ConfigError(
                 f"The terrain has shape {self.terrain.shape}, its raster {raster.shape}; they must match."
             )
         self.bedrock = None if bedrock is None else np.asarray(bedrock, np.float64)
-        self.grid = FluidGrid(raster, solver.dim)
+        self.grid = FluidGrid(raster, solver.dim, ground=self.terrain, near=near_bed)
+        self.wall = 0.0  # wall time spent here (s)
         self.terrain0 = self.terrain.copy()
         self.totals = dict.fromkeys(_TERMS, 0.0)
         self.calls = 0
         self.last_t = float(solver.t)
 
     def __call__(self, sim=None) -> None:
+        t0 = time.perf_counter()
+        try:
+            self._couple()
+        finally:
+            self.wall += time.perf_counter() - t0
+
+    def _couple(self) -> None:
         s = self.solver
         dt = float(s.t) - self.last_t
         self.grid.bin(s)
+        if self.eroder is None:
+            self.last_t = float(s.t)
+            return
         inc = self.eroder.increments(self.terrain, self.grid, dt)
         terms = check_budget(inc, self.terrain.shape, self.raster.cell_area, f"Erosion model '{self.eroder.name}'")
         new = self.terrain + inc.dz
@@ -112,7 +125,7 @@ class Coupler:
         return out
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
-        self.terrain[...] = np.asarray(state["terrain"])
+        self.terrain[...] = np.asarray(state["terrain"])  # in place: the boundaries hold this array
         self.totals = dict(zip(_TERMS, np.asarray(state["totals"]).tolist(), strict=True))
         self.grid.load_state_dict({k[5:]: v for k, v in state.items() if k.startswith("grid_")})
         if hasattr(self.eroder, "load_state_dict"):
@@ -125,4 +138,4 @@ class Coupler:
         """Nothing to write between checkpoints (the terrain is in the checkpoint)."""
 
     def finalize(self, sim) -> dict[str, Any]:
-        return {"sediment_budget": self.sediment_budget()}
+        return {"sediment_budget": self.sediment_budget()} if self.eroder is not None else {}

@@ -28,6 +28,9 @@ KINDS: dict[str, Kind] = {
         "erosim.scenarios.schema_hydrology:HydrologyScenario", "erosim.scenarios.builders_hydrology:setup"
     ),
     "particle-stream": Kind("erosim.scenarios.schema_stream:StreamScenario", "erosim.scenarios.builders_stream:setup"),
+    "sph-terrain": Kind(
+        "erosim.scenarios.schema_sph_terrain:SPHTerrainScenario", "erosim.scenarios.builders_sph_terrain:setup"
+    ),
 }
 
 

@@ -24,6 +24,7 @@ from pydantic import model_validator
 from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.core.heightmap import Heightmap
+from erosim.terrain.shapes import SHAPES
 
 #: Cell size of generated terrains when the scenario gives none (m): 512 cells span 5.12 km.
 DEFAULT_CELL_SIZE = 10.0
@@ -35,7 +36,11 @@ class TerrainSection(Section):
     source: Literal["auto", "generate", "file"] = param(
         "auto", doc="auto (file when `file` is set, else generate) | generate | file"
     )
-    preset: str = param("mountains", doc="generated terrain: hills | mountains | plateau | fbm | ridged | warped")
+    preset: str = param(
+        "mountains",
+        doc="generated terrain: hills | mountains | plateau | fbm | ridged | warped, or a shape: flat | tilted | "
+        "bowl | valley (relief and base apply)",
+    )
     size: int = param(256, ge=2, le=16384, unit="cells", doc="generated terrain: cells per side")
     cell_size: float | None = param(
         None, gt=0, unit="m", doc=f"cell size; generated default {DEFAULT_CELL_SIZE:g} m, files default to their own"
@@ -81,7 +86,7 @@ class TerrainSection(Section):
             raise ConfigError(
                 f"terrain.height_range = {self.height_range} is not valid; give [low, high] with low < high."
             )
-        if not self.uses_file:
+        if not self.uses_file and self.preset not in SHAPES:
             from erosim.terrain.generate import resolve
 
             resolve(self.preset, self.noise_overrides(), where="terrain")  # unknown preset / bad value
@@ -99,6 +104,14 @@ def build_terrain(section: TerrainSection, seed: int) -> Heightmap:
             raw_shape=tuple(section.raw_shape) if section.raw_shape else None,
             height_range=tuple(section.height_range) if section.height_range else None,
         )
+    if section.preset in SHAPES:
+        from erosim.terrain.shapes import shape
+
+        return shape(
+            section.preset, section.size, section.cell_size or DEFAULT_CELL_SIZE,
+            relief=section.relief if section.relief is not None else 1.0,
+            base=section.base if section.base is not None else 0.0,
+        )  # fmt: skip
     from erosim.terrain.generate import generate
 
     return generate(

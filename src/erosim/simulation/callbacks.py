@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from erosim.coupling.increments import Increment, IncrementView, check_budget
+from erosim.core.increments import Increment, IncrementView, check_budget
 from erosim.simulation.schedules import Schedule
 
 
@@ -252,8 +252,8 @@ class BudgetCheck(Callback):
     """Checks the sediment budget of a model that changes its terrain ``z`` in place.
 
     ``moved()`` returns the model's running totals (ΔS held in the water, C carried off), m³. Each
-    time the check fires, Δz since the last check (an :class:`~erosim.coupling.increments.IncrementView`)
-    with the totals' change must pass :func:`~erosim.coupling.increments.check_budget`; a model whose
+    time the check fires, Δz since the last check (an :class:`~erosim.core.increments.IncrementView`)
+    with the totals' change must pass :func:`~erosim.core.increments.check_budget`; a model whose
     terrain change and bookkeeping disagree stops with a :class:`~erosim.core.errors.BudgetError`.
     The report gets the number of checks and the largest relative imbalance seen.
     """

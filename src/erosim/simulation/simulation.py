@@ -273,6 +273,7 @@ class Simulation:
         }
         if self.error:
             rep["error"] = self.error
+        rep.update(extra)  # the callbacks' entries; the kind's own report has the last word
         if report is not None:
             try:
                 rep.update(report(self))
@@ -280,5 +281,4 @@ class Simulation:
                 if self.status == "completed":
                     raise
                 rep["report_error"] = f"{type(exc).__name__}: {exc}"
-        rep.update(extra)
         return rep

@@ -75,8 +75,11 @@ class SPHSolver:
         self.seed = int(seed)
         self.dtype = np.dtype(prm.precision)
         fluid = _as_points(fluid_pos, d, "fluid positions")
-        if fluid.shape[0] == 0:
-            raise ConfigError("The scenario has no fluid particles; give the fluid block a positive size.")
+        if fluid.shape[0] == 0 and prm.sound_speed <= 0:
+            raise ConfigError(
+                "The scenario has no fluid particles; give the fluid block a positive size (a run that starts "
+                "dry and fills from sources needs sph.sound_speed set)."
+            )
         self.lo = np.asarray(domain_lo, np.float64).reshape(d)
         self.hi = np.asarray(domain_hi, np.float64).reshape(d)
         if np.any(self.hi <= self.lo):
@@ -126,11 +129,11 @@ class SPHSolver:
             raise ConfigError(
                 "fluid velocities must have one row per fluid particle; check the scenario's initial velocity."
             )
-        v0max = float(np.sqrt((vel0**2).sum(axis=1)).max())
+        v0max = float(np.sqrt((vel0**2).sum(axis=1)).max(initial=0.0))
         up = -g / gnorm if gnorm > 0 else np.eye(d)[-1]
         # the fastest a particle can fall: from the fluid's top to the domain's lowest point
         bottom = float(np.minimum(up * self.lo, up * self.hi).sum())
-        self.fluid_height = float((fluid @ up).max()) + 0.5 * prm.spacing - bottom
+        self.fluid_height = float((fluid @ up).max(initial=bottom)) + 0.5 * prm.spacing - bottom
         if prm.sound_speed > 0:
             c = prm.sound_speed
         else:
@@ -252,6 +255,8 @@ class SPHSolver:
         """ρ from p = ρ₀|g|(H − z) below the fluid's top H (boundary particles: at least ρ₀)."""
         prm, st = self.params, self.state
         z = st.pos.astype(np.float64) @ up
+        if st.n_fluid == 0:
+            return
         top = float(z[: st.n_fluid].max()) + 0.5 * prm.spacing
         depth = np.clip(top - z, 0.0, None)
         rho = eos_mod.density_for_pressure(prm.rho0 * gnorm * depth, prm.rho0, self.b, self.gamma)
@@ -295,6 +300,11 @@ class SPHSolver:
         st, grid = self.state, self._grid
         nf, n = st.n_fluid, st.n
         src = st.pos if source is None else source
+        if n == 0:  # nothing yet (a fluid that starts dry and fills from its sources)
+            self.start[:] = 0
+            self.active = np.zeros(0, np.int64)
+            self.rebuilds += 1
+            return
         try:
             nb.build_grid(grid, src, self.rc)
         except ValueError as exc:
@@ -390,8 +400,6 @@ class SPHSolver:
 
     def _particles_changed(self) -> None:
         """Counts changed: new buffers, new lists (re-sorted), fresh speed maxima."""
-        if self.state.n_fluid == 0:
-            raise ConfigError("Every fluid particle has been removed; nothing is left to simulate.")
         self._workspace()
         self._rebuild(reorder=True)
         self._norms()
@@ -541,6 +549,8 @@ class SPHSolver:
         nf = self.state.n_fluid
         cnt = _count_within(self.state.pos, self.start, self.nbr, nf, self.h * self.h)
         lens = np.diff(self.start[: nf + 1])
+        if nf == 0:
+            return {"mean": 0.0, "min": 0, "max": 0, "list_mean": 0.0, "rebuilds": int(self.rebuilds)}
         return {
             "mean": float(cnt.mean()),
             "min": int(cnt.min()),

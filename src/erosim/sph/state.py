@@ -57,6 +57,7 @@ class ParticleState:
         self.initial = self.n_fluid
         self.added: dict[str, int] = {}
         self.removed: dict[str, int] = {}
+        self.removed_sums: dict[str, float] = {}  # registered float fields summed over removed particles
 
     # ------------------------------------------------------------------ fields
     @property
@@ -162,6 +163,9 @@ class ParticleState:
             return 0
         keep = np.flatnonzero(~mask)
         nf_new = keep.size
+        for name in self.extras:
+            if self.specs[name][2].kind == "f":
+                self.removed_sums[name] = self.removed_sums.get(name, 0.0) + float(getattr(self, name)[mask].sum())
         for name in self.specs:
             s = self._store[name]
             s[:nf_new] = s[keep]
@@ -218,6 +222,8 @@ class ParticleState:
         out["n_boundary"] = self.n_boundary
         out["next_id"] = self.next_id
         out["initial"] = self.initial
+        out["removed_sum_names"] = np.array(sorted(self.removed_sums), dtype="U64")
+        out["removed_sum_values"] = np.array([self.removed_sums[k] for k in sorted(self.removed_sums)])
         for kind in ("added", "removed"):
             counts = getattr(self, kind)
             out[f"{kind}_names"] = np.array(sorted(counts), dtype="U64")
@@ -239,3 +245,6 @@ class ParticleState:
             names = [str(x) for x in np.asarray(state.get(f"{kind}_names", np.zeros(0, "U1")))]
             counts = np.asarray(state.get(f"{kind}_counts", np.zeros(0, np.int64))).tolist()
             setattr(self, kind, dict(zip(names, (int(c) for c in counts), strict=True)))
+        names = [str(x) for x in np.asarray(state.get("removed_sum_names", np.zeros(0, "U1")))]
+        values = np.asarray(state.get("removed_sum_values", np.zeros(0))).tolist()
+        self.removed_sums = dict(zip(names, (float(v) for v in values), strict=True))

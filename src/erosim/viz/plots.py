@@ -107,3 +107,63 @@ def pressure_profile(
         ax.set_title(title)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def _canvas_rgb(fig) -> np.ndarray:
+    """The figure as an RGB uint8 array (Agg canvas)."""
+    fig.canvas.draw()
+    rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+    plt.close(fig)
+    return rgb
+
+
+def terrain_panels(height: np.ndarray, water: np.ndarray, change: np.ndarray, cell_size: float,
+                   title: str = "") -> np.ndarray:  # fmt: skip
+    """Seed 000's three panels (figs. 21–24): height map, water depth over the surface, change of height
+    since the start (erosion blue-white-red: lowered red, raised blue), each with its colour bar in
+    metres; arrays in map order (row 0 = north). Returns the picture as an RGB array."""
+    from erosim.viz.maps import hillshade
+
+    ny, nx = height.shape
+    extent = [0, nx * cell_size, 0, ny * cell_size]
+    fig, axes = plt.subplots(1, 3, figsize=(13.5, 4.4))
+    shade = hillshade(height, cell_size)
+    ax = axes[0]
+    im = ax.imshow(height, cmap="gist_earth", extent=extent)
+    ax.imshow(shade, cmap="gray", alpha=0.35, extent=extent)
+    fig.colorbar(im, ax=ax, fraction=0.046, label="height (m)")
+    ax.set_title("height map")
+    ax = axes[1]
+    ax.imshow(shade, cmap="gray", extent=extent, vmin=0, vmax=1)
+    wet = np.ma.masked_less_equal(water, 0.0)
+    im = ax.imshow(wet, cmap="Blues", extent=extent, vmin=0.0, vmax=max(float(water.max()), 1e-6))
+    fig.colorbar(im, ax=ax, fraction=0.046, label="water depth (m)")
+    ax.set_title("water over the surface")
+    ax = axes[2]
+    lim = max(float(np.abs(change).max()), 1e-9)
+    im = ax.imshow(change, cmap="RdBu", vmin=-lim, vmax=lim, extent=extent)
+    fig.colorbar(im, ax=ax, fraction=0.046, label="height change (m)")
+    ax.set_title("difference from the initial terrain")
+    for ax in axes:
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return _canvas_rgb(fig)
+
+
+def profile_panel(x: np.ndarray, bed0: np.ndarray, bed: np.ndarray, water: np.ndarray, title: str = "") -> np.ndarray:
+    """A 2-D flume: initial and current bed, the water column over it (m); returns an RGB array."""
+    fig, ax = plt.subplots(figsize=(10, 3.6))
+    ax.fill_between(x, bed, bed + water, color="tab:blue", alpha=0.5, lw=0, label="water")
+    ax.plot(x, bed0, "k--", lw=1.0, label="initial bed")
+    ax.plot(x, bed, color="saddlebrown", lw=1.6, label="bed")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("height (m)")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.grid(alpha=0.3)
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    return _canvas_rgb(fig)

@@ -1,0 +1,253 @@
+"""Where water enters and leaves an SPH fluid on terrain: a lake filled to a level, rain by a rain map,
+point inflows with a discharge, and open map edges (SPEC ER-4, FL-1).
+
+Every new particle carries the volume V_p = Δx^d of water at rest (mass m = ρ₀V_p); every source and
+sink is counted by name in the fluid's :class:`~erosim.sph.state.ParticleState`, so a run's water
+budget closes exactly: initial + rained + inflow − left through edges = in the fluid.
+
+They live in the coupling layer because they place water relative to the terrain. They are callbacks
+of a :class:`~erosim.simulation.simulation.Simulation` (``schedule``, ``name``, ``__call__(sim)``,
+checkpoint state), acting between steps.
+
+* :func:`lake_particles` — a lattice of particles filling the cells connected to a seed point (or all
+  cells) below a water level, top layer half a spacing under the level;
+* :class:`Rain` — every ``every`` steps, rain of R mm/h falls where a rain map says (per node a
+  chance in [0, 1], ER-4): the expected number of drops N = Σ_k R p_k A Δt/(3.6·10⁶ V_p) (the
+  fraction carried over), each dropped in a node chosen with probability ∝ p_k, at a random point of
+  its cell, ``height`` above the ground (or the water already there);
+* :class:`PointInflow` — a vertical jet of discharge Q (m³/s) from a disc of radius r at a height
+  above the ground: a lattice layer of the disc every Δx/u seconds at u = Q/(area of the layer);
+* :class:`EdgeOutflow` — particles beyond an open map edge are removed and counted.
+
+Random draws use NumPy generators keyed by (seed, event number), so a resumed run draws the same rain.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from erosim.core.errors import ConfigError
+from erosim.coupling.raster import Raster
+from erosim.coupling.sampling import sample
+
+EDGES = ("west", "east", "south", "north")
+
+
+def lake_particles(raster: Raster, ground: np.ndarray, level: float, spacing: float, dim: int,
+                   seed_xy=None) -> np.ndarray:  # fmt: skip
+    """Positions filling, below ``level``, the cells connected to ``seed_xy`` (all cells if None)
+    whose ground is below the level; lattice columns of spacing Δx, top layer at level − Δx/2,
+    nothing closer than 0.4Δx to the ground."""
+    wet = ground < level
+    if seed_xy is not None:
+        ix = int(round((seed_xy[0] - raster.x0) / raster.dx))
+        iy = int(round((seed_xy[1] - raster.y0) / raster.dy)) if dim == 3 else 0
+        if not (0 <= ix < raster.nx and 0 <= iy < raster.ny):
+            raise ConfigError(
+                f"water.seed {list(seed_xy)} lies outside the terrain; give a point inside the map "
+                "(its own coordinates)."
+            )
+        if not wet[iy, ix]:
+            raise ConfigError(
+                f"The ground at water.seed is {ground[iy, ix]:.4g} m, not below water.level = {level:.4g} m; "
+                "raise the level or move the seed into the basin."
+            )
+        labels, _ = ndimage.label(wet, structure=np.ones((3, 3)) if dim == 3 else None)
+        wet = labels == labels[iy, ix]
+    x = np.arange(raster.x0, raster.x0 + (raster.nx - 1) * raster.dx + 1e-9, spacing) + 0.5 * spacing
+    x = x[x < raster.x0 + (raster.nx - 1) * raster.dx]
+    if dim == 3:
+        y = np.arange(raster.y0, raster.y0 + (raster.ny - 1) * raster.dy + 1e-9, spacing) + 0.5 * spacing
+        y = y[y < raster.y0 + (raster.ny - 1) * raster.dy]
+        cols = np.stack([g.ravel() for g in np.meshgrid(x, y, indexing="ij")], axis=1)
+    else:
+        cols = x[:, None]
+    pts3 = np.zeros((len(cols), dim))
+    pts3[:, : dim - 1] = cols
+    g = sample(raster, ground, pts3)
+    ix = np.clip(np.rint((cols[:, 0] - raster.x0) / raster.dx).astype(int), 0, raster.nx - 1)
+    iy = np.clip(np.rint((cols[:, 1] - raster.y0) / raster.dy).astype(int), 0, raster.ny - 1) if dim == 3 else 0
+    keep = wet[iy, ix] & (g < level - 0.9 * spacing)
+    cols, g = cols[keep], g[keep]
+    out = []
+    top = level - 0.5 * spacing
+    for k in range(int(np.ceil((level - g.min()) / spacing)) + 1 if len(g) else 0):
+        zk = top - k * spacing
+        sel = zk > g + 0.4 * spacing
+        if not sel.any():
+            continue
+        out.append(np.column_stack([cols[sel], np.full(sel.sum(), zk)]))
+    if not out:
+        raise ConfigError(
+            f"water.level = {level:.4g} m leaves no water deeper than one particle spacing ({spacing:g} m); "
+            "raise the level or lower sph.spacing."
+        )
+    return np.concatenate(out)
+
+
+class _Source:
+    """Common checkpoint state: the fraction of a particle carried to the next event, the event count."""
+
+    def __init__(self, schedule, name: str):
+        self.schedule = schedule
+        self.name = name
+        self.carry = 0.0
+        self.events = 0
+        self.last_t = 0.0
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"carry": self.carry, "events": self.events, "last_t": self.last_t}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.carry = float(state.get("carry", 0.0))
+        self.events = int(state.get("events", 0))
+        self.last_t = float(state.get("last_t", 0.0))
+
+    def flush(self, sim) -> None:
+        """Nothing to write."""
+
+    def finalize(self, sim) -> dict[str, Any]:
+        return {}
+
+
+class Rain(_Source):
+    """Rain of ``rate`` mm/h by the per-node chance map ``chance`` (raster.shape, SPH frame)."""
+
+    def __init__(self, schedule, solver, raster: Raster, ground: np.ndarray, chance: np.ndarray, rate_mm_h: float,
+                 height: float, seed: int, grid=None):  # fmt: skip
+        super().__init__(schedule, "rain")
+        if chance.shape != raster.shape:
+            raise ConfigError(
+                f"The rain map has shape {chance.shape[::-1] if chance.ndim == 2 else chance.shape} but the terrain "
+                f"{raster.shape}; give a rain map of the terrain's size."
+            )
+        if not np.all(np.isfinite(chance)) or chance.min() < 0:
+            raise ConfigError("The rain map has negative or NaN values; give chances between 0 and 1.")
+        self.solver, self.raster, self.ground, self.grid = solver, raster, ground, grid
+        self.chance = np.clip(chance, 0.0, 1.0)
+        self.rate = float(rate_mm_h)
+        self.height = float(height)
+        self.seed = int(seed)
+        cdf = np.cumsum(self.chance.ravel())
+        self.cdf = cdf / cdf[-1] if cdf[-1] > 0 else cdf
+        # m³ of rain per second over the map: R (m/s) × Σ p_k A
+        self.flow = self.rate / 3.6e6 * float(self.chance.sum()) * raster.cell_area
+
+    def expected(self, dt: float) -> float:
+        """Drops due over ``dt`` seconds (before the carried fraction)."""
+        return self.flow * dt / self.solver.params.spacing**self.solver.dim
+
+    def __call__(self, sim=None) -> None:
+        s = self.solver
+        t = float(s.t)
+        due = self.carry + self.expected(t - self.last_t)
+        self.last_t = t
+        k = int(due)
+        self.carry = due - k
+        self.events += 1
+        if k == 0 or self.flow <= 0:
+            return
+        rng = np.random.default_rng([self.seed & 0xFFFFFFFF, self.events, 0x2A1])
+        r = self.raster
+        node = np.searchsorted(self.cdf, rng.random(k), side="right").clip(0, self.cdf.size - 1)
+        iy, ix = np.divmod(node, r.nx)
+        x = r.x0 + (ix + rng.random(k) - 0.5) * r.dx
+        y = r.y0 + (iy + rng.random(k) - 0.5) * r.dy
+        x = np.clip(x, r.x0, r.x0 + (r.nx - 1) * r.dx)
+        y = np.clip(y, r.y0, r.y0 + (r.ny - 1) * r.dy)
+        pts = np.column_stack([x, y, np.zeros(k)])
+        z = sample(r, self.ground, pts) + self.height
+        if self.grid is not None:
+            z += sample(r, self.grid.depth, pts)
+        pts[:, 2] = z
+        s.add_fluid(pts, None, source="rain")
+
+
+class PointInflow(_Source):
+    """A vertical jet of ``discharge`` m³/s from a disc of ``radius`` m at (x, y), ``height`` m above ground."""
+
+    def __init__(self, schedule, solver, raster: Raster, ground: np.ndarray, position, discharge: float,
+                 radius: float, height: float, name: str):  # fmt: skip
+        super().__init__(schedule, f"inflow:{name}")
+        d = solver.dim
+        dx = solver.params.spacing
+        self.solver = solver
+        k = max(0, int(radius / dx))
+        offs = np.arange(-k, k + 1) * dx
+        if d == 3:
+            disc = np.stack([g.ravel() for g in np.meshgrid(offs, offs, indexing="ij")], axis=1)
+            disc = disc[(disc**2).sum(axis=1) <= max(radius, 0.5 * dx) ** 2 + 1e-12]
+        else:
+            disc = offs[:, None]
+        centre = np.asarray(position, np.float64)[: d - 1]
+        cols = centre + disc
+        pts = np.zeros((len(cols), d))
+        pts[:, : d - 1] = cols
+        top = float(sample(raster, ground, pts).max()) + height
+        pts[:, d - 1] = top
+        self.layer = pts
+        area = len(cols) * dx ** (d - 1)
+        self.speed = float(discharge) / area  # m/s through the layer
+        if self.speed <= 0:
+            raise ConfigError(f"Inflow '{name}' has discharge {discharge}; give a positive discharge in m³/s.")
+        self.period = dx / self.speed  # one layer each time the jet has moved one spacing
+        self.vel = np.zeros_like(pts)
+        self.vel[:, d - 1] = -self.speed
+        self.last_t = float(solver.t)
+
+    def __call__(self, sim=None) -> None:
+        s = self.solver
+        t = float(s.t)
+        due = self.carry + (t - self.last_t) / self.period
+        self.last_t = t
+        layers = int(due)
+        self.carry = due - layers
+        for _ in range(layers):
+            self.events += 1
+            s.add_fluid(self.layer, self.vel, source=self.name)
+
+
+class EdgeOutflow:
+    """Removes fluid particles that crossed an open edge of the map (``edges`` ⊆ west, east, south, north)."""
+
+    def __init__(self, schedule, solver, raster: Raster, edges):
+        self.schedule = schedule
+        self.name = "outflow"
+        self.solver = solver
+        self.edges = tuple(edges)
+        unknown = set(self.edges) - set(EDGES)
+        if unknown:
+            raise ConfigError(f"Unknown edge(s) {sorted(unknown)} in edges.outflow; use {', '.join(EDGES)}.")
+        self.bounds = {
+            "west": (0, raster.x0, -1.0),
+            "east": (0, raster.x0 + (raster.nx - 1) * raster.dx, 1.0),
+            "south": (1, raster.y0, -1.0),
+            "north": (1, raster.y0 + (raster.ny - 1) * raster.dy, 1.0),
+        }
+
+    def __call__(self, sim=None) -> None:
+        st = self.solver.state
+        pos = st.pos[: st.n_fluid]
+        for e in self.edges:
+            axis, at, sign = self.bounds[e]
+            if axis >= self.solver.dim - 1:
+                continue
+            out = sign * (pos[:, axis] - at) > 0
+            if out.any():
+                self.solver.remove_fluid(out, sink=f"edge:{e}")
+                pos = st.pos[: st.n_fluid]
+
+    def state_dict(self) -> dict[str, Any]:
+        return {}
+
+    def load_state_dict(self, state) -> None:
+        """Stateless."""
+
+    def flush(self, sim) -> None:
+        """Nothing to write."""
+
+    def finalize(self, sim) -> dict[str, Any]:
+        return {}

@@ -1,0 +1,229 @@
+"""Transport-capacity erosion under an SPH flow (Mei, Decaudin & Hu 2007; seed 000 eq. 1.30–1.36,
+SPEC ER-1…ER-3), as an eroder of :class:`~erosim.coupling.coupler.Coupler`.
+
+Per terrain node k with water deeper than ``min_depth`` (node fields from the fluid grid: the mean
+velocity ⟨u⟩ of the particles near the bed and its part along the ground, |⟨u⟩_t| = |⟨u⟩ − (⟨u⟩·n)n|
+with n the ground's normal; the water depth), terrain height b, sediment s held in the water over
+the node (m³ per m² of bed) and slope angle α (central differences of b):
+
+    C = K_c · sin(max(α, α_min)) · |⟨u⟩_t|                                  (ER-1, α_min the slope clamp)
+    C > s:  b −= E,  s += E,   E = (1 − e^{−K_s Δt}) (C − s), at most b − bedrock     (ER-2, dissolve)
+    C ≤ s:  b += D,  s −= D,   D = (1 − e^{−K_d Δt}) (s − C)                        (ER-2, deposit)
+
+The seed applies K_s(C − s) once per step of its fixed Δt; here K_s and K_d are rates (1/s) and the
+exchange is the exact relaxation of ds/dt = K (C − s) over the coupling interval Δt, so the result
+does not depend on how often the coupler runs and stays stable for any Δt. The seed takes |⟨u⟩| of
+every particle in the cell; the flow along the bed is what drags sediment, and drops still falling
+onto the ground (rain) would otherwise erode where they land (that is splash erosion, another
+method). The defaults are the
+thesis's table 6 (K_c = 0.16, K_s = 0.025, K_d = 0.05 per step) with its Δt = 0.1 s: K_c = 0.16 s,
+K_s = 0.25 s⁻¹, K_d = 0.5 s⁻¹. Flat terrain would never erode without the clamp (seed 000 §1.4);
+water at rest (⟨u⟩ = 0) never erodes whatever the clamp.
+
+Transport of the sediment (ER-3), two options:
+
+* ``"particles"`` (default, mass-conserving): the sediment rides on the fluid particles (a
+  registered per-particle field ``sediment``, m³). A node's s is the sediment of its particles over
+  the node's area; dissolved sediment is shared equally among them, deposited sediment is taken from
+  each in proportion to what it carries. The particles' motion is the advection; a particle leaving
+  through an open edge takes its sediment with it (counted as carried off). Terrain + suspended +
+  carried off is constant to rounding.
+* ``"semi-lagrangian"`` (the seed's): s on the grid, advected by s(x) ← s(x − ⟨u⟩Δt) with Q4
+  interpolation after each exchange. It is not conservative; its gain or loss of sediment per step is
+  summed and reported as ``transport_error`` (m³).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from erosim.core.config import Section, param
+from erosim.core.errors import ConfigError
+from erosim.core.increments import Increment
+from erosim.kernels.raster import bilinear, slope
+
+
+class TransportCapacityParams(Section):
+    """Parameters of transport-capacity erosion (SPEC ER-1…ER-3); SI units."""
+
+    capacity: float = param(0.16, ge=0, unit="s", doc="K_c: transport capacity per unit of sin α |⟨u⟩| (ER-1)")
+    dissolve: float = param(0.25, ge=0, unit="1/s", doc="K_s: rate at which the flow picks up sediment (ER-2)")
+    deposit: float = param(0.5, ge=0, unit="1/s", doc="K_d: rate at which sediment settles (ER-2)")
+    min_slope_deg: float = param(
+        3.0, ge=0, le=89, unit="deg", doc="slope clamp α_min: flat ground still erodes under moving water"
+    )
+    min_depth: float = param(0.0, ge=0, unit="m", doc="erosion acts only where the water is deeper than this")
+    transport: str = param(
+        "particles", doc="how suspended sediment moves: 'particles' (conserving) or 'semi-lagrangian' (seed's ER-3)"
+    )
+
+
+@njit(cache=True)
+def _node_of(pos, i, x0, y0, inv_dx, inv_dy, nx, ny):
+    d = pos.shape[1]
+    ix = int(math.floor((pos[i, 0] - x0) * inv_dx + 0.5))
+    iy = int(math.floor((pos[i, 1] - y0) * inv_dy + 0.5)) if d == 3 else 0
+    if ix < 0 or ix >= nx or iy < 0 or iy >= ny:
+        return -1
+    return iy * nx + ix
+
+
+@njit(cache=True)
+def held_per_node(pos, sed, n_fluid, x0, y0, inv_dx, inv_dy, nx, ny, out):
+    """out[k] = sediment (m³) carried by the fluid particles in node k's cell."""
+    out[:] = 0.0
+    for i in range(n_fluid):
+        k = _node_of(pos, i, x0, y0, inv_dx, inv_dy, nx, ny)
+        if k >= 0:
+            out[k] += sed[i]
+
+
+@njit(cache=True)
+def exchange_with_particles(pos, sed, n_fluid, x0, y0, inv_dx, inv_dy, nx, ny, exchange, count, held):
+    """Give each particle its share of node k's exchange (m³; > 0 taken up by the water): an equal
+    share of a pick-up, a fraction exchange/held of its own load for a deposit."""
+    for i in range(n_fluid):
+        k = _node_of(pos, i, x0, y0, inv_dx, inv_dy, nx, ny)
+        if k < 0:
+            continue
+        e = exchange[k]
+        if e > 0.0:
+            sed[i] += e / count[k]
+        elif e < 0.0:
+            sed[i] += sed[i] * (e / held[k])
+
+
+@njit(cache=True)
+def capacity_exchange(b, s_area, depth, speed, sin_alpha, floor, kc, fs, fd, min_depth, dz, e_area):
+    """ER-1/ER-2 on every node: dz (m, terrain change) and e_area (m, sediment taken up per m²)."""
+    ny, nx = b.shape
+    for iy in range(ny):
+        for ix in range(nx):
+            dz[iy, ix] = 0.0
+            e_area[iy, ix] = 0.0
+            if depth[iy, ix] <= min_depth or depth[iy, ix] <= 0.0:
+                continue
+            c = kc * sin_alpha[iy, ix] * speed[iy, ix]
+            s = s_area[iy, ix]
+            if c > s:
+                e = fs * (c - s)
+                room = b[iy, ix] - floor[iy, ix]
+                if e > room:
+                    e = max(room, 0.0)
+            else:
+                e = -fd * (s - c)
+            dz[iy, ix] = -e
+            e_area[iy, ix] = e
+
+
+@njit(cache=True)
+def advect_semi_lagrangian(s, vel, dt, inv_dx, inv_dy, out):
+    """ER-3: out(x) = s(x − ⟨u⟩Δt) (Q4, clamped to the map), per node."""
+    ny, nx = s.shape
+    d = vel.shape[2]
+    for iy in range(ny):
+        for ix in range(nx):
+            x = ix - vel[iy, ix, 0] * dt * inv_dx
+            y = iy - vel[iy, ix, 1] * dt * inv_dy if d == 3 else 0.0
+            out[iy, ix] = bilinear(s, x, y)
+
+
+def _along_ground(vel: np.ndarray, terrain: np.ndarray, dx: float, dy: float) -> np.ndarray:
+    """|u − (u·n)n| per node, n the ground's unit normal from central differences."""
+    ny, nx = terrain.shape
+    sx = np.gradient(terrain, dx, axis=1) if nx > 1 else np.zeros_like(terrain)
+    if vel.shape[-1] == 3:
+        sy = np.gradient(terrain, dy, axis=0) if ny > 1 else np.zeros_like(terrain)
+        n = np.stack([-sx, -sy, np.ones_like(sx)], axis=-1)
+    else:
+        n = np.stack([-sx, np.ones_like(sx)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    ut = vel - (vel * n).sum(axis=-1, keepdims=True) * n
+    return np.sqrt((ut * ut).sum(axis=-1))
+
+
+class TransportCapacity:
+    """The eroder (see the module docstring); ``solver`` gives the particles for ``transport = "particles"``."""
+
+    name = "transport-capacity"
+    needs = ("count", "depth", "bed_velocity")
+
+    def __init__(self, params: TransportCapacityParams, raster, solver, bedrock: np.ndarray | None = None):
+        if params.transport not in ("particles", "semi-lagrangian"):
+            raise ConfigError(
+                f"erosion.transport = '{params.transport}' is not known; use 'particles' or 'semi-lagrangian'."
+            )
+        self.p = params
+        self.raster = raster
+        self.solver = solver
+        shape = raster.shape
+        self.floor = np.full(shape, -np.inf) if bedrock is None else np.ascontiguousarray(bedrock, np.float64)
+        self.sin_min = math.sin(math.radians(params.min_slope_deg))
+        self.dz = np.zeros(shape)
+        self.e_area = np.zeros(shape)
+        self.s_area = np.zeros(shape)  # sediment per m² of bed held by the water (grid transport's state)
+        self.held = np.zeros(shape)
+        self.transport_error = 0.0
+        if params.transport == "particles":
+            if "sediment" not in solver.state.specs:
+                solver.state.register("sediment")
+
+    # ---------------------------------------------------------------- the contract
+    def increments(self, terrain: np.ndarray, grid, dt: float) -> Increment:
+        p, r = self.p, self.raster
+        area = r.cell_area
+        # in 2-D the one-row raster has no y slope; slope() handles one-node axes
+        sin_alpha = np.maximum(np.sin(slope(terrain, r.dx)), self.sin_min)
+        fs = 1.0 - math.exp(-p.dissolve * dt)
+        fd = 1.0 - math.exp(-p.deposit * dt)
+        if p.transport == "particles":
+            st = self.solver.state
+            held_per_node(st.pos, st.sediment, st.n_fluid, r.x0, r.y0, 1.0 / r.dx, 1.0 / r.dy, r.nx, r.ny,
+                          self.held.reshape(-1))  # fmt: skip
+            np.divide(self.held, area, out=self.s_area)
+        speed = _along_ground(grid.bed_velocity, terrain, r.dx, r.dy)
+        capacity_exchange(terrain, self.s_area, grid.depth, speed, sin_alpha, self.floor, p.capacity, fs, fd,
+                          p.min_depth, self.dz, self.e_area)  # fmt: skip
+        exchange = self.e_area * area  # m³ per node
+        if p.transport == "particles":
+            exchange_with_particles(st.pos, st.sediment, st.n_fluid, r.x0, r.y0, 1.0 / r.dx, 1.0 / r.dy, r.nx, r.ny,
+                                    exchange.reshape(-1), grid.count.reshape(-1), self.held.reshape(-1))  # fmt: skip
+        else:
+            s1 = self.s_area + self.e_area
+            out = np.empty_like(s1)
+            advect_semi_lagrangian(s1, grid.velocity, dt, 1.0 / r.dx, 1.0 / r.dy, out)
+            self.transport_error += float((out.sum() - s1.sum()) * area)
+            self.s_area[...] = out
+        return Increment(self.dz.copy(), suspended=float(exchange.sum()))
+
+    # ---------------------------------------------------------------- reporting and checkpoints
+    def held_total(self) -> float:
+        """Sediment held in the water now (m³)."""
+        if self.p.transport == "particles":
+            st = self.solver.state
+            return float(st.sediment[: st.n_fluid].sum())
+        return float(self.s_area.sum() * self.raster.cell_area)
+
+    def carried_off(self) -> float:
+        """Sediment that left with water through open edges (m³; particle transport)."""
+        return float(self.solver.state.removed_sums.get("sediment", 0.0))
+
+    def held_map(self) -> np.ndarray:
+        """Sediment held in the water over each node, m³ per m² of bed."""
+        if self.p.transport == "particles":
+            st, r = self.solver.state, self.raster
+            held_per_node(st.pos, st.sediment, st.n_fluid, r.x0, r.y0, 1.0 / r.dx, 1.0 / r.dy, r.nx, r.ny,
+                          self.held.reshape(-1))  # fmt: skip
+            return self.held / r.cell_area
+        return self.s_area.copy()
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"s_area": self.s_area.copy(), "transport_error": np.float64(self.transport_error)}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.s_area[...] = np.asarray(state["s_area"])
+        self.transport_error = float(np.asarray(state["transport_error"]))

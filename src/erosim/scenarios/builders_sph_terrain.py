@@ -1,0 +1,455 @@
+"""The ``sph-terrain`` kind: SPH water on a heightmap that it erodes (seed 000; SPEC HM-1…HM-4, ER-1…ER-5).
+
+The terrain (a DEM, a generated map, or a 2-D flume bed) lives in the SPH frame: x east and y north in
+metres from its south-west node, z up; rows of the SPH-frame arrays run northward (the reverse of the
+map order of files). Positions a scenario gives in the DEM's own coordinates are converted here.
+
+A run: the fluid (a lake filled to ``water.level``, ``[[fluid]]`` boxes) on the ground
+(``ground.model``: the particle-free heightfield wall or boundary particles), walls or open edges,
+rain and point inflows adding water, and every ``erosion.every`` steps the coupler binning the fluid
+onto the terrain's nodes and applying transport-capacity erosion. It leaves
+
+* ``maps/`` (3-D, the DEM's grid, CRS and transform): height.tif, height_initial.tif,
+  water_depth.tif (last binning), max_water_depth.tif, erosion.tif, deposition.tif (m, ≥ 0),
+  sediment.tif (sediment held in the water, m³ per m² of bed); 2-D: ``profile.csv`` with the same
+  columns along x;
+* ``figures/maps_NNN.png`` (the thesis's three panels: height, water over the surface, difference
+  from the initial terrain; 2-D: the bed profile), ``figures/evolution.gif``, hillshades before and
+  after (3-D);
+* ``particles/`` frames when ``run.output_interval`` > 0; ``front.csv`` with ``measure.front``;
+* ``report.json``: ``water_budget`` (m³ of water at rest: initial, rained, inflow, left_edges,
+  in_fluid, closure_rel), ``sediment_budget`` (m³: eroded, deposited, suspended, carried_off,
+  transport_error, closure_rel), ``particles_below_ground`` (now and the most seen), the time spent
+  coupling.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from erosim.core.errors import ConfigError, InputError
+from erosim.core.heightmap import Heightmap
+from erosim.coupling.coupler import Coupler
+from erosim.coupling.raster import Raster
+from erosim.coupling.sampling import sample
+from erosim.coupling.sources import EdgeOutflow, PointInflow, Rain, lake_particles
+from erosim.scenarios.builders_sph import lattice
+from erosim.scenarios.schema_common import build_terrain
+from erosim.scenarios.schema_sph_terrain import SPHTerrainScenario
+from erosim.scenarios.setup import Setup
+from erosim.simulation import callbacks as cb
+from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
+
+#: a spacing wider than this many terrain cells cannot resolve the terrain the water runs on
+MAX_SPACING_CELLS = 2.0
+
+
+@dataclass
+class Geometry:
+    """The terrain in the SPH frame and the conversion from the DEM's coordinates."""
+
+    raster: Raster
+    terrain: np.ndarray  # live: the ground the fluid feels and the erosion changes (nodata raised to walls)
+    initial: np.ndarray
+    nodata: np.ndarray | None
+    dem: Heightmap | None  # the map-order DEM (outputs keep its grid and georeference)
+    dim: int
+
+    def to_local(self, xy, what: str) -> np.ndarray:
+        """DEM coordinates (x[, y]) → SPH-frame metres; refuses a point off the map."""
+        xy = np.asarray(xy, dtype=np.float64).reshape(-1)
+        r = self.raster
+        if self.dim == 2:
+            local = xy[:1]
+        else:
+            a, _, c, _, e, f = self.dem.transform
+            col = (xy[0] - c) / a - 0.5
+            row = (xy[1] - f) / e - 0.5
+            local = np.array([col * r.dx, (r.ny - 1 - row) * r.dy])
+        span = np.array([(r.nx - 1) * r.dx, (r.ny - 1) * r.dy])[: self.dim - 1]
+        if np.any(local < -1e-9) or np.any(local > span + 1e-9):
+            raise ConfigError(
+                f"{what} {xy.tolist()} lies outside the terrain; give a point on the map (its own coordinates)."
+            )
+        return local
+
+
+def geometry(cfg: SPHTerrainScenario) -> Geometry:
+    """The scenario's terrain as a :class:`Geometry` (nodata cells raised into walls)."""
+    from erosim.io.heightmaps import default_transform
+    from erosim.sph.boundaries.heightfield import wall_heights
+
+    if cfg.profile is not None:
+        p = cfg.profile
+        nx = int(round(p.length / p.cell_size)) + 1
+        x = np.arange(nx) * p.cell_size
+        z = (p.height + p.slope * x)[None, :]
+        raster = Raster(0.0, 0.0, p.cell_size, 1.0, nx, 1)
+        return Geometry(raster, z.copy(), z.copy(), None, None, 2)
+    hm = build_terrain(cfg.terrain, cfg.seed)
+    if hm.transform is None:
+        hm = hm.copy()
+        hm.transform = default_transform(*hm.shape, hm.cell_size)
+    ny, nx = hm.shape
+    raster = Raster(0.0, 0.0, hm.cell_size, hm.cell_size, nx, ny)
+    z = np.ascontiguousarray(hm.z[::-1], dtype=np.float64)
+    nodata = None if hm.nodata is None or not hm.nodata.any() else np.ascontiguousarray(hm.nodata[::-1])
+    if nodata is not None:
+        z = wall_heights(z, nodata, float(z[~nodata].max()) + cfg.ground.nodata_wall)
+    return Geometry(raster, z.copy(), z.copy(), nodata, hm, 3)
+
+
+def _bedrock(cfg: SPHTerrainScenario, geo: Geometry) -> np.ndarray | None:
+    g = cfg.ground
+    if g.bedrock_file:
+        from erosim.io.heightmaps import read
+
+        b = read(g.bedrock_file).z
+        if b.shape != geo.terrain.shape:
+            raise InputError(
+                f"Bedrock map '{g.bedrock_file}' has shape {b.shape} but the terrain {geo.terrain.shape}; "
+                "they must match."
+            )
+        return np.ascontiguousarray(b[::-1], dtype=np.float64)
+    if g.bedrock_depth is not None:
+        return geo.initial - g.bedrock_depth
+    return None
+
+
+def _rain_map(cfg: SPHTerrainScenario, geo: Geometry) -> np.ndarray:
+    r = cfg.rain
+    if r.file:
+        from erosim.io.heightmaps import read
+
+        m = read(r.file).z
+        if m.shape != geo.terrain.shape:
+            raise InputError(
+                f"Rain map '{r.file}' has shape {m.shape} but the terrain {geo.terrain.shape}; give a rain map of "
+                "the terrain's size."
+            )
+        return np.ascontiguousarray(m[::-1], dtype=np.float64)
+    if r.pattern == "uniform":
+        return np.ones(geo.terrain.shape)
+    from scipy import ndimage
+
+    noise = np.random.default_rng([cfg.seed, 0x5A17]).random(geo.terrain.shape)
+    blobs = ndimage.gaussian_filter(noise, r.noise_scale, mode="wrap")
+    blobs = (blobs - blobs.min()) / max(float(np.ptp(blobs)), 1e-12)
+    return np.clip(1.6 * blobs - 0.3, 0.0, 1.0)
+
+
+def fluid_positions(cfg: SPHTerrainScenario, geo: Geometry) -> np.ndarray:
+    """The initial water: the lake and the ``[[fluid]]`` boxes (lattice points above the ground)."""
+    dx, d = cfg.sph.spacing, geo.dim
+    parts = []
+    if cfg.water.level is not None:
+        seed = geo.to_local(cfg.water.seed, "water.seed") if cfg.water.seed is not None else None
+        parts.append(lake_particles(geo.raster, geo.terrain, cfg.water.level, dx, d, seed))
+    for i, b in enumerate(cfg.fluid):
+        lo = np.concatenate([geo.to_local(b.lo[: d - 1], f"fluid block {i + 1} lo"), [b.lo[-1]]])
+        hi = np.concatenate([geo.to_local(b.hi[: d - 1], f"fluid block {i + 1} hi"), [b.hi[-1]]])
+        pts = lattice(np.minimum(lo, hi), np.maximum(lo, hi), dx)
+        pts = pts[pts[:, -1] > sample(geo.raster, geo.terrain, pts) + 0.4 * dx]
+        parts.append(pts)
+    return np.concatenate(parts) if parts else np.zeros((0, d))
+
+
+def _edge_planes(geo: Geometry, open_edges) -> tuple[np.ndarray, np.ndarray] | None:
+    r, d = geo.raster, geo.dim
+    xe, ye = (r.nx - 1) * r.dx, (r.ny - 1) * r.dy
+    walls = {"west": ([0.0, 0.0], [1.0, 0.0]), "east": ([xe, 0.0], [-1.0, 0.0])}
+    if d == 3:
+        walls.update({"south": ([0.0, 0.0], [0.0, 1.0]), "north": ([0.0, ye], [0.0, -1.0])})
+    pts, nrm = [], []
+    for name, (p0, n) in walls.items():
+        if name in open_edges:
+            continue
+        pts.append(p0[: d - 1] + [0.0])
+        nrm.append(n[: d - 1] + [0.0])
+    return (np.array(pts), np.array(nrm)) if pts else None
+
+
+def build_solver(cfg: SPHTerrainScenario, geo: Geometry, fluid: np.ndarray):
+    """The solver with its ground and edge walls; the sound speed from the highest fall the water can take."""
+    from erosim.sph.boundaries.heightfield import GroundParticles, HeightfieldGround
+    from erosim.sph.boundaries.planes import PlaneWalls
+    from erosim.sph.solver import SPHSolver
+
+    p, r, d = cfg.sph, geo.raster, geo.dim
+    dx = p.spacing
+    if dx > MAX_SPACING_CELLS * min(r.dx, r.dy if d == 3 else r.dx):
+        raise ConfigError(
+            f"sph.spacing = {dx:g} m is more than {MAX_SPACING_CELLS:g} terrain cells ({r.dx:g} m): the particles "
+            f"cannot follow the ground; use sph.spacing ≤ {MAX_SPACING_CELLS * r.dx:g} m or a coarser terrain."
+        )
+    ground_min = float(geo.terrain.min())
+    tops = [float(fluid[:, -1].max()) + 0.5 * dx] if len(fluid) else []
+    if cfg.rain.rate > 0:
+        tops.append(float(geo.terrain.max()) + cfg.rain.height)
+    tops += [float(geo.terrain.max()) + inf.height for inf in cfg.inflows.values()]
+    if not tops:
+        raise ConfigError("The scenario has no water: give water.level, a [[fluid]] block, rain.rate > 0 or an inflow.")
+    fall = max(tops) - ground_min
+    derived = {}
+    if p.sound_speed <= 0:
+        g = math.sqrt(sum(x * x for x in p.gravity_vector()))
+        c = max(10.0 * math.sqrt(2.0 * g * max(fall, dx)), 1e-3)
+        p = p.model_copy(update={"sound_speed": c})
+        derived = {"sound_speed": c, "fall_height_m": fall, "rule": "c = 10·sqrt(2 g H), H from the lowest ground "
+                   "to the highest water, drop or jet"}  # fmt: skip
+    h = p.support()
+    margin = 4.0 * h
+    lo = [r.x0 - margin] + ([r.y0 - margin] if d == 3 else []) + [ground_min - margin]
+    hi = [r.x0 + (r.nx - 1) * r.dx + margin] + ([r.y0 + (r.ny - 1) * r.dy + margin] if d == 3 else [])
+    hi.append(max(tops + [float(geo.terrain.max())]) + max(10.0 * h, 0.5 * fall))
+    if cfg.ground.model == "heightfield":
+        ground = HeightfieldGround(r, geo.terrain)
+    else:
+        ground = GroundParticles(r, geo.terrain, dx, p.layers(), d)
+    boundaries = [ground]
+    planes = _edge_planes(geo, cfg.edges.outflow)
+    if planes is not None:
+        boundaries.append(PlaneWalls(*planes))
+    solver = SPHSolver(p, fluid, domain_lo=lo, domain_hi=hi, seed=cfg.seed, boundaries=boundaries)
+    return solver, ground, derived
+
+
+class BelowGround(cb.Callback):
+    """Counts fluid particles below the ground (1 mm below the Q4 surface), keeps the most seen."""
+
+    def __init__(self, schedule, solver, ground):
+        super().__init__(schedule, name="below_ground")
+        self.solver, self.ground = solver, ground
+        self.most = 0
+
+    def __call__(self, sim) -> None:
+        self.most = max(self.most, self.now())
+
+    def now(self) -> int:
+        return self.ground.below(self.solver, tol=1e-3)
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"most": self.most}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.most = int(state.get("most", 0))
+
+
+class TerrainOutputs(cb.Callback):
+    """The final maps (DEM grid), profile and pictures of a completed run."""
+
+    def __init__(self, geo: Geometry, coupler: Coupler, eroder, panel):
+        super().__init__(Schedule(), name="outputs")
+        self.geo, self.coupler, self.eroder, self.panel = geo, coupler, eroder, panel
+
+    def fields(self) -> dict[str, np.ndarray]:
+        """Output fields in the SPH frame (rows northward)."""
+        g, c = self.geo, self.coupler
+        sediment = self.eroder.held_map() if self.eroder is not None else np.zeros_like(g.terrain)
+        return {
+            "height_initial": g.initial,
+            "height": c.terrain,
+            "water_depth": c.grid.depth,
+            "max_water_depth": c.grid.max_depth,
+            "erosion": np.maximum(g.initial - c.terrain, 0.0),
+            "deposition": np.maximum(c.terrain - g.initial, 0.0),
+            "sediment": sediment,
+        }
+
+    def finalize(self, sim) -> dict[str, Any]:
+        out, g = sim.out, self.geo
+        self.coupler.grid.bin(self.coupler.solver)  # the water as it is at the end
+        fields = self.fields()
+        from erosim.viz.maps import save_png
+
+        save_png(out.figures / "maps_final.png", self.panel("final"))
+        if g.dim == 2:
+            x = np.arange(g.raster.nx) * g.raster.dx
+            cols = ["x"] + list(fields)
+            rows = np.column_stack([x] + [f[0] for f in fields.values()])
+            out.write_text("profile.csv", cb.csv_text(cols, rows))
+            return {"outputs": {"profile": "profile.csv", "figure": "figures/maps_final.png"}}
+        from erosim.io import heightmaps as hio
+        from erosim.viz.maps import hillshade
+
+        written = {}
+        for name, arr in fields.items():
+            mapped = np.ascontiguousarray(arr[::-1])
+            hio.write(out.maps / f"{name}.tif", mapped, like=g.dem)
+            written[name] = {"path": f"maps/{name}.tif", "min": float(mapped.min()), "max": float(mapped.max())}
+        save_png(out.figures / "hillshade_before.png", hillshade(g.initial[::-1], g.raster.dx))
+        save_png(out.figures / "hillshade_after.png", hillshade(self.coupler.terrain[::-1], g.raster.dx))
+        return {"outputs": {"maps": written, "figure": "figures/maps_final.png"}}
+
+
+def _panel_function(geo: Geometry, coupler: Coupler, figures: Path, title: str):
+    """The picture of the terrain and water now (three panels; 2-D: the bed profile), also saved as PNG."""
+    from erosim.viz.plots import profile_panel, terrain_panels
+
+    def panel(tag: str = "") -> np.ndarray:
+        c = coupler
+        c.grid.bin(c.solver)
+        t = f"{title}  t = {c.solver.t:.3g} s"
+        if geo.dim == 2:
+            x = np.arange(geo.raster.nx) * geo.raster.dx
+            return profile_panel(x, geo.initial[0], c.terrain[0], c.grid.depth[0], title=t)
+        return terrain_panels(c.terrain[::-1], c.grid.depth[::-1], (c.terrain - geo.initial)[::-1], geo.raster.dx,
+                              title=t)  # fmt: skip
+
+    return panel
+
+
+class MapFrames(cb.Animation):
+    """``figures/maps_NNN.png`` on a schedule and ``figures/evolution.gif`` of them at the end."""
+
+    def __init__(self, schedule, panel, figures: Path):
+        super().__init__(schedule, lambda sim: self._frame(), figures / "evolution.gif", fps=4.0)
+        self.name = "map_frames"
+        self.panel, self.folder, self.count = panel, figures, 0
+
+    def _frame(self) -> np.ndarray:
+        from erosim.viz.maps import save_png
+
+        pic = self.panel()
+        save_png(self.folder / f"maps_{self.count:03d}.png", pic)
+        self.count += 1
+        return pic[::2, ::2]
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"count": self.count}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.count = int(state.get("count", 0))
+
+
+def setup(scenario, out) -> Setup:
+    """The fluid, its ground, sources, sinks, coupler and outputs of an ``sph-terrain`` run."""
+    from erosim.erosion.transport_capacity_mei2007 import TransportCapacity
+
+    cfg: SPHTerrainScenario = scenario.config
+    geo = geometry(cfg)
+    fluid = fluid_positions(cfg, geo)
+    solver, ground, derived = build_solver(cfg, geo, fluid)
+    r, e = geo.raster, cfg.erosion
+    bedrock = _bedrock(cfg, geo)
+    eroder = TransportCapacity(e, r, solver, bedrock) if e.enabled else None
+    coupler = Coupler(IterationInterval(e.every), solver, eroder, r, geo.terrain, bedrock=bedrock,
+                      near_bed=2.0 * solver.h)  # fmt: skip
+    callbacks: list = []
+    if cfg.edges.outflow:
+        callbacks.append(EdgeOutflow(IterationInterval(1), solver, r, cfg.edges.outflow))
+    if cfg.rain.rate > 0:
+        chance = _rain_map(cfg, geo)
+        callbacks.append(Rain(IterationInterval(cfg.rain.every), solver, r, geo.terrain, chance, cfg.rain.rate,
+                              cfg.rain.height, cfg.seed, grid=coupler.grid))  # fmt: skip
+    for name, inf in cfg.inflows.items():
+        xy = geo.to_local(inf.position, f"inflows.{name}.position")
+        callbacks.append(PointInflow(IterationInterval(1), solver, r, geo.terrain, xy, inf.discharge,
+                                     inf.radius, inf.height, name))  # fmt: skip
+    callbacks.append(coupler)
+    run = cfg.run
+    if run.output_interval > 0:
+        callbacks.append(cb.ParticleFrames(TimeInterval(run.output_interval), solver, out.path / "particles"))
+    front = None
+    if cfg.measure.front:
+        origin = cfg.measure.front_origin if cfg.measure.front_origin is not None else 0.0
+        front = cb.FrontTracker(TimeInterval(run.sample_interval), solver, out.path / "front.csv",
+                                spacing=cfg.sph.spacing, origin=origin)  # fmt: skip
+        callbacks.append(front)
+    panel = _panel_function(geo, coupler, out.figures, scenario.name)
+    if run.map_frames > 0:
+        callbacks.append(MapFrames(TimeInterval(run.t_end / run.map_frames), panel, out.path / "figures"))
+    below = BelowGround(IterationInterval(e.every), solver, ground)
+    callbacks += [below, TerrainOutputs(geo, coupler, eroder, panel)]
+    warnings = list(geo.dem.notes) if geo.dem is not None else []
+    if geo.nodata is not None:
+        warnings.append(f"{int(geo.nodata.sum())} nodata cells of the terrain stand as walls.")
+
+    def report(sim) -> dict[str, Any]:
+        return terrain_report(cfg, geo, solver, coupler, eroder, below, front, derived, sim)
+
+    def summary(sim, rep: dict) -> dict[str, Any]:
+        wb, sb = rep["water_budget"], rep.get("sediment_budget", {})
+        return {
+            "status": sim.status,
+            "t": round(float(solver.t), 6),
+            "steps": int(solver.steps),
+            "fluid_particles": solver.n_fluid,
+            "water_m3": wb["in_fluid"],
+            "water_closure_rel": wb["closure_rel"],
+            **({"eroded_m3": sb["eroded"], "sediment_closure_rel": sb["closure_rel"]} if sb else {}),
+            "particles_below_ground": rep["particles_below_ground"]["now"],
+            "wall_time_s": round(sim.wall_time, 2),
+        }
+
+    return Setup(
+        models=[solver], callbacks=callbacks, stop_time=run.t_end, unit="s", report=report, summary=summary,
+        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings,
+    )  # fmt: skip
+
+
+def terrain_report(cfg, geo: Geometry, solver, coupler: Coupler, eroder, below: BelowGround, front, derived, sim):
+    """The ``sph-terrain`` kind's entries of ``report.json``."""
+    st = solver.state
+    vp = cfg.sph.spacing**geo.dim  # m³ of water at rest per particle (per unit width in 2-D: m²)
+    added, removed = st.added, st.removed
+    rained = added.get("rain", 0) * vp
+    inflow = sum(v for k, v in added.items() if k.startswith("inflow:")) * vp
+    left = sum(v for k, v in removed.items() if k.startswith("edge:")) * vp
+    initial, now = st.initial * vp, st.n_fluid * vp
+    supplied = initial + rained + inflow
+    steps = sim.iteration - sim.iteration_start
+    rep: dict[str, Any] = {
+        "dim": geo.dim,
+        "t": float(solver.t),
+        "t_end": cfg.run.t_end,
+        "steps": int(solver.steps),
+        "fluid_particles": st.n_fluid,
+        "ground": cfg.ground.model,
+        "terrain": {
+            "shape": list(geo.terrain.shape[::-1] if geo.dim == 2 else geo.terrain.shape),
+            "cell_size_m": geo.raster.dx,
+            "crs": geo.dem.crs if geo.dem is not None else None,
+            "nodata_cells": int(geo.nodata.sum()) if geo.nodata is not None else 0,
+            "z_min": float(geo.initial.min()),
+            "z_max": float(geo.initial.max()),
+        },
+        "resolution": {"spacing": cfg.sph.spacing, "support_h": solver.h, "particle_volume_m3": vp, **derived},
+        "water_budget": {
+            "unit": "m3" if geo.dim == 3 else "m2 (per metre of width)",
+            "initial": initial,
+            "rained": rained,
+            "inflow": inflow,
+            "left_edges": left,
+            "in_fluid": now,
+            "closure_rel": abs(supplied - left - now) / supplied if supplied > 0 else 0.0,
+        },
+        "particles_below_ground": {"now": below.now(), "most_seen": max(below.most, below.now())},
+        "dt_mean": float(solver.t) / solver.steps if solver.steps else None,
+        "particle_steps_per_s": st.n_fluid * steps / sim.wall_time if sim.wall_time > 0 and steps else None,
+        "coupling_wall_s": round(coupler.wall, 3),
+        "coupling_fraction": coupler.wall / sim.wall_time if sim.wall_time > 0 else None,
+    }
+    if eroder is not None:
+        sb = coupler.sediment_budget()
+        held, carried, err = eroder.held_total(), eroder.carried_off(), eroder.transport_error
+        eroded = sb["eroded"]
+        rep["sediment_budget"] = {
+            "unit": "m3" if geo.dim == 3 else "m2 (per metre of width)",
+            "eroded": eroded,
+            "deposited": sb["deposited"],
+            "suspended": held,
+            "carried_off": carried,
+            "transport_error": err,
+            "transport": cfg.erosion.transport,
+            "couplings": sb["couplings"],
+            "closure_rel": abs(eroded - sb["deposited"] - held - carried + err) / eroded if eroded > 0 else 0.0,
+        }
+    if front is not None and front.rows:
+        rep["x_front"] = front.rows[-1][1]
+    return rep
