@@ -41,6 +41,16 @@ def test_bench_sph_json_keys(cli_runner):
     assert out["particle_steps_per_s"] > 0 and out["neighbours_mean"] > 5
 
 
+def test_bench_sph_terrain_json_keys(cli_runner):
+    out = _json(
+        cli_runner.invoke(
+            cli, ["bench", "sph-terrain", "--particles", "2000", "--steps", "4", "--every", "2", "--json"]
+        )
+    )
+    assert {"particles", "particle_steps_per_s", "coupling_fraction", "heightfield_overhead"} <= out.keys()
+    assert out["boundary_particles"]["terrain"] == 0 and 0.0 < out["coupling_fraction"] < 1.0
+
+
 def test_bench_hydrology_json_keys(cli_runner):
     out = _json(cli_runner.invoke(cli, ["bench", "hydrology", "--size", "32", "--droplets", "50", "--json"]))
     assert {"size", "droplets_per_s", "steps_per_s", "flood_fraction"} <= out.keys()

@@ -19,8 +19,8 @@ onto the terrain's nodes and applying transport-capacity erosion. It leaves
 * ``particles/`` frames when ``run.output_interval`` > 0; ``front.csv`` with ``measure.front``;
 * ``report.json``: ``water_budget`` (m³ of water at rest: initial, rained, inflow, left_edges,
   in_fluid, closure_rel), ``sediment_budget`` (m³: eroded, deposited, suspended, carried_off,
-  transport_error, closure_rel), ``particles_below_ground`` (now and the most seen), the time spent
-  coupling.
+  transport_error, closure_rel), ``particles_below_ground`` (the most seen at any check, every
+  ``erosion.every`` steps and at the end: 0), the time spent coupling.
 """
 
 from __future__ import annotations
@@ -383,7 +383,7 @@ def setup(scenario, out) -> Setup:
             "water_m3": wb["in_fluid"],
             "water_closure_rel": wb["closure_rel"],
             **({"eroded_m3": sb["eroded"], "sediment_closure_rel": sb["closure_rel"]} if sb else {}),
-            "particles_below_ground": rep["particles_below_ground"]["now"],
+            "particles_below_ground": rep["particles_below_ground"],
             "wall_time_s": round(sim.wall_time, 2),
         }
 
@@ -429,7 +429,8 @@ def terrain_report(cfg, geo: Geometry, solver, coupler: Coupler, eroder, below: 
             "in_fluid": now,
             "closure_rel": abs(supplied - left - now) / supplied if supplied > 0 else 0.0,
         },
-        "particles_below_ground": {"now": below.now(), "most_seen": max(below.most, below.now())},
+        "particles_below_ground": max(below.most, below.now()),  # the most seen at any check (0 expected)
+        "particles_below_ground_now": below.now(),
         "dt_mean": float(solver.t) / solver.steps if solver.steps else None,
         "particle_steps_per_s": st.n_fluid * steps / sim.wall_time if sim.wall_time > 0 and steps else None,
         "coupling_wall_s": round(coupler.wall, 3),

@@ -92,7 +92,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         import json
 
         rep = json.loads(below.read_text())
-        e["particles_below_ground"] = rep["particles_below_ground"]["most_seen"]
+        e["particles_below_ground"] = rep["particles_below_ground"]
         fig = pressure_profile(
             root / f"pressure_{model}.png", pos[:, -1] - (level - depth), p, rho0=cfg.sph.rho0, g=g, H=depth,
             title=f"basin at rest, {model} ground, dx = {spacing:g} m: RMS {100 * e['pressure_rms_rel']:.2f} %",

@@ -156,11 +156,12 @@ class HeightfieldGround(DistanceWall):
             self.sx[...], self.sy[...] = node_slopes(self.terrain, self.raster.dx, self.raster.dy)
 
     def state_dict(self) -> dict:
-        return {}
+        """The nodes' slopes (the terrain itself is its owner's, restored by it — maybe after this)."""
+        return {"sx": self.sx.copy(), "sy": self.sy.copy()}
 
     def load_state_dict(self, state: dict) -> None:
-        """The terrain is restored by its owner; the slopes follow it."""
-        self.sx[...], self.sy[...] = node_slopes(self.terrain, self.raster.dx, self.raster.dy)
+        self.sx[...] = state["sx"]
+        self.sy[...] = state["sy"]
 
     def below(self, solver, tol: float = 0.0) -> int:
         """Fluid particles more than ``tol`` below the ground (0 after every step)."""
