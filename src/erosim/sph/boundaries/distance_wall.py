@@ -31,8 +31,8 @@ class DistanceWall(Boundary):
         self.curves = bake(prm.kernel, solver.dim, prm.spacing, solver.h, prm.rho0, prm.viscosity)
         self.m = solver.m
         self.gvec = np.asarray(solver.g, np.float64)
-        self.cpress = 1.0 if prm.pressure_form == "wcsph" else 0.5
-        self.cvisc = 0.5 * solver.kv * solver.m if prm.viscosity == "artificial" else -prm.mu * solver.m
+        self.wcsph = prm.pressure_form == "wcsph"
+        self.cvisc = solver.kv * solver.m if prm.viscosity == "artificial" else -prm.mu * solver.m
         self.gap = GAP * prm.spacing
         if solver.summation:
             self.density = self._density
@@ -50,7 +50,7 @@ class DistanceWall(Boundary):
         st = solver.state
         self._forces_pass(
             st.pos, st.vel, st.rho, st.p, st.acc, st.drho, st.n_fluid, *self._geometry(), *self._curve_args(),
-            self.m, solver.params.rho0, self.gvec, self.cpress, self.cvisc, self._summation,
+            self.m, solver.params.rho0, self.gvec, self.wcsph, self.cvisc, self._summation,
         )  # fmt: skip
 
     def constrain(self, solver) -> None:

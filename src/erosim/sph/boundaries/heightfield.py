@@ -58,7 +58,7 @@ def node_slopes(z: np.ndarray, dx: float, dy: float) -> tuple[np.ndarray, np.nda
 
 @njit(parallel=True, cache=True)
 def heightfield_forces(pos, vel, rho, p, acc, drho, n_fluid, z, sx, sy, x0, y0, inv_dx, inv_dy, table, dl,
-                       approach_only, m, rho0, gvec, cpress, cvisc, summation):  # fmt: skip
+                       approach_only, m, rho0, gvec, wcsph, cvisc, summation):  # fmt: skip
     d = pos.shape[1]
     support = dl * (table.shape[1] - 1)
     for i in prange(n_fluid):
@@ -70,7 +70,7 @@ def heightfield_forces(pos, vel, rho, p, acc, drho, n_fluid, z, sx, sy, x0, y0, 
             n0, n1, n2 = nx, ny, nz
         else:
             n0, n1, n2 = nx, nz, 0.0
-        wall_rates(table, dl, approach_only, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, cpress, cvisc,
+        wall_rates(table, dl, approach_only, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, wcsph, cvisc,
                    summation, acc, drho)  # fmt: skip
 
 
@@ -151,9 +151,11 @@ class HeightfieldGround(DistanceWall):
         return self.terrain, self.sx, self.sy, r.x0, r.y0, 1.0 / r.dx, 1.0 / r.dy
 
     def refresh(self, solver, *, terrain=None, **changed) -> None:
-        """The terrain changed (it is read live): recompute the nodes' slopes."""
+        """The terrain changed (it is read live): recompute the nodes' slopes and lift the particles a
+        deposit has buried onto the new ground (no particle ends below it, not even until the next step)."""
         if terrain is not None:
             self.sx[...], self.sy[...] = node_slopes(self.terrain, self.raster.dx, self.raster.dy)
+            self.constrain(solver)
 
     def state_dict(self) -> dict:
         """The nodes' slopes (the terrain itself is its owner's, restored by it — maybe after this)."""

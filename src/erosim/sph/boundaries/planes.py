@@ -14,7 +14,7 @@ from erosim.sph.boundaries.wall_weight_harada2007 import wall_density, wall_rate
 
 @njit(parallel=True, cache=True)
 def plane_forces(pos, vel, rho, p, acc, drho, n_fluid, points, normals, table, dl, approach_only, m, rho0, gvec,
-                 cpress, cvisc, summation):  # fmt: skip
+                 wcsph, cvisc, summation):  # fmt: skip
     d = pos.shape[1]
     support = dl * (table.shape[1] - 1)
     for i in prange(n_fluid):
@@ -26,7 +26,7 @@ def plane_forces(pos, vel, rho, p, acc, drho, n_fluid, points, normals, table, d
                 continue
             n2 = normals[k, 2] if d == 3 else 0.0
             wall_rates(table, dl, approach_only, i, l, normals[k, 0], normals[k, 1], n2, vel, rho, p, m, rho0,
-                       gvec, cpress, cvisc, summation, acc, drho)  # fmt: skip
+                       gvec, wcsph, cvisc, summation, acc, drho)  # fmt: skip
 
 
 @njit(parallel=True, cache=True)

@@ -7,21 +7,24 @@ What a wall does to fluid particle i is what a flat, semi-infinite layer of fixe
 :mod:`erosim.sph.boundaries.particles`) would do to a particle at distance l; those sums depend on l
 only, so they are computed once ("baked", :func:`bake`) as curves of l ∈ [0, h] and looked up at
 run time. With n the unit normal pointing into the fluid, g⊥ = −g·n and g_t = g + g⊥ n the
-gravity's normal and tangential parts, m the particle mass and the wall particles taking the fluid
-particle's density (ρ_w = ρ_i) and the hydrostatically extrapolated pressure
-p_w = p_i − ρ₀ g·(r_i − r_w) (Adami et al. 2012), the curves and what they give are
+gravity's normal and tangential parts, m the particle mass and the wall particles at rest density
+(ρ_w = ρ₀, like boundary particles, which never fall below it) with the hydrostatically extrapolated
+pressure p_w = p_i − ρ₀ g·(r_i − r_w) (Adami et al. 2012), the curves and what they give are
 
 * Z(l)  = m Σ_w W(r_iw)                       summation density:  ρ_i += Z(l)
 * G(l)  = Σ_w f(r_iw) (l − l_w)                continuity:  dρ_i/dt += m (v_i·n) G(l)
 * H(l)  = Σ_w f(r_iw) (l − l_w)²,  T(l) = Σ_w f(r_iw) x_iw²  (x along the wall)
-                                               pressure:  a_i += −c_p m [(2 p_i G + ρ₀ g⊥ H) n − ρ₀ T g_t]/ρ_i²
-                                                (c_p = 1 for SPH-5b "wcsph", ½ for SPH-5a "symmetric";
-                                                the T term holds the water up along a steep wall)
+                                               pressure, SPH-5b ("wcsph"):
+                  a_i −= m [p_i (1/ρ_i² + 1/ρ₀²) G n + (g⊥ H n − T g_t)/ρ₀]
+                                               SPH-5a ("symmetric", (p_i + p_w)/(2ρ_iρ_w)):
+                  a_i −= m [p_i G n/(ρ_i ρ₀) + (g⊥ H n − T g_t)/(2ρ̄)],  ρ̄ = max(ρ_i, ρ₀)
+                  (the T term holds the water up along a steep wall; ρ̄ keeps a spray particle, whose
+                  density has fallen, from being held more than a particle at rest density)
 * viscosity, artificial (SPH-6b, ν from k_v = 2αh_s c):
   A(l) = Σ_w f (l − l_w)²/(r² + ε²),  B(l) = Σ_{ahead} f x_iw²/(r² + ε²),  C(l) = Σ_{ahead} f x_iw (l − l_w)/(r² + ε²)
   (for a tangential velocity along x, "ahead" = the wall particles it moves towards):
-  a_i += m k_v/(2ρ_i) [min(v_n, 0) A n + B v_t + C |v_t| n];
-  laminar (SPH-6a): A = B = Σ_w L(r_iw), C = 0, a_i += −μ m/ρ_i² (A v_n n + B v_t).
+  a_i += m k_v/(ρ_i + ρ₀) [min(v_n, 0) A n + B v_t + C |v_t| n];
+  laminar (SPH-6a): A = B = Σ_w L(r_iw), C = 0, a_i += −μ m/(ρ̄ ρ₀) (A v_n n + B v_t).
 
 with ∇_i W_iw = f(r) r_iw (f < 0, so G, H < 0 and the pressure pushes out of the wall). The sums
 are averaged over the particle's position across one lattice cell of the wall, which makes the
@@ -132,18 +135,19 @@ def lookup(table, dl, l):
 
 
 @njit(inline="always", cache=True)
-def wall_rates(table, dl, approach_only, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, cpress, cvisc, summation,
+def wall_rates(table, dl, approach_only, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, wcsph, cvisc, summation,
                acc, drho):  # fmt: skip
     """Add the wall's contribution to particle i's acceleration and (continuity) density rate.
 
     (n0, n1[, n2]) is the unit normal into the fluid (2-D: (n0, n1)), ``l`` the distance, ``gvec``
-    gravity, ``cpress`` c_p, ``cvisc`` the viscous coefficient (k_v m/2 for artificial, −μ m for
-    laminar; divided here by ρ_i or ρ_i²); with ``summation`` the density is not touched here (see
-    :func:`wall_density`).
+    gravity, ``wcsph`` the pressure form (else symmetric), ``cvisc`` the viscous coefficient (k_v m for
+    artificial, −μ m for laminar; divided here by ρ_i + ρ₀ or ρ̄ρ₀); with ``summation`` the density is
+    not touched here (see :func:`wall_density`).
     """
     _, cg, ch, ctt, cvn, cvt, cvtn = lookup(table, dl, l)
     d = vel.shape[1]
     rhoi = rho[i]
+    rbar = max(rhoi, rho0)
     g0 = gvec[0]
     g1 = gvec[1]
     g2 = gvec[2] if d == 3 else 0.0
@@ -155,20 +159,26 @@ def wall_rates(table, dl, approach_only, i, l, n0, n1, n2, vel, rho, p, m, rho0,
     t0 = v0 - vn * n0
     t1 = v1 - vn * n1
     t2 = v2 - vn * n2
-    scale = -cpress * m / (rhoi * rhoi)
-    ap = scale * (2.0 * p[i] * cg - rho0 * gn * ch)
-    cg_t = -scale * rho0 * ctt  # times g_t: the hydrostatic support along the wall
-    if approach_only:
-        cv = cvisc / rhoi
-        an = ap + cv * (min(vn, 0.0) * cvn + math.sqrt(t0 * t0 + t1 * t1 + t2 * t2) * cvtn)
+    if wcsph:
+        cp = p[i] * (1.0 / (rhoi * rhoi) + 1.0 / (rho0 * rho0))
+        chyd = 1.0 / rho0
     else:
-        cv = cvisc / (rhoi * rhoi)
-        an = ap + cv * vn * cvn
+        cp = p[i] / (rhoi * rho0)
+        chyd = 0.5 / rbar
+    # a = −m [cp G n + chyd (g⊥ H n − T g_t)], g⊥ = −gn, g_t = g − gn n
+    an = -m * (cp * cg - chyd * gn * ch)
+    cgt = m * chyd * ctt
+    if approach_only:
+        cv = cvisc / (rhoi + rho0)
+        an += cv * (min(vn, 0.0) * cvn + math.sqrt(t0 * t0 + t1 * t1 + t2 * t2) * cvtn)
+    else:
+        cv = cvisc / (rbar * rho0)
+        an += cv * vn * cvn
     ct = cv * cvt
-    acc[i, 0] += an * n0 + ct * t0 + cg_t * (g0 - gn * n0)
-    acc[i, 1] += an * n1 + ct * t1 + cg_t * (g1 - gn * n1)
+    acc[i, 0] += an * n0 + ct * t0 + cgt * (g0 - gn * n0)
+    acc[i, 1] += an * n1 + ct * t1 + cgt * (g1 - gn * n1)
     if d == 3:
-        acc[i, 2] += an * n2 + ct * t2 + cg_t * (g2 - gn * n2)
+        acc[i, 2] += an * n2 + ct * t2 + cgt * (g2 - gn * n2)
     if not summation:
         drho[i] += m * vn * cg
 
