@@ -47,6 +47,8 @@ from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterva
 
 #: a spacing wider than this many terrain cells cannot resolve the terrain the water runs on
 MAX_SPACING_CELLS = 2.0
+#: more particles than this would not fit in the memory of a workstation (about 1 kB each)
+MAX_PARTICLES = 20_000_000
 
 
 @dataclass
@@ -132,7 +134,9 @@ def _rain_map(cfg: SPHTerrainScenario, geo: Geometry) -> np.ndarray:
                 f"Rain map '{r.file}' has shape {m.shape} but the terrain {geo.terrain.shape}; give a rain map of "
                 "the terrain's size."
             )
-        return np.ascontiguousarray(m[::-1], dtype=np.float64)
+        m = np.ascontiguousarray(m[::-1], dtype=np.float64)
+        top = float(np.nanmax(m)) if np.isfinite(m).any() else 0.0
+        return m / top if top > 1.0 else m  # an image (0…255, 0…65535): its brightest cell is chance 1
     if r.pattern == "uniform":
         return np.ones(geo.terrain.shape)
     from scipy import ndimage
@@ -217,6 +221,21 @@ def build_solver(cfg: SPHTerrainScenario, geo: Geometry, fluid: np.ndarray):
         boundaries.append(PlaneWalls(*planes))
     solver = SPHSolver(p, fluid, domain_lo=lo, domain_hi=hi, seed=cfg.seed, boundaries=boundaries)
     return solver, ground, derived
+
+
+def _check_size(cfg: SPHTerrainScenario, geo: Geometry, fluid: np.ndarray, sources: list) -> None:
+    """Refuse, before any step, a run whose sources would add more particles than memory holds."""
+    vp = cfg.sph.spacing**geo.dim
+    flow = sum(s.flow for s in sources if isinstance(s, Rain))
+    flow += sum(inf.discharge for inf in cfg.inflows.values())
+    expected = len(fluid) + flow * cfg.run.t_end / vp
+    if expected > MAX_PARTICLES:
+        raise ConfigError(
+            f"The water of this run ({flow:.3g} m³/s of rain and inflow for {cfg.run.t_end:g} s, plus {len(fluid)} "
+            f"particles) would need about {expected:.3g} particles of {cfg.sph.spacing:g} m, more than the "
+            f"{MAX_PARTICLES:.0e} that fit in memory; lower rain.rate or the inflows, shorten run.t_end or raise "
+            "sph.spacing."
+        )
 
 
 class BelowGround(cb.Callback):
@@ -351,6 +370,7 @@ def setup(scenario, out) -> Setup:
         xy = geo.to_local(inf.position, f"inflows.{name}.position")
         callbacks.append(PointInflow(IterationInterval(1), solver, r, geo.terrain, xy, inf.discharge,
                                      inf.radius, inf.height, name))  # fmt: skip
+    _check_size(cfg, geo, fluid, callbacks)
     callbacks.append(coupler)
     run = cfg.run
     if run.output_interval > 0:

@@ -79,7 +79,9 @@ class InflowSection(Section):
 
 class RainSection(Section):
     rate: float = param(0.0, ge=0, unit="mm/h", doc="rain intensity where the rain map is 1 (0: no rain)")
-    file: str | None = param(None, doc="rain map raster: per cell the chance 0…1 that a drop falls there (ER-4)")
+    file: str | None = param(
+        None, doc="rain map raster: per cell the chance 0…1 that a drop falls there (ER-4); an image is scaled to 0…1"
+    )
     pattern: Literal["uniform", "noise"] = param("noise", doc="rain map when no file: uniform, or noise blobs")
     noise_scale: float = param(8.0, gt=0, unit="cells", doc="size of the generated rain map's blobs")
     height: float = param(2.0, ge=0, unit="m", doc="drops appear this high above the ground or the water")
