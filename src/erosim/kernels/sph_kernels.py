@@ -177,31 +177,27 @@ def _apply_scalar(fn, r, h, out):
         out[i] = fn(r[i], h)
 
 
-def kernel_w(r, h: float, dim: int, kernel: str = "wendland") -> np.ndarray:
-    """W(|r|, h) for an array of distances ``r`` (any shape)."""
-    w, _, _ = kernel_functions(kernel, dim)
+def _values(which: int, r, h: float, dim: int, kernel: str) -> np.ndarray:
+    fn = kernel_functions(kernel, dim)[which]
     r = np.ascontiguousarray(r, dtype=np.float64)
     out = np.empty(r.size)
-    _apply_scalar(w, r.ravel(), float(h), out)
+    _apply_scalar(fn, r.ravel(), float(h), out)
     return out.reshape(r.shape)
+
+
+def kernel_w(r, h: float, dim: int, kernel: str = "wendland") -> np.ndarray:
+    """W(|r|, h) for an array of distances ``r`` (any shape)."""
+    return _values(0, r, h, dim, kernel)
 
 
 def kernel_f(r, h: float, dim: int, kernel: str = "wendland") -> np.ndarray:
     """Gradient factor f(|r|, h) (∇W = f r⃗) for an array of distances ``r``."""
-    _, f, _ = kernel_functions(kernel, dim)
-    r = np.ascontiguousarray(r, dtype=np.float64)
-    out = np.empty(r.size)
-    _apply_scalar(f, r.ravel(), float(h), out)
-    return out.reshape(r.shape)
+    return _values(1, r, h, dim, kernel)
 
 
 def kernel_lap(r, h: float, dim: int, kernel: str = "wendland") -> np.ndarray:
     """Viscosity Laplacian weight L(|r|, h) for an array of distances ``r``."""
-    _, _, lap = kernel_functions(kernel, dim)
-    r = np.ascontiguousarray(r, dtype=np.float64)
-    out = np.empty(r.size)
-    _apply_scalar(lap, r.ravel(), float(h), out)
-    return out.reshape(r.shape)
+    return _values(2, r, h, dim, kernel)
 
 
 def kernel_grad(rvec, h: float, kernel: str = "wendland") -> np.ndarray:

@@ -106,18 +106,22 @@ def geometry(cfg: SPHTerrainScenario) -> Geometry:
     return Geometry(raster, z.copy(), z.copy(), nodata, hm, 3)
 
 
+def _map_like_terrain(path: str, what: str, geo: Geometry) -> np.ndarray:
+    """A raster of the terrain's size (bedrock, rain map) in the SPH frame (rows northward)."""
+    from erosim.io.heightmaps import read
+
+    m = read(path).z
+    if m.shape != geo.terrain.shape:
+        raise InputError(
+            f"{what} '{path}' has shape {m.shape} but the terrain {geo.terrain.shape}; give one of the terrain's size."
+        )
+    return np.ascontiguousarray(m[::-1], dtype=np.float64)
+
+
 def _bedrock(cfg: SPHTerrainScenario, geo: Geometry) -> np.ndarray | None:
     g = cfg.ground
     if g.bedrock_file:
-        from erosim.io.heightmaps import read
-
-        b = read(g.bedrock_file).z
-        if b.shape != geo.terrain.shape:
-            raise InputError(
-                f"Bedrock map '{g.bedrock_file}' has shape {b.shape} but the terrain {geo.terrain.shape}; "
-                "they must match."
-            )
-        return np.ascontiguousarray(b[::-1], dtype=np.float64)
+        return _map_like_terrain(g.bedrock_file, "Bedrock map", geo)
     if g.bedrock_depth is not None:
         return geo.initial - g.bedrock_depth
     return None
@@ -126,15 +130,7 @@ def _bedrock(cfg: SPHTerrainScenario, geo: Geometry) -> np.ndarray | None:
 def _rain_map(cfg: SPHTerrainScenario, geo: Geometry) -> np.ndarray:
     r = cfg.rain
     if r.file:
-        from erosim.io.heightmaps import read
-
-        m = read(r.file).z
-        if m.shape != geo.terrain.shape:
-            raise InputError(
-                f"Rain map '{r.file}' has shape {m.shape} but the terrain {geo.terrain.shape}; give a rain map of "
-                "the terrain's size."
-            )
-        m = np.ascontiguousarray(m[::-1], dtype=np.float64)
+        m = _map_like_terrain(r.file, "Rain map", geo)
         top = float(np.nanmax(m)) if np.isfinite(m).any() else 0.0
         return m / top if top > 1.0 else m  # an image (0…255, 0…65535): its brightest cell is chance 1
     if r.pattern == "uniform":

@@ -112,20 +112,13 @@ def summation_particle(w, i, pos, start, nbr, m, h, rho_base, rho0, rho):
 
 
 @njit(parallel=True, cache=True)
-def predict_density(rho, rho_old, drho, p, active, dt, rho0, b, gamma, pmin):
-    """Active boundary particles: ρ_old = ρ; ρ = max(ρ₀, ρ + dt·dρ/dt); p = EOS(ρ)."""
+def update_density(rho, rho_old, drho, p, active, dt, rho0, b, gamma, pmin, predictor):
+    """Active boundary particles: ρ = max(ρ₀, ρ_old + dt·dρ/dt), p = EOS(ρ); the predictor first keeps
+    ρ in ρ_old (so it steps from the current ρ), the corrector steps from the kept one."""
     for k in prange(active.size):
         i = active[k]
-        rho_old[i] = rho[i]
-        rho[i] = max(rho0, rho[i] + dt * drho[i])
-        p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
-
-
-@njit(parallel=True, cache=True)
-def correct_density(rho, rho_old, drho, p, active, dt, rho0, b, gamma, pmin):
-    """Active boundary particles: ρ = max(ρ₀, ρ_old + dt·dρ/dt) with the new rate; p = EOS(ρ)."""
-    for k in prange(active.size):
-        i = active[k]
+        if predictor:
+            rho_old[i] = rho[i]
         rho[i] = max(rho0, rho_old[i] + dt * drho[i])
         p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
 
@@ -228,11 +221,11 @@ class BoundaryParticles(Boundary):
 
     def predict(self, solver, dt: float) -> None:
         st = solver.state
-        predict_density(st.rho, st.rho_old, st.drho, st.p, solver.active, dt, *solver.eos_args())
+        update_density(st.rho, st.rho_old, st.drho, st.p, solver.active, dt, *solver.eos_args(), True)
 
     def correct(self, solver, dt: float) -> None:
         st = solver.state
-        correct_density(st.rho, st.rho_old, st.drho, st.p, solver.active, dt, *solver.eos_args())
+        update_density(st.rho, st.rho_old, st.drho, st.p, solver.active, dt, *solver.eos_args(), False)
 
     def refresh(self, solver, *, positions=None, **changed) -> None:
         """Lay the particles at new ``positions`` (a changed terrain); the solver rebuilds its lists."""

@@ -12,6 +12,15 @@ from erosim.sph.boundaries.distance_wall import DistanceWall
 from erosim.sph.boundaries.wall_weight_harada2007 import wall_density, wall_rates
 
 
+@njit(inline="always", cache=True)
+def distance(pos, i, points, normals, k):
+    """l = (r_i − r₀)·n of particle i to plane k."""
+    l = 0.0
+    for a in range(pos.shape[1]):
+        l += (pos[i, a] - points[k, a]) * normals[k, a]
+    return l
+
+
 @njit(parallel=True, cache=True)
 def plane_forces(pos, vel, rho, p, acc, drho, n_fluid, points, normals, table, dl, approach_only, m, rho0, gvec,
                  wcsph, cvisc, summation):  # fmt: skip
@@ -19,9 +28,7 @@ def plane_forces(pos, vel, rho, p, acc, drho, n_fluid, points, normals, table, d
     support = dl * (table.shape[1] - 1)
     for i in prange(n_fluid):
         for k in range(points.shape[0]):
-            l = 0.0
-            for a in range(d):
-                l += (pos[i, a] - points[k, a]) * normals[k, a]
+            l = distance(pos, i, points, normals, k)
             if l >= support:
                 continue
             n2 = normals[k, 2] if d == 3 else 0.0
@@ -31,12 +38,9 @@ def plane_forces(pos, vel, rho, p, acc, drho, n_fluid, points, normals, table, d
 
 @njit(parallel=True, cache=True)
 def plane_density(pos, rho, n_fluid, points, normals, table, dl):
-    d = pos.shape[1]
     for i in prange(n_fluid):
         for k in range(points.shape[0]):
-            l = 0.0
-            for a in range(d):
-                l += (pos[i, a] - points[k, a]) * normals[k, a]
+            l = distance(pos, i, points, normals, k)
             rho[i] += wall_density(table, dl, l)
 
 
@@ -45,9 +49,7 @@ def plane_constrain(pos, vel, n_fluid, points, normals, gap):
     d = pos.shape[1]
     for i in prange(n_fluid):
         for k in range(points.shape[0]):
-            l = 0.0
-            for a in range(d):
-                l += (pos[i, a] - points[k, a]) * normals[k, a]
+            l = distance(pos, i, points, normals, k)
             if l >= 0.0:
                 continue
             vn = 0.0
