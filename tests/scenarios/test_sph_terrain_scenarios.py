@@ -190,7 +190,7 @@ def test_violent_inflow_on_steep_nodata_bordered_ground_stays_above_it(tmp_path)
 @pytest.mark.parametrize(
     "sets, words",
     [
-        (["rain.file={rain3}"], "rain map"),
+        (["rain.file={rain3}"], "Rain map"),
         (["terrain.file={nan}"], "no valid height"),
         (["water.level=99.5", "water.seed=[1.0, 1.0]"], "outside the terrain"),
         (["water.level=99.5", "water.seed=[500002.0, 4100002.0]"], "not below water.level"),
