@@ -1,6 +1,9 @@
 """erosim: particle-based terrain erosion and flood simulation."""
 
+import hashlib
 import os
+import sys
+from pathlib import Path
 
 # Numba's OpenMP layer spin-waits between parallel loops; on a machine shared with other work (CI,
 # a laptop with a browser open) that cost ~1 ms per loop, against ~3 µs for the workqueue layer,
@@ -10,3 +13,46 @@ import os
 os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
 
 __version__ = "0.1.0"
+
+#: compiled-kernel caches kept side by side (older ones are removed)
+_CACHES_KEPT = 4
+
+
+def source_hash(pkg: Path) -> str:
+    """16 hex digits of the SHA-256 of every ``.py`` file under ``pkg`` (names and contents)."""
+    digest = hashlib.sha256()
+    for path in sorted(pkg.rglob("*.py")):
+        digest.update(path.relative_to(pkg).as_posix().encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _numba_cache_dir() -> None:
+    """Put Numba's on-disk cache of compiled kernels in a folder named by a hash of this package's
+    sources, ``~/.cache/erosim/numba/<version>-<hash>`` (``$XDG_CACHE_HOME`` honoured).
+
+    Numba keys a cached function by its own file only: a jitted caller that inlines a callee from
+    another file (a kernel, a boundary pass) stays cached when only the callee's file changes, so a
+    run after an edit could execute the old physics. A folder per source hash makes that impossible;
+    the newest few folders are kept. ``NUMBA_CACHE_DIR`` set by the user wins.
+    """
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "erosim" / "numba"
+    folder = root / f"{__version__}-{source_hash(Path(__file__).resolve().parent)}"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        os.utime(folder)
+        old = sorted((p for p in root.iterdir() if p.is_dir() and p != folder), key=lambda p: p.stat().st_mtime)
+        for stale in old[: max(0, len(old) - (_CACHES_KEPT - 1))]:
+            import shutil
+
+            shutil.rmtree(stale, ignore_errors=True)
+    except OSError:  # no writable home: Numba's default cache beside the sources
+        return
+    os.environ["NUMBA_CACHE_DIR"] = str(folder)
+    if "numba" in sys.modules:  # imported before erosim: its config has read the environment already
+        sys.modules["numba"].config.CACHE_DIR = str(folder)
+
+
+_numba_cache_dir()

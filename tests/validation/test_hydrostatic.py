@@ -29,14 +29,22 @@ def _check(result, out):
     assert (out / "figures" / "pressure_profile.png").is_file()
 
 
+#: measured pressure RMS of the coarse tank (2026-11-23) and its scatter: the metric swings between
+#: 0.56 % and 0.82 % over t = 0.5…0.7 s as the tank's last sloshing dies out
+COARSE_MEASURED, COARSE_SCATTER = 0.0074, 0.0026
+
+
 def test_coarse_tank_at_rest(tmp_path):
     """H/16 (256 particles), 0.6 s of settling, held to the issue's own bounds (2 % pressure RMS,
-    1 % density); measured 0.74 % and 0.48 % on 2026-11-22 (H/40: 0.59 % and 0.49 %)."""
+    1 % density; measured 0.74 % and 0.48 %; H/40: 0.59 % and 0.49 %) and, as a regression bound, to
+    the measured value plus its scatter: without the density corrector, say, the tank still passes
+    the issue's bound (1.5 %) but not this one."""
     result = hs.run("coarse", tmp_path / "hs", progress=False)
     _check(result, tmp_path / "hs")
     assert result["particles_outside"] == 0
     assert result["density_variation"] < 0.01, result
     assert result["value"] < 0.02, result
+    assert result["value"] <= COARSE_MEASURED + COARSE_SCATTER, result
 
 
 @pytest.mark.slow

@@ -41,14 +41,34 @@ def _check(result, out):
         assert json.loads((out / "report.json").read_text())["column_width"] == pytest.approx(mm.A)
 
 
+#: measured error of the coarse collapse (2026-11-23) and the data's own scatter: the two
+#: digitisations of the experiment shipped (the table, and PySPH's of fig. 3) differ by 1.36 % on
+#: average at the tabulated T ≤ 3
+COARSE_MEASURED, DATA_SCATTER = 0.0312, 0.0136
+
+
+def test_data_scatter_is_what_the_regression_bound_says():
+    """The scatter used below, recomputed from the two digitisations."""
+    from erosim.data import MARTIN_MOYCE_FIG3
+
+    a, b = reference_csv(MARTIN_MOYCE_SURGE), reference_csv(MARTIN_MOYCE_FIG3)
+    sel = b["case"] == "a=2.25in"
+    order = np.argsort(b["T"][sel])
+    tb, zb = b["T"][sel][order], b["Z"][sel][order]
+    m = (a["T"] <= 3.0) & (a["T"] >= tb.min())
+    rel = np.abs(np.interp(a["T"][m], tb, zb) - a["Z"][m]) / a["Z"][m]
+    assert rel.mean() == pytest.approx(DATA_SCATTER, abs=5e-5)
+
+
 def test_coarse_column_collapse(tmp_path):
-    """a/10 (200 particles, seconds). Held to the issue's own 10 % bound: no looser threshold is
-    needed (measured 3.1 % on 2026-11-22 with the 2-D default support 3Δx; a/25 gives 7.8 %,
-    a/50 10.7 %: finer runs dissipate less and lead the experiment more, whose gate opened in a
-    finite time)."""
+    """a/10 (200 particles, seconds). Held to the issue's own 10 % bound (measured 3.1 %; a/25 gives
+    7.8 %, a/50 10.7 %: finer runs dissipate less and lead the experiment more, whose gate opened in
+    a finite time) and, as a regression bound, to the measured value plus the data's scatter:
+    without artificial viscosity, say, the front errs by 6.6 % — inside 10 %, not inside this."""
     result = mm.run("coarse", tmp_path / "mm", progress=False)
     _check(result, tmp_path / "mm")
     assert result["value"] <= 0.10, result
+    assert result["value"] <= COARSE_MEASURED + DATA_SCATTER, result
 
 
 @pytest.mark.slow
