@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-slow bench lint clean
+.PHONY: demo test test-slow bench mutation lint clean
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -24,9 +24,13 @@ test-slow: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/erosim bench sph --particles 100000
 	$(BIN)/erosim bench sph --particles 1000000 --steps 20
+	$(BIN)/erosim bench sph-terrain --particles 100000
 	$(BIN)/erosim bench hydrology --size 256
 	$(BIN)/erosim bench hydrology --size 512
 	$(BIN)/erosim bench stream
+
+mutation: $(STAMP)
+	$(BIN)/python benchmarks/mutation_check.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests

@@ -1,0 +1,321 @@
+"""Mutation check: break one piece of physics at a time and see whether the tests notice.
+
+For every mutation below (a file of the package, exact text, its broken replacement, and the test
+modules that own that code) the package's sources are copied to a temporary folder, the mutation is
+applied there, and pytest runs those test modules against the copy (``PYTHONPATH``; ``-x``: the first
+failure is enough). Numba compiles the copy afresh (its cache folder is named by a hash of the
+sources, see ``erosim/__init__.py``), so no compiled kernel of the unbroken code can hide a mutation.
+
+A mutation is *caught* when a test fails, *survives* when every test passes. Every mutation must be
+caught; the list grows with the physics (erosion laws, boundaries, budgets).
+
+    .venv/bin/python benchmarks/mutation_check.py                 # all, a table on stdout
+    .venv/bin/python benchmarks/mutation_check.py --only box-no-reversal artificial-viscosity-off
+    .venv/bin/python benchmarks/mutation_check.py --tests-rev df2ca55 --json before.json
+        # the tests as they were at an older commit (the mutations still apply to today's sources)
+
+Runs take a few minutes each (compilation); the whole list about an hour on two cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@dataclass(frozen=True)
+class Mutation:
+    name: str
+    file: str  # relative to src/erosim
+    edits: tuple[tuple[str, str], ...]  # (exact text, replacement); each text occurs exactly once
+    tests: tuple[str, ...]  # test modules that own the code
+    what: str
+
+
+SPH_CORE = ("tests/unit/test_sph_solver.py", "tests/verification/test_sph_viscosity.py",
+            "tests/validation/test_hydrostatic.py", "tests/validation/test_martin_moyce.py")  # fmt: skip
+
+MUTATIONS = (
+    Mutation(
+        "artificial-viscosity-off",
+        "sph/forces.py",
+        (("return kv * min(vdotr, 0.0) * f / ((rhoi + rhoj) * (r2 + eps2)), 0.0", "return 0.0 * kv, 0.0"),),
+        SPH_CORE,
+        "Monaghan's Π (SPH-6b, the default) contributes nothing",
+    ),
+    Mutation(
+        "laminar-viscosity-off",
+        "sph/forces.py",
+        (("return 0.0, -kv * lapw / (rhoi * rhoj)", "return 0.0, 0.0 * kv"),),
+        SPH_CORE,
+        "μ∇²v (SPH-6a, the thesis presets) contributes nothing",
+    ),
+    Mutation(
+        "density-corrector-removed",
+        "sph/integrators.py",
+        (("rho[i] = rho_old[i] + dt * drho[i]", "rho[i] = rho[i] + 0.0 * drho[i]"),),
+        SPH_CORE,
+        "the continuity corrector keeps the predicted density",
+    ),
+    Mutation(
+        "delta-sph-off",
+        "sph/forces.py",
+        (
+            (
+                'drho[i] = m * (dr + kdiff * dd)\n\n\n@njit(inline="always")\ndef fluid_particle_2d',
+                'drho[i] = m * dr\n\n\n@njit(inline="always")\ndef fluid_particle_2d',
+            ),
+            (
+                '    drho[i] = m * (dr + kdiff * dd)\n\n\n@njit(inline="always")\ndef kernel_sum',
+                '    drho[i] = m * dr\n\n\n@njit(inline="always")\ndef kernel_sum',
+            ),
+        ),
+        SPH_CORE,
+        "no δ-SPH density diffusion",
+    ),  # fmt: skip
+    Mutation(
+        "pressure-sign",
+        "sph/forces.py",
+        (("return pi / (rhoi * rhoi) + pj / (rhoj * rhoj)", "return pi / (rhoi * rhoi) - pj / (rhoj * rhoj)"),),
+        SPH_CORE,
+        "SPH-5b pressure term with a wrong sign",
+    ),
+    Mutation(
+        "box-no-reversal",
+        "sph/boundaries/box.py",
+        (
+            (
+                "x = min(2.0 * lo[a] - x, hi[a])\n            if vel[i, a] < 0.0:\n                vel[i, a] = -vel[i, a]",
+                "x = min(2.0 * lo[a] - x, hi[a])\n            if vel[i, a] < 0.0:\n                vel[i, a] = vel[i, a]",
+            ),
+        ),
+        ("tests/unit/test_sph_boundaries.py", "tests/unit/test_sph_solver.py"),
+        "a particle crossing a lower box wall keeps its outward velocity",
+    ),  # fmt: skip
+    Mutation(
+        "boundary-particles-static-density",
+        "sph/boundaries/particles.py",
+        (("    drho[i] = m * dr\n", "    drho[i] = 0.0 * m * dr\n"),),
+        ("tests/unit/test_sph_boundaries.py", "tests/validation/test_hydrostatic.py"),
+        "boundary particles never compress",
+    ),
+    Mutation(
+        "verlet-rebuild-late",
+        "sph/solver.py",
+        (("half = 0.5 * (self.rc - self.h)", "half = 5.0 * (self.rc - self.h)"),),
+        ("tests/unit/test_sph_solver.py", "tests/unit/test_sph_state.py"),
+        "neighbour lists rebuilt only after particles moved ten times the safe distance",
+    ),
+    Mutation(
+        "wall-hydrostatic-term-off",
+        "sph/boundaries/wall_weight_harada2007.py",
+        (("an = -m * (cp * cg - chyd * gn * ch)", "an = -m * (cp * cg)"),),
+        ("tests/unit/test_wall_weights.py", "tests/validation/test_basin_at_rest.py"),
+        "particle-free walls without the hydrostatic pressure of their wall particles",
+    ),
+    Mutation(
+        "wall-tangential-support-off",
+        "sph/boundaries/wall_weight_harada2007.py",
+        (("cgt = m * chyd * ctt", "cgt = 0.0 * m * chyd * ctt"),),
+        ("tests/unit/test_wall_weights.py", "tests/validation/test_basin_at_rest.py"),
+        "steep walls do not hold water up (no tangential hydrostatic term)",
+    ),
+    Mutation(
+        "heightfield-constraint-off",
+        "sph/boundaries/heightfield.py",
+        (("if pos[i, d - 1] >= bilinear(z, x, y):", "if pos[i, d - 1] >= bilinear(z, x, y) - 1e9:"),),
+        ("tests/scenarios/test_sph_terrain_scenarios.py",),
+        "no particle is ever lifted back above the ground",
+    ),
+    Mutation(
+        "binning-mean-not-divided",
+        "coupling/binning.py",
+        (("u = velocity[iy, ix, a] / c", "u = velocity[iy, ix, a] / 1.0"),),
+        ("tests/unit/test_coupling.py",),
+        "a node's mean velocity is the sum of its particles'",
+    ),
+    Mutation(
+        "coupler-applies-twice",
+        "coupling/coupler.py",
+        (("new = self.terrain + inc.dz", "new = self.terrain + 2.0 * inc.dz"),),
+        ("tests/unit/test_coupling.py",),
+        "the coupler applies each increment twice",
+    ),
+    Mutation(
+        "capacity-slope-clamp-off",
+        "erosion/transport_capacity_mei2007.py",
+        (("np.maximum(np.sin(slope(terrain, r.dx)), self.sin_min)", "np.sin(slope(terrain, r.dx))"),),
+        ("tests/unit/test_sph_terrain_parts.py",),
+        "flat ground never erodes (ER-1's clamp lost)",
+    ),
+    Mutation(
+        "sediment-deposit-share-wrong",
+        "erosion/transport_capacity_mei2007.py",
+        (("sed[i] += sed[i] * (e / held[k])", "sed[i] += e / count[k]"),),
+        ("tests/scenarios/test_sph_terrain_scenarios.py",),
+        "deposits taken equally from every particle, not in proportion to its load",
+    ),
+    Mutation(
+        "rain-ignores-its-map",
+        "coupling/sources.py",
+        (
+            (
+                'node = np.searchsorted(self.cdf, rng.random(k), side="right").clip(0, self.cdf.size - 1)',
+                "node = (rng.random(k) * self.cdf.size).astype(np.int64)",
+            ),
+        ),
+        ("tests/unit/test_sph_terrain_parts.py",),
+        "rain falls uniformly whatever the rain map",
+    ),  # fmt: skip
+    Mutation(
+        "sink-not-counted",
+        "sph/state.py",
+        (("self.removed[sink] = self.removed.get(sink, 0) + k", "self.removed[sink] = self.removed.get(sink, 0) + 0"),),
+        ("tests/unit/test_sph_state.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
+        "water leaving through a sink is not counted",
+    ),
+    Mutation(
+        "seed-kernel-ignores-erodibility",
+        "hydrology/droplets.py",
+        (("khe = kh * erod[c]", "khe = kh"),),
+        ("tests/unit/test_hydrology_bite.py", "tests/unit/test_hydrology_descend.py"),
+        "the seed-case droplet kernel erodes hard rock like soft soil",
+    ),
+    Mutation(
+        "roots-ignored",
+        "hydrology/droplets.py",
+        (
+            ("hold = 1.0 - root * roots[c]", "hold = 1.0 - 0.0 * root * roots[c]"),
+            ("kh = kd * max(1.0 - root * roots[c], 0.0)", "kh = kd * max(1.0 - 0.0 * root * roots[c], 0.0)"),
+        ),
+        ("tests/unit/test_hydrology_bite.py", "tests/unit/test_hydrology_descend.py"),
+        "roots hold no soil in either descend kernel (HY-5)",
+    ),  # fmt: skip
+    Mutation(
+        "heap-rebuild-loses-south-edge",
+        "hydrology/pools.py",
+        (("edge = ix == 0 or iy == 0 or ix == nx - 1 or iy == ny - 1", "edge = ix == 0 or iy == 0 or ix == nx - 1"),),
+        ("tests/unit/test_hydrology_bite.py", "tests/unit/test_hydrology_pools.py"),
+        "a rebuilt lake heap forgets the off-map exit of south-edge cells",
+    ),
+    Mutation(
+        "strata-ignore-hardness",
+        "erosion/particle_stream_warszawski.py",
+        (
+            (
+                "                dh = depth * g * (1.0 - d[j, i])\n                h[j, i] -= dh\n                total += dh\n"
+                "                if h[j, i] < floor[j, i]:",
+                "                dh = depth * g\n                h[j, i] -= dh\n                total += dh\n"
+                "                if h[j, i] < floor[j, i]:",
+            ),
+        ),
+        ("tests/unit/test_stream_bite.py", "tests/unit/test_particle_stream.py"),
+        "strata of any hardness erode like soft rock (the stream scenario's default path)",
+    ),  # fmt: skip
+    Mutation(
+        "schedule-fires-every-call",
+        "simulation/schedules.py",
+        (
+            (
+                "if self.interval <= 0 or t < self.next_at - 1e-12 * max(1.0, abs(self.next_at)):",
+                "if self.interval <= 0:",
+            ),
+        ),
+        ("tests/unit/test_simulation.py",),
+        "a time interval fires after every iteration",
+    ),  # fmt: skip
+    Mutation(
+        "ctrl-c-not-held",
+        "simulation/simulation.py",
+        (("        pressed.append(signum)\n", "        raise KeyboardInterrupt\n"),),
+        ("tests/unit/test_simulation.py",),
+        "Ctrl-C interrupts a step half-way (a checkpoint of half a step)",
+    ),
+)
+
+
+def _apply(src_root: Path, m: Mutation) -> None:
+    path = src_root / "erosim" / m.file
+    text = path.read_text(encoding="utf-8")
+    for old, new in m.edits:
+        if text.count(old) != 1:
+            raise SystemExit(f"mutation '{m.name}': the text to replace occurs {text.count(old)} times in {m.file}")
+        text = text.replace(old, new)
+    path.write_text(text, encoding="utf-8")
+
+
+def _tests_folder(rev: str | None, work: Path) -> Path:
+    if rev is None:
+        return REPO
+    out = work / "tests-rev"
+    out.mkdir()
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", rev, "tests", "pyproject.toml"], capture_output=True,
+                             check=True).stdout  # fmt: skip
+    subprocess.run(["tar", "-x", "-C", str(out)], input=archive, check=True)
+    return out
+
+
+def run_one(m: Mutation, tests_root: Path, work: Path) -> dict:
+    src = work / f"src-{m.name}"
+    shutil.copytree(REPO / "src", src, ignore=shutil.ignore_patterns("__pycache__"))
+    _apply(src, m)
+    tests = [t for t in m.tests if (tests_root / t).is_file()]
+    if not tests:
+        return {"name": m.name, "status": "no tests", "seconds": 0.0, "first_failure": None, "what": m.what}
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["PYTHONPATH"] = str(src)
+    env["XDG_CACHE_HOME"] = str(work / "cache")  # a fresh compile of the mutated sources
+    t0 = time.perf_counter()
+    res = subprocess.run(
+        [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-m", "not slow", *tests],
+        cwd=tests_root, env=env, capture_output=True, text=True,
+    )  # fmt: skip
+    seconds = time.perf_counter() - t0
+    failed = [ln.split(" ")[1] for ln in res.stdout.splitlines() if ln.startswith("FAILED ")]
+    status = {0: "survived", 1: "caught"}.get(res.returncode, f"error (pytest exit {res.returncode})")
+    shutil.rmtree(src, ignore_errors=True)
+    return {"name": m.name, "status": status, "seconds": round(seconds, 1),
+            "first_failure": failed[0] if failed else None, "what": m.what, "tests": tests}  # fmt: skip
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--only", nargs="*", help="names of the mutations to run (default: all)")
+    ap.add_argument("--list", action="store_true", help="list the mutations and exit")
+    ap.add_argument("--tests-rev", help="run the tests of this git revision (default: the working tree's)")
+    ap.add_argument("--json", help="also write the results to this file")
+    args = ap.parse_args(argv)
+    chosen = [m for m in MUTATIONS if not args.only or m.name in args.only]
+    if args.list:
+        for m in chosen:
+            print(f"{m.name:36s} {m.file:42s} {m.what}")
+        return 0
+    results = []
+    with tempfile.TemporaryDirectory(prefix="erosim-mutation-") as tmp:
+        work = Path(tmp)
+        tests_root = _tests_folder(args.tests_rev, work)
+        for m in chosen:
+            r = run_one(m, tests_root, work)
+            results.append(r)
+            print(f"{r['name']:36s} {r['status']:10s} {r['seconds']:7.1f} s  {r['first_failure'] or ''}", flush=True)
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=1))
+    survived = [r["name"] for r in results if r["status"] != "caught"]
+    print(
+        f"{len(results) - len(survived)} of {len(results)} caught" + (f"; not caught: {survived}" if survived else "")
+    )
+    return 1 if survived else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
