@@ -95,8 +95,10 @@ MUTATIONS = (
         "sph/boundaries/box.py",
         (
             (
-                "x = min(2.0 * lo[a] - x, hi[a])\n            if vel[i, a] < 0.0:\n                vel[i, a] = -vel[i, a]",
-                "x = min(2.0 * lo[a] - x, hi[a])\n            if vel[i, a] < 0.0:\n                vel[i, a] = vel[i, a]",
+                "x = min(2.0 * lo[a] - x, hi[a])\n            if vel[i, a] < 0.0:\n"
+                "                vel[i, a] = -vel[i, a]",
+                "x = min(2.0 * lo[a] - x, hi[a])\n            if vel[i, a] < 0.0:\n"
+                "                vel[i, a] = vel[i, a]",
             ),
         ),
         ("tests/unit/test_sph_boundaries.py", "tests/unit/test_sph_solver.py"),
@@ -213,8 +215,8 @@ MUTATIONS = (
         "erosion/particle_stream_warszawski.py",
         (
             (
-                "                dh = depth * g * (1.0 - d[j, i])\n                h[j, i] -= dh\n                total += dh\n"
-                "                if h[j, i] < floor[j, i]:",
+                "                dh = depth * g * (1.0 - d[j, i])\n                h[j, i] -= dh\n"
+                "                total += dh\n                if h[j, i] < floor[j, i]:",
                 "                dh = depth * g\n                h[j, i] -= dh\n                total += dh\n"
                 "                if h[j, i] < floor[j, i]:",
             ),
