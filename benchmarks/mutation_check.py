@@ -204,6 +204,32 @@ MUTATIONS = (
         "roots hold no soil in either descend kernel (HY-5)",
     ),  # fmt: skip
     Mutation(
+        "batch-ignores-erodibility-and-roots",
+        "hydrology/batch.py",
+        (
+            (
+                "kh = kd * max(1.0 - root * roots[c], 0.0)\n        khe = kh * erod[c]",
+                "kh = kd * max(1.0 - 0.0 * root * roots[c], 0.0)\n        khe = kh",
+            ),
+        ),
+        ("tests/unit/test_hydrology_bite.py", "tests/unit/test_hydrology_batch.py"),
+        "the batch mode's first descents ignore erodibility and roots",
+    ),  # fmt: skip
+    Mutation(
+        "fixed-hardness-ignored",
+        "erosion/particle_stream_warszawski.py",
+        (
+            (
+                "                dh = depth * g * (1.0 - d[j, i])\n                h[j, i] -= dh\n"
+                "                total += dh\n    return total\n\n\n@njit",
+                "                dh = depth * g\n                h[j, i] -= dh\n                total += dh\n"
+                "    return total\n\n\n@njit",
+            ),
+        ),
+        ("tests/unit/test_stream_bite.py", "tests/unit/test_particle_stream.py"),
+        "a fixed hardness map does not slow the stream",
+    ),  # fmt: skip
+    Mutation(
         "heap-rebuild-loses-south-edge",
         "hydrology/pools.py",
         (("edge = ix == 0 or iy == 0 or ix == nx - 1 or iy == ny - 1", "edge = ix == 0 or iy == 0 or ix == nx - 1"),),
