@@ -282,7 +282,7 @@ class TerrainOutputs(cb.Callback):
         fields = self.fields()
         from erosim.viz.maps import save_png
 
-        save_png(out.figures / "maps_final.png", self.panel("final"))
+        save_png(out.figures / "maps_final.png", self.panel())
         if g.dim == 2:
             x = np.arange(g.raster.nx) * g.raster.dx
             cols = ["x"] + list(fields)
@@ -302,11 +302,11 @@ class TerrainOutputs(cb.Callback):
         return {"outputs": {"maps": written, "figure": "figures/maps_final.png"}}
 
 
-def _panel_function(geo: Geometry, coupler: Coupler, figures: Path, title: str):
-    """The picture of the terrain and water now (three panels; 2-D: the bed profile), also saved as PNG."""
+def _panel_function(geo: Geometry, coupler: Coupler, title: str):
+    """The picture of the terrain and water now (three panels; 2-D: the bed profile) as an RGB array."""
     from erosim.viz.plots import profile_panel, terrain_panels
 
-    def panel(tag: str = "") -> np.ndarray:
+    def panel() -> np.ndarray:
         c = coupler
         c.grid.bin(c.solver)
         t = f"{title}  t = {c.solver.t:.3g} s"
@@ -377,7 +377,7 @@ def setup(scenario, out) -> Setup:
         front = cb.FrontTracker(TimeInterval(run.sample_interval), solver, out.path / "front.csv",
                                 spacing=cfg.sph.spacing, origin=origin)  # fmt: skip
         callbacks.append(front)
-    panel = _panel_function(geo, coupler, out.figures, scenario.name)
+    panel = _panel_function(geo, coupler, scenario.name)
     if run.map_frames > 0:
         callbacks.append(MapFrames(TimeInterval(run.t_end / run.map_frames), panel, out.path / "figures"))
     below = BelowGround(IterationInterval(e.every), solver, ground)
