@@ -136,7 +136,7 @@ MUTATIONS = (
         "heightfield-constraint-off",
         "sph/boundaries/heightfield.py",
         (("if pos[i, d - 1] >= bilinear(z, x, y):", "if pos[i, d - 1] >= bilinear(z, x, y) - 1e9:"),),
-        ("tests/scenarios/test_sph_terrain_scenarios.py",),
+        ("tests/unit/test_sph_terrain_parts.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
         "no particle is ever lifted back above the ground",
     ),
     Mutation(
@@ -164,7 +164,7 @@ MUTATIONS = (
         "sediment-deposit-share-wrong",
         "erosion/transport_capacity_mei2007.py",
         (("sed[i] += sed[i] * (e / held[k])", "sed[i] += e / count[k]"),),
-        ("tests/scenarios/test_sph_terrain_scenarios.py",),
+        ("tests/unit/test_sph_terrain_parts.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
         "deposits taken equally from every particle, not in proportion to its load",
     ),
     Mutation(

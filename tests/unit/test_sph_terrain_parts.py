@@ -164,3 +164,50 @@ def test_a_particle_ground_needs_no_memory_per_area():
         assert s.n_boundary == 0
         sizes[n] = sum(a.nbytes for a in s.state._store.values()) + s.nbr.nbytes + s.start.nbytes
     assert sizes[20] == sizes[400]
+
+
+def test_a_deposit_is_taken_from_each_particle_in_proportion_to_its_load():
+    """Particle transport (ER-3): a node that deposits a fraction q of the sediment its water holds
+    takes q of each particle's own load (a particle carrying nothing gives nothing, none goes
+    negative); a pick-up is shared equally. Sums close to rounding (1e-15)."""
+    from erosim.erosion.transport_capacity_mei2007 import exchange_with_particles, held_per_node
+
+    r = Raster(0.0, 0.0, 1.0, 1.0, 3, 1)
+    pos = np.array([[0.1, 0.0], [0.2, 0.0], [-0.3, 0.0], [1.1, 0.0], [0.9, 0.0]])
+    sed = np.array([4.0, 0.0, 1.0, 2.0, 2.0])  # node 0 holds 5 m³ (4, 0, 1), node 1 holds 4 m³
+    held = np.zeros(3)
+    held_per_node(pos, sed, 5, 0.0, 0.0, 1.0, 1.0, 3, 1, held)
+    assert held.tolist() == [5.0, 4.0, 0.0]
+    exchange = np.array([-2.0, 0.6, 0.0])  # node 0 deposits 2 of its 5; node 1 picks up 0.6
+    count = np.array([3, 2, 0])
+    exchange_with_particles(pos, sed, 5, 0.0, 0.0, 1.0, 1.0, 3, 1, exchange, count, held)
+    np.testing.assert_allclose(sed, [4.0 * 0.6, 0.0, 1.0 * 0.6, 2.3, 2.3], rtol=1e-15)
+    assert sed.min() >= 0.0
+
+
+def test_the_ground_constraint_lifts_a_particle_below_it_and_stops_it_going_in():
+    """A particle found under the heightfield (after a step that crossed it, or a deposit that buried
+    it) is put on the Q4 surface, 10⁻³Δx above it, and loses the velocity component into the ground
+    (the component along it is kept)."""
+    from erosim.sph.boundaries.heightfield import HeightfieldGround
+    from erosim.sph.solver import SPHSolver
+
+    r = Raster(0.0, 0.0, 0.1, 0.1, 11, 11)
+    terrain = np.fromfunction(lambda j, i: 0.2 * i * 0.1, r.shape)  # a plane rising eastward, slope 0.2
+    ground = HeightfieldGround(r, terrain)
+    s = SPHSolver(SPHParams(dim=3, spacing=0.05, walls="reflect"), [[0.5, 0.5, 0.4]], domain_lo=[-1, -1, -1],
+                  domain_hi=[2, 2, 2], boundaries=[ground])  # fmt: skip
+    st = s.state
+    st.pos[0] = [0.5, 0.5, 0.02]  # the ground is at 0.1 here: 8 cm under it
+    st.vel[0] = [1.0, 0.5, -2.0]
+    ground.constrain(s)
+    assert st.pos[0, 2] == pytest.approx(0.1 + 1e-3 * 0.05, abs=1e-12)
+    n = np.array([-0.2, 0.0, 1.0]) / np.sqrt(1.04)
+    assert st.vel[0] @ n == pytest.approx(0.0, abs=1e-12)  # nothing left into the ground
+    tangent = np.array([1.0, 0.5, -2.0]) - (np.array([1.0, 0.5, -2.0]) @ n) * n
+    np.testing.assert_allclose(st.vel[0], tangent, rtol=1e-12)
+    assert ground.below(s, tol=0.0) == 0
+    # a deposit that buries it: the refresh lifts it at once
+    terrain += 0.3
+    ground.refresh(s, terrain=terrain, changed=np.ones(r.shape, bool))
+    assert st.pos[0, 2] >= 0.4 and ground.below(s, tol=0.0) == 0
