@@ -172,7 +172,7 @@ def test_a_deposit_is_taken_from_each_particle_in_proportion_to_its_load():
     negative); a pick-up is shared equally. Sums close to rounding (1e-15)."""
     from erosim.erosion.transport_capacity_mei2007 import exchange_with_particles, held_per_node
 
-    r = Raster(0.0, 0.0, 1.0, 1.0, 3, 1)
+    # a one-row raster of three 1 m nodes at x = 0, 1, 2 (the kernels take its numbers: x0, y0, 1/dx, 1/dy, nx, ny)
     pos = np.array([[0.1, 0.0], [0.2, 0.0], [-0.3, 0.0], [1.1, 0.0], [0.9, 0.0]])
     sed = np.array([4.0, 0.0, 1.0, 2.0, 2.0])  # node 0 holds 5 m³ (4, 0, 1), node 1 holds 4 m³
     held = np.zeros(3)
