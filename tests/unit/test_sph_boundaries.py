@@ -57,11 +57,20 @@ def test_ported_walls_give_the_trajectories_of_before(name):
     s = _case(*CASES[name])
     for _ in range(300):
         s.step()
-    assert s.t == ref[f"{name}.t"]
-    np.testing.assert_array_equal(s.fluid_positions(), ref[f"{name}.pos"])
-    np.testing.assert_array_equal(s.fluid_velocities(), ref[f"{name}.vel"])
-    np.testing.assert_array_equal(s.fluid_density(), ref[f"{name}.rho"])
-    np.testing.assert_array_equal(s.boundary_pressure(), ref[f"{name}.boundary_p"])
+    assert s.t == pytest.approx(float(ref[f"{name}.t"]), rel=1e-12)
+    for got, key in [
+        (s.fluid_positions(), "pos"),
+        (s.fluid_velocities(), "vel"),
+        (s.fluid_density(), "rho"),
+        (s.boundary_pressure(), "boundary_p"),
+    ]:
+        want = ref[f"{name}.{key}"]
+        # Same CPU: equal bit for bit. The file was written on one CPU; another one's compiled code
+        # (FMA contraction, AVX-512 reductions) rounds differently, which after 300 steps moves the
+        # last digits (4e-16 relative measured between an AVX2 and an AVX-512 machine, with the old and
+        # the new solver agreeing bit for bit on each). 1e-10 of the field's scale is far above that and
+        # far below what any change to the wall physics does (1e-4 and more).
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-10 * np.abs(want).max(initial=0.0), err_msg=key)
 
 
 @pytest.mark.parametrize("axis", [0, 1, 2])
