@@ -16,7 +16,7 @@ from pathlib import Path
 import click
 
 from erosim import __version__
-from erosim.core.errors import ConfigError, ErosimError, InputError, Interrupted
+from erosim.core.errors import ErosimError, Interrupted, os_error_message
 
 
 class _Context:
@@ -40,10 +40,10 @@ def _guard(fn, *args, **kwargs):
         return fn(*args, **kwargs)
     except ErosimError as exc:
         _fail(exc)
-    except FileNotFoundError as exc:
-        _fail(ErosimError(f"File not found: '{exc.filename}'; check the path."))
+    except OSError as exc:  # permission denied, read-only or full disk, a file where a folder should be
+        _fail(ErosimError(os_error_message(exc)))
     except KeyboardInterrupt:
-        _fail(Interrupted("Interrupted."))
+        _fail(Interrupted("Interrupted before any result was kept; run the command again."))
 
 
 def _print_result(result: dict, as_json: bool) -> None:
@@ -120,11 +120,18 @@ def _run(scenario_ref, overrides, preset, out, resume, overwrite):
 
     try:
         summary = run_scenario(scenario, run_folder, resume=bool(resume), progress=not STATE.quiet)
-    except (ConfigError, InputError):
-        # bad input found while building the run (a NaN-only DEM, a step above the CFL limit):
-        # nothing was simulated, so a folder this command created is removed, not left half-made
-        if not resume and created:
+    except BaseException as exc:
+        resumable = (run_folder.path / "checkpoint").is_dir()
+        if not resume and created and not resumable:
+            # failed or stopped before its first checkpoint (bad input found while building the run,
+            # Ctrl-C while compiling): nothing to keep, so the folder this command made goes
             shutil.rmtree(run_folder.path, ignore_errors=True)
+            if isinstance(exc, KeyboardInterrupt):
+                msg = "Interrupted before the first step; nothing was kept, run the command again."
+                raise Interrupted(msg) from None
+        elif isinstance(exc, OSError) and resumable:
+            hint = f" The run can then be continued with `erosim run --resume {run_folder.path}`."
+            raise ErosimError(os_error_message(exc) + hint) from exc
         raise
     return run_folder, summary
 

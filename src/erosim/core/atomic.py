@@ -30,18 +30,29 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
             write_geotiff(tmp, ...)
     """
     final = Path(path)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{final.stem}.", suffix=final.suffix + ".part", dir=final.parent)
+    try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{final.stem}.", suffix=final.suffix + ".part", dir=final.parent)
+    except OSError as exc:
+        raise _naming(exc, final) from None
     os.close(fd)
     tmp = Path(tmp_name)
     os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; give the file the usual permissions
     try:
         yield tmp
         os.replace(tmp, final)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+        if isinstance(exc, OSError) and exc.errno is not None:
+            raise _naming(exc, final) from None
         raise
+
+
+def _naming(exc: OSError, final: Path) -> OSError:
+    """The same error, naming the file the user asked for rather than its temporary name."""
+    named = type(exc)(exc.errno, exc.strerror, str(final))
+    return named if exc.filename in (None, str(final)) or ".part" in str(exc.filename) else exc
 
 
 def write_bytes(path: str | os.PathLike, data: bytes) -> Path:

@@ -35,3 +35,25 @@ class BudgetError(ErosimError):
     """A model's increments do not conserve what they must (mass, volume): a bug, stopped at once."""
 
     exit_code = 3
+
+
+def os_error_message(exc: OSError) -> str:
+    """One sentence for an operating-system error (permission, read-only disk, full disk, a file in the
+    way of a folder …): what happened to which path, and the fix."""
+    import errno
+
+    path = exc.filename if exc.filename is not None else "the output"
+    sentences = {
+        errno.EACCES: f"Permission denied for '{path}'; choose a place you can write to (for a run, --out DIR) "
+        "or change its permissions.",
+        errno.EROFS: f"'{path}' is on a read-only file system; write somewhere else (for a run, --out DIR).",
+        errno.ENOSPC: f"No space left on the disk holding '{path}'; free some space or write to another disk.",
+        errno.ENOTDIR: f"'{path}' cannot be used: part of that path is a file, not a folder; choose another path.",
+        errno.EISDIR: f"'{path}' is a folder, not a file; name a file.",
+        errno.ENOENT: f"File not found: '{path}'; check the path.",
+        errno.EEXIST: f"'{path}' exists already; choose another name or remove it.",
+    }
+    sentences[errno.EPERM] = sentences[errno.EACCES]
+    sentences[errno.EDQUOT] = sentences[errno.ENOSPC]
+    reason = exc.strerror or type(exc).__name__
+    return sentences.get(exc.errno, f"{reason} for '{path}'; check the path and the disk.")

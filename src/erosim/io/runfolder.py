@@ -38,6 +38,8 @@ class RunFolder:
 
     def __init__(self, path: str | os.PathLike, *, resume: bool = False, overwrite: bool = False):
         self.path = Path(path)
+        if self.path.exists() and not self.path.is_dir():
+            raise ConfigError(f"'{self.path}' is a file, not a folder; name a folder for the run (--out DIR).")
         if resume:
             if not (self.path / "checkpoint").is_dir():
                 raise ConfigError(
