@@ -8,6 +8,7 @@ The format follows the file's extension:
 | ``.png``        | 16-bit grayscale PNG (Pillow)            | 0..65535 over a height range    |
 | ``.raw .r16``   | headerless little-endian uint16 (games)  | 0..65535 over a height range    |
 | ``.asc``        | ESRI ASCII grid (17 significant digits)  | metres, exact; corner + cellsize|
+|                 |                                          | (``dx``/``dy`` if not square)   |
 | ``.npy``        | NumPy array, float64                     | metres, exact                   |
 | ``.npz``        | NumPy archive: z, cell_size, crs, transform | metres, exact, georeference  |
 
@@ -15,6 +16,12 @@ The format follows the file's extension:
 so a round trip is within half a step (hi − lo)/65535. :func:`write` returns the range used
 (``height_range``) so the run report can re-scale; erosim's PNGs also carry it in a text chunk
 (``erosim:height_range``) and read it back. Without a range, 16-bit values are read as metres.
+
+Georeference of PNG, RAW16, ASC and NPY lives in sidecar files beside the map (GDAL's and ESRI's
+conventions, read back by :func:`read`): ``<stem>.prj`` holds the CRS as WKT, and a world file holds
+the transform: ``<stem>.pgw`` for PNG, ``<stem>.wld`` for RAW16 and NPY (ASC keeps its corner and
+cell size in its header). World-file lines are A, D, B, E, C, F with (C, F) the centre of the
+upper-left pixel. A map without CRS or transform writes no sidecar.
 
 ``sample:jacksboro`` is the 3-arc-second DEM of the Jacksboro fault (Tennessee) shipped with
 matplotlib. Its cells are 74.5 m (E–W) × 92.4 m (N–S); erosim uses the square cell of equal area,
@@ -31,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from erosim.core.atomic import atomic_path
+from erosim.core.atomic import atomic_path, write_text
 from erosim.core.errors import InputError
 from erosim.core.heightmap import Heightmap
 
@@ -51,6 +58,7 @@ JACKSBORO_CELL = 83.0  # m: sqrt(74.5 m × 92.4 m), the equal-area square of the
 _NODATA = -9999.0
 _PNG_RANGE_KEY = "erosim:height_range"
 _PNG_CELL_KEY = "erosim:cell_size"
+_SIDECAR_FORMATS = ("png16", "raw16", "asc", "npy")  # georeference beside the file, not in it
 
 
 # ----------------------------------------------------------------------------------------- helpers
@@ -135,6 +143,78 @@ def _metres_per_degree(lat_deg: float) -> tuple[float, float]:
     return lon, lat
 
 
+def _cell_from_transform(t: tuple, crs, ny: int) -> float:
+    """Metres per cell of transform ``t`` (rasterio CRS or None): the square cell of equal area."""
+    if crs is not None and crs.is_geographic:
+        lat = t[5] + t[4] * ny / 2.0
+        mlon, mlat = _metres_per_degree(lat)
+        return math.sqrt(abs(t[0]) * mlon * abs(t[4]) * mlat)
+    factor = 1.0
+    if crs is not None:
+        try:
+            factor = float(crs.linear_units_factor[1])
+        except Exception:  # CRS without linear units: take the numbers as metres
+            factor = 1.0
+    return math.sqrt(abs(t[0] * t[4] - t[1] * t[3])) * factor
+
+
+def _world_path(p: Path) -> Path:
+    """The world file of ``p``: ``<stem>.pgw`` for PNG, ``<stem>.wld`` for the others."""
+    return p.with_suffix(".pgw" if p.suffix.lower() == ".png" else ".wld")
+
+
+def _write_sidecars(p: Path, fmt: str, hm: Heightmap, transform_in_file: bool) -> list[str]:
+    """Write ``<stem>.prj`` (CRS as WKT) and, unless the file holds it, the world file."""
+    from rasterio.crs import CRS
+
+    written = []
+    if hm.crs:
+        try:
+            wkt = CRS.from_user_input(hm.crs).to_wkt()
+        except Exception:
+            raise InputError(f"The map's CRS {hm.crs[:60]!r} is not valid; give WKT text or 'EPSG:code'.") from None
+        written.append(str(write_text(p.with_suffix(".prj"), wkt + "\n")))
+    if hm.transform and not transform_in_file:
+        a, b, c, d, e, f = (float(v) for v in hm.transform)
+        lines = (a, d, b, e, c + 0.5 * (a + b), f + 0.5 * (d + e))  # C, F: centre of the upper-left pixel
+        written.append(str(write_text(_world_path(p), "".join(f"{v!r}\n" for v in lines))))
+    return written
+
+
+def _read_sidecars(p: Path, world: bool = True):
+    """(rasterio CRS or None, transform or None) from ``<stem>.prj`` and the world file of ``p``."""
+    from rasterio.crs import CRS
+
+    crs = transform = None
+    prj = p.with_suffix(".prj")
+    if prj.is_file():
+        try:
+            crs = CRS.from_wkt(prj.read_text(encoding="utf-8", errors="replace").strip())
+        except Exception as exc:
+            raise InputError(f"Cannot read the CRS in '{prj}' ({exc}); fix that file or delete it.") from None
+    wld = next((w for w in (_world_path(p), p.with_suffix(".wld")) if w.is_file()), None) if world else None
+    if wld is not None:
+        try:
+            a, d, b, e, cx, cy = (float(v) for v in wld.read_text(encoding="ascii", errors="replace").split())
+        except ValueError:
+            raise InputError(f"World file '{wld}' does not hold six numbers; fix that file or delete it.") from None
+        if not all(math.isfinite(v) for v in (a, d, b, e, cx, cy)) or a * e - b * d == 0:
+            raise InputError(f"World file '{wld}' gives no valid pixel size; fix that file or delete it.")
+        transform = (a, b, cx - 0.5 * (a + b), d, e, cy - 0.5 * (d + e))
+    return crs, transform
+
+
+def _georeferenced(p: Path, z: np.ndarray, cs: float | None, rng=None, notes: bool = False) -> Heightmap:
+    """Heightmap of ``z`` read from ``p``, with the georeference (and cell size) of its sidecars."""
+    crs, t = _read_sidecars(p)
+    if cs is None and t is not None:
+        cs = _cell_from_transform(t, crs, z.shape[0])
+    hm = Heightmap(z=z, cell_size=cs or 1.0, crs=crs.to_wkt() if crs is not None else None, transform=t)
+    if notes:
+        hm.notes.extend(_assumptions(p, rng, cs))
+    return hm
+
+
 # ------------------------------------------------------------------------------------------- read
 def read(
     path: str | os.PathLike,
@@ -169,7 +249,7 @@ def read(
         if fmt == "asc":
             return _read_asc(p, cs)
         if fmt == "npy":
-            return Heightmap(z=np.load(p, allow_pickle=False), cell_size=cs or 1.0)
+            return _georeferenced(p, np.load(p, allow_pickle=False), cs)
         return _read_npz(p, cs)
     except InputError:
         raise
@@ -212,21 +292,7 @@ def _read_geotiff(p: Path, cs: float | None) -> Heightmap:
     georef = not t.is_identity
     transform = tuple(t)[:6] if georef else None
     if cs is None:
-        if not georef:
-            cs = 1.0
-        elif crs is not None and crs.is_geographic:
-            ny = z.shape[0]
-            lat = t.f + t.e * ny / 2.0
-            mlon, mlat = _metres_per_degree(lat)
-            cs = math.sqrt(abs(t.a) * mlon * abs(t.e) * mlat)
-        else:
-            factor = 1.0
-            if crs is not None:
-                try:
-                    factor = float(crs.linear_units_factor[1])
-                except Exception:  # CRS without linear units: take the numbers as metres
-                    factor = 1.0
-            cs = math.sqrt(abs(t.a * t.e - t.b * t.d)) * factor
+        cs = _cell_from_transform(transform, crs, z.shape[0]) if georef else 1.0
     return Heightmap(
         z=z,
         cell_size=cs,
@@ -250,9 +316,7 @@ def _read_png(p: Path, cs: float | None, rng) -> Heightmap:
         rng = _check_range(str(info[_PNG_RANGE_KEY]).split())
     if cs is None and _PNG_CELL_KEY in info:
         cs = _check_cell_size(info[_PNG_CELL_KEY])
-    hm = Heightmap(z=_dequantise(np.asarray(a, dtype=np.float64), rng, full), cell_size=cs or 1.0)
-    hm.notes.extend(_assumptions(p, rng, cs))
-    return hm
+    return _georeferenced(p, _dequantise(np.asarray(a, dtype=np.float64), rng, full), cs, rng, notes=True)
 
 
 def _assumptions(p: Path, rng, cs) -> list[str]:
@@ -286,9 +350,7 @@ def _read_raw(p: Path, cs: float | None, rng, raw_shape) -> Heightmap:
             raise InputError(f"RAW16 file '{p}' holds {n} values, not a square map; give raw_shape = [rows, cols].")
         ny = nx = side
     q = np.fromfile(p, dtype="<u2").reshape(ny, nx)
-    hm = Heightmap(z=_dequantise(q, rng), cell_size=cs or 1.0)
-    hm.notes.extend(_assumptions(p, rng, cs))
-    return hm
+    return _georeferenced(p, _dequantise(q, rng), cs, rng, notes=True)
 
 
 def _read_asc(p: Path, cs: float | None) -> Heightmap:
@@ -303,8 +365,9 @@ def _read_asc(p: Path, cs: float | None) -> Heightmap:
             else:
                 fh.seek(pos)
                 break
-        need = ("ncols", "nrows", "cellsize")
-        missing = [k for k in need if k not in header]
+        missing = [k for k in ("ncols", "nrows") if k not in header]
+        if "cellsize" not in header and not ("dx" in header and "dy" in header):
+            missing.append("cellsize")
         if missing:
             raise InputError(f"ASCII grid '{p}' lacks header line(s) {', '.join(missing)}; is it an ESRI .asc file?")
         ny, nx = int(header["nrows"]), int(header["ncols"])
@@ -312,16 +375,19 @@ def _read_asc(p: Path, cs: float | None) -> Heightmap:
     if values.size != ny * nx:
         raise InputError(f"ASCII grid '{p}' has {values.size} values but its header says {ny}x{nx}.")
     z = values.reshape(ny, nx)
-    step = header["cellsize"]
-    x0 = header["xllcorner"] if "xllcorner" in header else header.get("xllcenter", 0.5 * step) - 0.5 * step
-    y0 = header["yllcorner"] if "yllcorner" in header else header.get("yllcenter", 0.5 * step) - 0.5 * step
+    dx, dy = header.get("dx", header.get("cellsize")), header.get("dy", header.get("cellsize"))
+    x0 = header["xllcorner"] if "xllcorner" in header else header.get("xllcenter", 0.5 * dx) - 0.5 * dx
+    y0 = header["yllcorner"] if "yllcorner" in header else header.get("yllcenter", 0.5 * dy) - 0.5 * dy
+    transform = (dx, 0.0, x0, 0.0, -dy, y0 + ny * dy)
+    crs, _ = _read_sidecars(p, world=False)
     mask = None
     if "nodata_value" in header:
         mask = z == header["nodata_value"]
     return Heightmap(
         z=z,
-        cell_size=cs or step,
-        transform=(step, 0.0, x0, 0.0, -step, y0 + ny * step),
+        cell_size=cs or _cell_from_transform(transform, crs, ny),
+        crs=crs.to_wkt() if crs is not None else None,
+        transform=transform,
         nodata=mask if mask is not None and mask.any() else None,
     )
 
@@ -355,13 +421,15 @@ def write(
 ) -> dict:
     """Write a heightmap (or a bare array georeferenced ``like`` another map) atomically.
 
-    Returns ``{"path", "format", "shape", "cell_size"}`` plus ``height_range`` [lo, hi] (m) for the
-    16-bit formats, so a report can say how to re-scale them.
+    Returns ``{"path", "format", "shape", "cell_size", "georeference"}`` plus ``height_range``
+    [lo, hi] (m) for the 16-bit formats, so a report can say how to re-scale them, ``sidecars``
+    (the .prj and world files written) and ``not_kept`` (what the format cannot hold), where any.
     """
     fmt = _format(path, "write")
     hm = _as_heightmap(hm_or_array, like)
     p = Path(path)
     info = {"path": str(p), "format": fmt, "shape": list(hm.shape), "cell_size": hm.cell_size}
+    asc_corner = True
     with atomic_path(p) as tmp:
         if fmt == "geotiff":
             _write_geotiff(tmp, hm)
@@ -373,7 +441,7 @@ def write(
                 fh.write(q.astype("<u2").tobytes())
             info["height_range"] = list(rng)
         elif fmt == "asc":
-            _write_asc(tmp, hm)
+            asc_corner = _write_asc(tmp, hm)
         elif fmt == "npy":
             with open(tmp, "wb") as fh:
                 np.save(fh, _with_nan(hm))
@@ -387,7 +455,49 @@ def write(
                     transform=np.asarray(hm.transform if hm.transform else (), dtype=np.float64),
                     nodata=hm.nodata if hm.nodata is not None else np.zeros((0, 0), bool),
                 )
+    sidecars = []
+    if fmt in _SIDECAR_FORMATS and (fmt != "asc" or asc_corner):
+        sidecars = _write_sidecars(p, fmt, hm, transform_in_file=fmt == "asc")
+        if sidecars:
+            info["sidecars"] = sidecars
+    info["georeference"] = _georeference_note(fmt, hm, sidecars, asc_corner)
+    not_kept = _not_kept(fmt, hm, info.get("height_range"), asc_corner)
+    if not_kept:
+        info["not_kept"] = not_kept
     return info
+
+
+def _georeference_note(fmt: str, hm: Heightmap, sidecars: list[str], asc_corner: bool) -> str:
+    """Where the CRS and transform went, in words for ``convert``'s summary."""
+    what = " and ".join(k for k, v in (("CRS", hm.crs), ("transform", hm.transform)) if v)
+    if not what:
+        return "none in the source"
+    if fmt in ("geotiff", "npz"):
+        return f"{what} in the file"
+    names = " + ".join(Path(s).name for s in sidecars)
+    if fmt == "asc" and hm.transform and asc_corner:
+        return "transform in the header" + (f", CRS in {names}" if names else "")
+    return f"{what} in {names}" if names else "not kept"
+
+
+def _not_kept(fmt: str, hm: Heightmap, rng, asc_corner: bool) -> list[str]:
+    """What the format loses of this map, one phrase each."""
+    lost = []
+    if rng is not None:
+        lost.append(f"exact heights: 65 536 levels, step {(rng[1] - rng[0]) / Q16:.3g} m")
+    if fmt == "geotiff":
+        lost.append("exact heights: float32, relative rounding 6e-8")
+    if fmt == "raw16":
+        lost.append(f"height range: give --height-range {rng[0]!r} {rng[1]!r} when reading it")
+    if fmt == "raw16" and hm.shape[0] != hm.shape[1]:
+        lost.append(f"shape: give --raw-shape {hm.shape[0]} {hm.shape[1]} when reading it")
+    if fmt in ("raw16", "npy") and not hm.transform:
+        lost.append("cell size: give --cell-size when reading it")
+    if fmt in ("png16", "raw16") and hm.nodata is not None:
+        lost.append(f"nodata: {int(hm.nodata.sum())} cells hold the nearest valid height")
+    if fmt == "asc" and not asc_corner and (hm.crs or hm.transform):
+        lost.append("georeference: ASC holds no rotated or flipped grid")
+    return lost
 
 
 def _with_nan(hm: Heightmap) -> np.ndarray:
@@ -436,26 +546,25 @@ def _write_png(tmp: Path, hm: Heightmap, height_range) -> tuple[float, float]:
     return rng
 
 
-def _write_asc(tmp: Path, hm: Heightmap) -> None:
+def _write_asc(tmp: Path, hm: Heightmap) -> bool:
+    """Write the grid; True when its corner and cell size come from the map's transform."""
     ny, nx = hm.shape
     t = hm.transform
-    square = t is not None and t[1] == 0 and t[3] == 0 and abs(abs(t[0]) - abs(t[4])) <= 1e-12 * abs(t[0])
-    if square:
-        step, x0, y0 = abs(t[0]), t[2], t[5] + t[4] * ny
+    upright = t is not None and t[1] == 0 and t[3] == 0 and t[0] > 0 and t[4] < 0
+    if upright:
+        dx, dy, x0, y0 = float(t[0]), float(-t[4]), float(t[2]), float(t[5] + t[4] * ny)
     else:
-        step, x0, y0 = hm.cell_size, 0.0, 0.0
-    lines = [
-        f"ncols {nx}",
-        f"nrows {ny}",
-        f"xllcorner {x0!r}",
-        f"yllcorner {y0!r}",
-        f"cellsize {step!r}",
-        f"NODATA_value {_NODATA!r}",
-    ]
+        dx = dy = hm.cell_size
+        x0 = y0 = 0.0
+    square = abs(dx - dy) <= 1e-12 * dx
+    cells = [f"cellsize {dx!r}"] if square else [f"dx {dx!r}", f"dy {dy!r}"]  # dx/dy: GDAL's extension
+    lines = [f"ncols {nx}", f"nrows {ny}", f"xllcorner {x0!r}", f"yllcorner {y0!r}", *cells]
+    lines.append(f"NODATA_value {_NODATA!r}")
     z = hm.z if hm.nodata is None else np.where(hm.nodata, _NODATA, hm.z)
     with open(tmp, "w", encoding="ascii") as fh:
         fh.write("\n".join(lines) + "\n")
         np.savetxt(fh, z, fmt="%.17g")
+    return upright or t is None
 
 
 def write_png16(path: str | os.PathLike, array: np.ndarray, height_range=None) -> dict:
@@ -494,7 +603,9 @@ def convert(
     """Read ``src`` and write ``dst`` (formats from the extensions); returns what was written.
 
     ``cell_size`` overrides the source's cell size; ``raw_shape``/``height_range`` help read
-    RAW16/PNG16 sources. The result adds ``src``, the heights' min/max and the nodata count.
+    RAW16/PNG16 sources. The result is :func:`write`'s (``georeference``: where the CRS and
+    transform went; ``not_kept``: what ``dst`` cannot hold) plus ``src``, the heights' min/max and
+    the nodata count.
     """
     _format(dst, "write")  # fail before reading a large file
     hm = read(src, cell_size=cell_size, raw_shape=raw_shape, height_range=height_range)
