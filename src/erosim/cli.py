@@ -158,7 +158,13 @@ def run(scenario, overrides, preset, out, resume, overwrite):
     run_folder, summary = _guard(_run, scenario, list(overrides), preset, out, resume, overwrite)
     if summary:
         _print_result(summary, as_json=False)
-    click.echo(f"Results in {run_folder.path}/ (report.json, maps/, figures/ ...)")
+    click.echo(f"Results in {run_folder.path}/: {_contents(run_folder.path)}")
+
+
+def _contents(folder: Path) -> str:
+    """What a run folder holds, report first: ``report.json, figures/, maps/, gauges.csv``."""
+    entries = sorted(folder.iterdir(), key=lambda p: (p.name != "report.json", p.is_file(), p.name))
+    return ", ".join(p.name + ("/" if p.is_dir() else "") for p in entries if not p.name.startswith("."))
 
 
 # -------------------------------------------------------------------------------------------- demo

@@ -81,3 +81,21 @@ def test_thesis_preset_derives_a_consistent_resolution(name):
 def test_every_sph_scenario_has_a_case():
     sph = {n for n in loader.library_names() if loader.read_toml(loader.LIBRARY / f"{n}.toml").get("kind") == "sph"}
     assert sph == set(CASES)
+
+
+def test_an_unsupported_block_falls_freely_at_g():
+    """The falling cube starts at rest pressure: until it reaches the floor (6 m below: 1.1 s) every
+    particle, the bottom layer too, moves at g·t. Tolerance 1 % (the issue's), far above what the
+    weakly compressible start leaves (the block's own pressure waves stay within a few cm/s)."""
+    from erosim.scenarios.builders_sph import build
+
+    cfg = loader.load("falling-cube", ["sph.spacing=1.0"]).config
+    solver = build(cfg).solver
+    while solver.t < 0.2:
+        solver.step()
+    g = abs(solver.params.gravity_vector()[-1])
+    pos, vel = solver.fluid_positions(), solver.fluid_velocities()
+    bottom = pos[:, 2] < pos[:, 2].min() + 0.5
+    expected = -g * solver.t
+    assert np.mean(vel[bottom, 2]) == pytest.approx(expected, rel=0.01)
+    assert np.mean(vel[:, 2]) == pytest.approx(expected, rel=0.01)

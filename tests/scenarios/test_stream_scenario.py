@@ -30,7 +30,7 @@ def test_library_scenario_writes_the_run_folder(tmp_path):
         "hardness_initial.tif",
         "erosion.tif",
         "height.png",
-        "height.raw",
+        "height.r16",
         "erosion_mask.png",
     ):
         assert (out / "maps" / name).is_file(), name

@@ -160,7 +160,7 @@ def setup(scenario, out) -> Setup:
         callbacks.append(
             cb.Snapshots(
                 TimeInterval(r.t_end / r.snapshots), solver, out.figures, lo=cfg.domain.lo, hi=cfg.domain.hi,
-                spacing=p.spacing, title=scenario.name,
+                spacing=p.spacing, title=scenario.name, g=abs(p.gravity_vector()[-1]),
             )
         )  # fmt: skip
 

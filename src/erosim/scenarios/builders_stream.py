@@ -5,7 +5,7 @@ What a run leaves (every file written atomically):
 * ``scenario.toml`` (resolved), ``report.json`` with ``removed_volume`` (m³, Σ(h₀ − h)·Δ²), the
   kernel's own running count of it, particles, impacts, throughput, deepest cut and eroded area;
 * ``maps/height_initial.tif``, ``maps/height.tif`` (GeoTIFF, float32, georeference kept from a DEM),
-  ``maps/height.png`` (PNG16) and ``maps/height.raw`` (RAW16; its height range is in the report),
+  ``maps/height.png`` (PNG16) and ``maps/height.r16`` (RAW16; its height range is in the report),
   ``maps/hardness_initial.tif`` and ``maps/hardness.tif`` (final: strata that follow the cut change
   it), ``maps/erosion.tif`` (h₀ − h, m) and ``maps/erosion_mask.png`` (PNG16 texture mask, 0…max);
 * ``figures/hillshade_before.png``, ``figures/hillshade_after.png``, ``figures/strata_after.png``
@@ -180,7 +180,7 @@ def write_outputs(out, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) ->
     hio.write(maps / "height_initial.tif", hm)
     hio.write(maps / "height.tif", final)
     png = hio.write(maps / "height.png", final)
-    raw = hio.write(maps / "height.raw", final)
+    raw = hio.write(maps / "height.r16", final)
     hio.write(maps / "hardness_initial.tif", d0, like=hm)
     hio.write(maps / "hardness.tif", stream.d, like=hm)
     hio.write(maps / "erosion.tif", erosion, like=hm)

@@ -102,13 +102,16 @@ class ParticleFrames(Callback):
 
 
 class Snapshots(Callback):
-    """``figures/snapshot_NNN.png``: the particles coloured by speed."""
+    """``figures/snapshot_NNN.png``: the particles coloured by speed, on one scale for every frame:
+    0 to the free-fall speed √(2|g|Δz) over the domain's height (no gravity-driven flow from rest
+    inside it is faster)."""
 
-    def __init__(self, schedule: Schedule, fluid, folder: Path, *, lo, hi, spacing: float, title: str):
+    def __init__(self, schedule: Schedule, fluid, folder: Path, *, lo, hi, spacing: float, title: str, g: float):
         super().__init__(schedule, name="snapshots")
         self.fluid = fluid
         self.folder = Path(folder)
         self.lo, self.hi, self.spacing, self.title = lo, hi, spacing, title
+        self.speed_max = float(np.sqrt(2.0 * abs(g) * (hi[-1] - lo[-1])))
         self.count = 0
 
     def __call__(self, sim) -> None:
@@ -117,7 +120,7 @@ class Snapshots(Callback):
         s = self.fluid
         snapshot(
             self.folder / f"snapshot_{self.count:03d}.png", s.fluid_positions(), s.fluid_velocities(),
-            t=float(s.t), lo=self.lo, hi=self.hi, spacing=self.spacing, title=self.title,
+            t=float(s.t), lo=self.lo, hi=self.hi, spacing=self.spacing, title=self.title, speed_max=self.speed_max,
         )  # fmt: skip
         self.count += 1
 

@@ -13,11 +13,13 @@ from rich.text import Text
 
 
 class _Rate(ProgressColumn):
+    """Steps per second while simulated time advances; otherwise the unit itself per second."""
+
     def render(self, task: Task) -> Text:
-        steps = task.fields.get("steps", 0)
         elapsed = task.elapsed or 0.0
-        rate = steps / elapsed if elapsed > 0 else 0.0
-        what = task.fields.get("rate_unit", "steps")
+        what = task.fields["rate_unit"]
+        done = task.fields["steps"] if what == "steps" else task.completed - task.fields["origin"]
+        rate = done / elapsed if elapsed > 0 else 0.0
         return Text(f"{rate:,.0f} {what}/s", style="cyan")
 
 
@@ -36,7 +38,9 @@ class ProgressBar:
 
     def __enter__(self) -> ProgressBar:
         if self.enabled:
-            fmt = "{task.completed:.3g}/{task.total:.3g} " + self.unit
+            # simulated seconds to three digits; counts (cycles, particles) whole, with thousands separators
+            number = ".3g" if self.unit == "s" else ",.0f"
+            fmt = f"{{task.completed:{number}}}/{{task.total:{number}}} {self.unit}"
             self._progress = Progress(
                 TextColumn("[bold]{task.description}"),
                 BarColumn(),
@@ -51,7 +55,7 @@ class ProgressBar:
             # simulated time advances in steps; other units (cycles, droplets) count themselves
             rate_unit = "steps" if self.unit == "s" else self.unit
             self._task = self._progress.add_task(
-                self.label, total=self.total, completed=self._start, steps=0, rate_unit=rate_unit
+                self.label, total=self.total, completed=self._start, steps=0, rate_unit=rate_unit, origin=self._start
             )
         return self
 

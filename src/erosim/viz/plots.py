@@ -36,10 +36,12 @@ def snapshot(
     spacing: float | None = None,
     boundary: np.ndarray | None = None,
     title: str = "",
+    speed_max: float | None = None,
 ) -> Path:
     """Particles coloured by speed |u|; 3-D runs are shown as a side view (x–z).
 
-    With ``spacing`` the dots are drawn about one particle spacing wide."""
+    With ``spacing`` the dots are drawn about one particle spacing wide; ``speed_max`` fixes the top of
+    the colour scale (the same on every frame of a run), else it is the frame's own maximum."""
     pos = np.asarray(positions)
     speed = np.linalg.norm(velocities, axis=1) if len(pos) else np.zeros(0)
     ix, iz = 0, pos.shape[1] - 1 if pos.ndim == 2 else 1
@@ -54,7 +56,9 @@ def snapshot(
     if spacing:
         pts = fig.get_figwidth() * 0.75 * 72.0 * spacing / max(w, 1e-12)  # one spacing in points
         size = float(np.clip((0.9 * pts) ** 2, 0.5, 60.0))
-    sc = ax.scatter(pos[order, ix], pos[order, iz], s=size, c=speed[order], cmap="viridis", lw=0)
+    sc = ax.scatter(
+        pos[order, ix], pos[order, iz], s=size, c=speed[order], cmap="viridis", lw=0, vmin=0.0, vmax=speed_max
+    )
     fig.colorbar(sc, ax=ax, label="speed (m/s)", fraction=0.025, pad=0.02)
     ax.set_xlim(lo[ix], hi[ix])
     ax.set_ylim(lo[iz], hi[iz])
