@@ -228,12 +228,18 @@ def describe(scenario, overrides, preset):
 
     sc = _guard(loader.load, scenario, list(overrides), preset)
     console = Console()
+    if not console.is_terminal:  # piped or redirected: rich's 80 columns would fold every row
+        console = Console(width=120)
     console.print(f"[bold]{sc.name}[/bold]  (kind: {sc.kind}{', preset: ' + sc.preset if sc.preset else ''})")
     if sc.description:
         console.print(escape(sc.description))
     if sc.presets:
         console.print("Presets: " + ", ".join(sorted(sc.presets)) + "  (use --preset NAME)")
-    table = Table("setting", "value", "unit", "meaning")
+    table = Table(box=None, header_style="bold", pad_edge=False)
+    table.add_column("setting", no_wrap=True)  # names are never cut
+    table.add_column("value", max_width=28, overflow="fold")
+    table.add_column("unit", no_wrap=True)
+    table.add_column("meaning", ratio=1)
     for row in sc.describe():
         table.add_row(*(escape(cell) for cell in row))
     console.print(table)

@@ -205,3 +205,16 @@ def test_plain_16_bit_png_gets_a_warning_in_the_report(cli_runner, tmp_path):
     notes = heightmaps.read(png).notes
     assert len(notes) == 2 and "no cell size" in notes[1]
     assert heightmaps.read(png, cell_size=5.0, height_range=(0, 100)).notes == []
+
+
+@pytest.mark.parametrize("name", ["rain-erosion", "hydrology", "dam-break"])
+def test_describe_names_every_setting_whole(cli_runner, name):
+    from erosim.scenarios import loader
+
+    result = cli_runner.invoke(cli, ["describe", name])
+    assert result.exit_code == 0, result.output
+    first_cells = {ln.split()[0] for ln in result.output.splitlines() if ln.strip()}
+    keys = [row[0] for row in loader.load(name).describe()]
+    assert set(keys) <= first_cells  # no name cut short or folded
+    assert max(len(ln) for ln in result.output.splitlines()) <= 120
+    assert len(result.output.splitlines()) < 2 * len(keys) + 20  # a line or two a setting (was 3.5 at 80 columns)
