@@ -336,9 +336,10 @@ class MapFrames(cb.Animation):
         return pic[::2, ::2]
 
     def state_dict(self) -> dict[str, Any]:
-        return {"count": self.count}
+        return {**super().state_dict(), "count": self.count}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
+        super().load_state_dict(state)
         self.count = int(state.get("count", 0))
 
 

@@ -228,7 +228,8 @@ class FrontTracker(Callback):
 class Animation(Callback):
     """Pictures (``picture(sim)`` → RGB array) gathered over the run and saved as a GIF at the end.
 
-    The pictures live in memory only: a resumed run's animation starts at the resume.
+    The pictures gathered so far travel in the checkpoint (thumbnails: a few MB), so a resumed run's
+    animation is the uninterrupted run's.
     """
 
     def __init__(self, schedule: Schedule, picture: Callable, path: Path, *, fps: float = 8.0):
@@ -241,13 +242,18 @@ class Animation(Callback):
     def __call__(self, sim) -> None:
         self.frames.append(self.picture(sim))
 
+    def state_dict(self) -> dict[str, Any]:
+        return {"frames": np.stack(self.frames)} if self.frames else {}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.frames = list(state["frames"]) if "frames" in state else []
+
     def finalize(self, sim) -> dict[str, Any]:
         if not self.frames:
             return {}
         from erosim.viz.animate import save_animation
 
-        self.frames.append(self.picture(sim))
-        save_animation(self.path, self.frames, fps=self.fps)
+        save_animation(self.path, [*self.frames, self.picture(sim)], fps=self.fps)  # the state stays as it was
         return {"animation": str(self.path.relative_to(sim.out.path))}
 
 
@@ -284,11 +290,14 @@ class BudgetCheck(Callback):
         self.checks += 1
 
     def state_dict(self) -> dict[str, Any]:
-        self(None)  # the checkpoint's terrain is the reference of the next check
-        return {"checks": self.checks, "worst": self.worst}
+        # the reference of the next check travels too, so checks fall as in an uninterrupted run
+        return {"checks": self.checks, "worst": self.worst, "mark": self.view.mark, "last": np.array(self.last)}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
-        self._sync()  # the model was restored first: its terrain and totals are the reference
+        self._sync()  # the model was restored first; an older checkpoint without a reference uses it
+        if "mark" in state:
+            self.view.mark[...] = state["mark"]
+            self.last = tuple(float(x) for x in state["last"])
         self.checks = int(state.get("checks", 0))
         self.worst = float(state.get("worst", 0.0))
 
