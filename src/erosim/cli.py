@@ -122,9 +122,10 @@ def _run(scenario_ref, overrides, preset, out, resume, overwrite):
         summary = run_scenario(scenario, run_folder, resume=bool(resume), progress=not STATE.quiet)
     except BaseException as exc:
         resumable = (run_folder.path / "checkpoint").is_dir()
-        if not resume and created and not resumable:
-            # failed or stopped before its first checkpoint (bad input found while building the run,
-            # Ctrl-C while compiling): nothing to keep, so the folder this command made goes
+        started = (run_folder.path / "report.json").is_file()  # a started run reports whatever happens
+        if not resume and created and not started:
+            # failed or stopped before the run started (bad input found while building it, Ctrl-C while
+            # compiling, a disk too full for even the report): nothing to keep, so the folder goes
             shutil.rmtree(run_folder.path, ignore_errors=True)
             if isinstance(exc, KeyboardInterrupt):
                 msg = "Interrupted before the first step; nothing was kept, run the command again."

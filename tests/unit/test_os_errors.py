@@ -6,6 +6,7 @@ created under one root fail with that errno (tests may run as root, where permis
 """
 
 import errno
+import json
 import os
 from pathlib import Path
 
@@ -67,14 +68,27 @@ def test_run_into_a_folder_that_cannot_be_written(tmp_path, failing_under, code)
     assert not out.exists()
 
 
-def test_a_full_disk_while_writing_frames_names_the_frame_and_leaves_no_half_run(tmp_path, failing_under):
+def test_a_full_disk_while_writing_frames_names_the_frame_and_keeps_what_was_written(tmp_path, failing_under):
     out = tmp_path / "run"
     failing_under(out, errno.ENOSPC, match="frame_00001")
     args = ["--quiet", "run", "dam-break-2d", "--set", "run.t_end=0.05", "--set", "run.output_interval=0.01"]
     result = CliRunner().invoke(cli, [*args, "--out", str(out)])
     line = _one_sentence(result)
     assert "No space left" in line and "frame_00001" in line and ".part" not in line
-    assert not out.exists()  # no checkpoint was written yet: nothing to resume, nothing kept
+    report = json.loads((out / "report.json").read_text())  # the run had started: its report says why it stopped
+    assert report["status"] == "failed" and "frame_00001" in report["error"]
+    assert (out / "particles" / "frame_00000.vtp").is_file()
+    assert not list(out.rglob("*.part"))  # no half-written file
+
+
+def test_a_disk_too_full_for_the_report_leaves_no_folder(tmp_path, failing_under):
+    out = tmp_path / "run"
+    failing_under(out, errno.ENOSPC, match=".vtp")  # the first frame fails, and so would everything
+    failing_under(out, errno.ENOSPC, match="report")
+    result = CliRunner().invoke(cli, ["--quiet", "run", "dam-break-2d", "--set", "run.t_end=0.01", "--out", str(out)])
+    line = _one_sentence(result)
+    assert "No space left" in line
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("code", sorted(ERRNOS))
