@@ -56,3 +56,42 @@ def _numba_cache_dir() -> None:
 
 
 _numba_cache_dir()
+
+
+# ------------------------------------------------------------------------------------ Python API
+# Imported on first use (module __getattr__), so `import erosim` stays cheap; docs/api.md.
+_LAZY = {
+    "run": "erosim.api:run",
+    "RunResult": "erosim.api:RunResult",
+    "load_scenario": "erosim.api:load_scenario",
+    "Scenario": "erosim.scenarios.loader:Scenario",
+    "ErosimError": "erosim.core.errors:ErosimError",
+    "Heightmap": "erosim.core.heightmap:Heightmap",
+    "generate_terrain": "erosim.terrain.generate:generate",
+    "HydrologyModel": "erosim.hydrology.model:HydrologyModel",
+    "HydrologyParams": "erosim.hydrology.params:HydrologyParams",
+    "VegetationParams": "erosim.hydrology.params:VegetationParams",
+    "SPHSolver": "erosim.sph.solver:SPHSolver",
+    "SPHParams": "erosim.sph.params:SPHParams",
+    "ParticleStream": "erosim.erosion.particle_stream_warszawski:ParticleStream",
+    "Emitter": "erosim.erosion.particle_stream_warszawski:Emitter",
+    "TransportCapacity": "erosim.erosion.transport_capacity_mei2007:TransportCapacity",
+    "TransportCapacityParams": "erosim.erosion.transport_capacity_mei2007:TransportCapacityParams",
+}
+
+__all__ = ["__version__", *_LAZY]
+
+
+def __getattr__(name: str):
+    if name not in _LAZY:
+        raise AttributeError(f"module 'erosim' has no attribute '{name}'")
+    import importlib
+
+    module, _, attr = _LAZY[name].partition(":")
+    value = getattr(importlib.import_module(module), attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY})

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import sys
 from pathlib import Path
 
@@ -97,44 +96,6 @@ def cli(threads: int | None, quiet: bool, debug: bool) -> None:
 
 
 # --------------------------------------------------------------------------------------------- run
-def _run(scenario_ref, overrides, preset, out, resume, overwrite):
-    from erosim.io.runfolder import RunFolder, default_out
-    from erosim.scenarios import loader
-
-    if resume:
-        folder = Path(resume)
-        if scenario_ref is not None:
-            raise ErosimError("Give either a scenario or --resume DIR, not both; --resume reads DIR/scenario.toml.")
-        if not (folder / "scenario.toml").is_file():
-            raise ErosimError(f"Cannot resume '{folder}': no scenario.toml there; pass a run folder erosim wrote.")
-        scenario = loader.load(folder / "scenario.toml", overrides)
-        run_folder = RunFolder(folder, resume=True)
-    else:
-        if scenario_ref is None:
-            raise ErosimError("Name a scenario (see `erosim list`) or a TOML file, or pass --resume DIR.")
-        scenario = loader.load(scenario_ref, overrides, preset)
-        target = Path(out) if out else default_out(scenario.name)
-        created = not target.exists()
-        run_folder = RunFolder(target, overwrite=overwrite)
-    from erosim.scenarios.runner import run as run_scenario
-
-    try:
-        summary = run_scenario(scenario, run_folder, resume=bool(resume), progress=not STATE.quiet)
-    except BaseException as exc:
-        resumable = (run_folder.path / "checkpoint").is_dir()
-        started = (run_folder.path / "report.json").is_file()  # a started run reports whatever happens
-        if not resume and created and not started:
-            # failed or stopped before the run started (bad input found while building it, Ctrl-C while
-            # compiling, a disk too full for even the report): nothing to keep, so the folder goes
-            shutil.rmtree(run_folder.path, ignore_errors=True)
-            if isinstance(exc, KeyboardInterrupt):
-                msg = "Interrupted before the first step; nothing was kept, run the command again."
-                raise Interrupted(msg) from None
-        elif isinstance(exc, OSError) and resumable:
-            hint = f" The run can then be continued with `erosim run --resume {run_folder.path}`."
-            raise ErosimError(os_error_message(exc) + hint) from exc
-        raise
-    return run_folder, summary
 
 
 @cli.command()
@@ -156,7 +117,11 @@ def _run(scenario_ref, overrides, preset, out, resume, overwrite):
 @click.option("--overwrite", is_flag=True, help="Allow writing into an existing, non-empty --out folder.")
 def run(scenario, overrides, preset, out, resume, overwrite):
     """Run SCENARIO (a library name or a TOML file) and write a run folder."""
-    run_folder, summary = _guard(_run, scenario, list(overrides), preset, out, resume, overwrite)
+    from erosim.api import execute
+
+    run_folder, summary = _guard(
+        execute, scenario, list(overrides), preset, out, resume, overwrite, progress=not STATE.quiet
+    )
     if summary:
         _print_result(summary, as_json=False)
     click.echo(f"Results in {run_folder.path}/: {_contents(run_folder.path)}")

@@ -22,7 +22,9 @@ EXTENT = 10240.0
 
 def _run(n, ell, cycles):
     hm = generate("mountains", n, EXTENT / n, seed=1)
-    m = HydrologyModel(hm, HydrologyParams(length_scale=ell), VegetationParams(), seed=1)
+    # the thresholds below were measured at 1000 droplets per cycle (the class default before it became the
+    # library scenario's 250)
+    m = HydrologyModel(hm, HydrologyParams(length_scale=ell, cycle_droplets=1000), VegetationParams(), seed=1)
     m.run(cycles)
     return m
 

@@ -129,6 +129,8 @@ class SPHTerrainScenario(Section):
         data = dict(data)
         sph = dict(data.get("sph") or {})
         sph.setdefault("dim", 2 if data.get("profile") else 3)
+        if not data.get("profile"):
+            sph.setdefault("spacing", 1.0)  # metre-sized particles on a terrain (a flume keeps SPH's 1 cm)
         sph.setdefault("walls", "reflect")
         data["sph"] = sph
         return data
