@@ -36,4 +36,3 @@ def test_every_frame_has_the_same_colour_scale(tmp_path, monkeypatch):
         )
         cb(None)
     assert seen[0] == seen[1] == pytest.approx(np.sqrt(2 * 9.81 * 0.5))
-
