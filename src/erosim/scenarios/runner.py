@@ -7,6 +7,7 @@ the models) back in their final state; ``erosim demo`` is :func:`demo`.
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -19,6 +20,11 @@ from erosim.simulation.simulation import Simulation
 
 def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: bool = True):
     """Build and run ``scenario`` into ``out``; returns (summary for the command line, simulation)."""
+    from erosim.scenarios import estimate
+
+    guess = estimate.check(scenario.kind, scenario.config)  # refuses a run that would not fit in memory
+    if guess is not None and progress:  # something to read while a large terrain is generated
+        print(f"{scenario.name}: {guess.line()}", file=sys.stderr, flush=True)
     builder = kinds.resolve(kinds.get(scenario.kind).builder)
     setup = builder(scenario, out)
     for note in setup.warnings:

@@ -1,0 +1,171 @@
+"""Before long work: a run's memory and a rough time from its sizes, and a refusal of what would not fit.
+
+Read from the validated scenario alone (before a terrain is generated or a particle is laid), with
+per-unit costs measured on the 2-core reference machine (peak RSS with ``/usr/bin/time -f %M``, wall
+time from ``report.json``; ``docs/performance.md``):
+
+* map cells (hydrology): 315 B and 2 µs of set-up and output per cell, 0.25 µs per cell per cycle
+  (``erosim run hydrology --set terrain.size=N --set run.cycles=1``, N = 512, 1024, 2048);
+* map cells (particle stream): 180 B and 3 µs per cell; 0.45 µs per particle update (2.2·10⁶/s);
+* SPH particles: 800 B each (fluid, walls and neighbour lists; ``erosim bench sph`` at 10⁵ and 10⁶),
+  1·10⁶ particle-steps/s per core, steps from the CFL limit 0.2·h/c with the auto sound speed;
+* a base of 250 MB (Python, NumPy, Numba).
+
+The time is a rough guide (within a factor of about three); the memory is checked against what the
+machine has free: a run that would not fit is refused with one sentence before anything is built.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from erosim.core.errors import ConfigError
+
+BASE_BYTES = 250e6
+HYDRO_CELL_BYTES, HYDRO_CELL_S, HYDRO_CELL_CYCLE_S = 315.0, 2e-6, 0.25e-6
+STREAM_CELL_BYTES, STREAM_CELL_S, STREAM_UPDATE_S = 180.0, 3e-6, 0.45e-6
+SPH_PARTICLE_BYTES, SPH_STEPS_PER_CORE_S = 800.0, 1e6
+GRID_CELL_BYTES = 200.0  # the sph-terrain coupler's maps per cell
+
+
+@dataclass(frozen=True)
+class Estimate:
+    what: str  # the sizes, in words
+    memory: float  # bytes
+    seconds: float | None  # rough wall time; None when the sizes do not tell
+
+    def line(self) -> str:
+        time = f" and {_duration(self.seconds)}" if self.seconds is not None else ""
+        return f"{self.what}: about {_bytes(self.memory)} of memory{time} (rough estimate)"
+
+
+def _bytes(n: float) -> str:
+    for unit, size in (("GB", 1e9), ("MB", 1e6)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n / 1e3:.3g} kB"
+
+
+def _duration(s: float) -> str:
+    if s < 60:
+        return f"{max(s, 1):.0f} s"
+    if s < 3600:
+        return f"{s / 60:.0f} min"
+    return f"{s / 3600:.1f} h"
+
+
+def available_memory() -> float | None:
+    """Bytes the machine can still give (``MemAvailable``), or None where it cannot be read."""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _cores() -> int:
+    return max(1, min(int(os.environ.get("NUMBA_NUM_THREADS", os.cpu_count() or 1)), os.cpu_count() or 1))
+
+
+def map_cells(terrain) -> int | None:
+    """Cells of a ``[terrain]`` section: generated (size²) or a file's header; None if unknown."""
+    if terrain.file is None:
+        return int(terrain.size) ** 2
+    path = Path(str(terrain.file))
+    try:
+        if path.suffix.lower() == ".npy":
+            import numpy as np
+
+            return int(np.prod(np.load(path, mmap_mode="r").shape))
+        if path.suffix.lower() in (".r16", ".raw"):
+            return path.stat().st_size // 2
+        import rasterio
+
+        with rasterio.open(path) as ds:
+            return int(ds.width * ds.height)
+    except Exception:  # an unreadable file is reported by the builder, in its own words
+        return None
+
+
+def _sph_steps(params, top: float, floor: float, t_end: float) -> float:
+    g = math.sqrt(sum(x * x for x in params.gravity_vector()))
+    c = params.sound_speed or 10.0 * math.sqrt(2.0 * g * max(top - floor, params.spacing))
+    dt = params.dt or params.cfl * params.support() / c
+    return t_end / dt
+
+
+def hydrology(cfg) -> Estimate | None:
+    cells = map_cells(cfg.terrain)
+    if cells is None:
+        return None
+    n = math.isqrt(cells)
+    seconds = cells * (HYDRO_CELL_S + HYDRO_CELL_CYCLE_S * cfg.run.cycles)
+    return Estimate(f"{n:,}² cells, {cfg.run.cycles:,} cycles", BASE_BYTES + HYDRO_CELL_BYTES * cells, seconds)
+
+
+def stream(cfg) -> Estimate | None:
+    cells = map_cells(cfg.terrain)
+    if cells is None:
+        return None
+    updates = sum(e.particles * e.steps for e in cfg.emitters.values())
+    seconds = cells * STREAM_CELL_S + updates * STREAM_UPDATE_S
+    what = f"{math.isqrt(cells):,}² cells, {updates:,} particle updates"
+    return Estimate(what, BASE_BYTES + STREAM_CELL_BYTES * cells, seconds)
+
+
+def sph(cfg) -> Estimate:
+    p = cfg.sph
+    dim = len(cfg.domain.lo)
+    fluid = sum(math.prod(b - a for a, b in zip(f.lo, f.hi, strict=True)) for f in cfg.fluid) / p.spacing**dim
+    walls = 0.0
+    if p.walls == "particles":  # every face but the top, a few layers
+        sides = [b - a for a, b in zip(cfg.domain.lo, cfg.domain.hi, strict=True)]
+        area = sum(math.prod(sides[:k] + sides[k + 1 :]) * (2 if k < dim - 1 else 1) for k in range(dim))
+        walls = area / p.spacing ** (dim - 1) * math.ceil(p.support() / p.spacing)
+    n = fluid + walls
+    top = max(f.hi[-1] for f in cfg.fluid)
+    steps = _sph_steps(p, top, cfg.domain.lo[-1], cfg.run.t_end)
+    seconds = n * steps / (SPH_STEPS_PER_CORE_S * _cores())
+    return Estimate(f"{n:,.0f} particles, about {steps:,.0f} steps", BASE_BYTES + SPH_PARTICLE_BYTES * n, seconds)
+
+
+def sph_terrain(cfg) -> Estimate | None:
+    p = cfg.sph
+    if cfg.profile is not None:
+        return None  # a 2-D flume: small by construction
+    cells = map_cells(cfg.terrain)
+    if cells is None:
+        return None
+    extent = math.sqrt(cells) * (cfg.terrain.cell_size or 1.0)
+    rain = cfg.rain.rate * extent**2 / 3.6e6 if cfg.rain.rate > 0 else 0.0  # mm/h over the map → m³/s
+    inflow = sum(i.discharge for i in cfg.inflows.values())
+    n = (rain + inflow) * cfg.run.t_end / p.spacing**3  # the water the run adds (lakes come on top)
+    memory = BASE_BYTES + SPH_PARTICLE_BYTES * n + GRID_CELL_BYTES * cells
+    return Estimate(f"{math.isqrt(cells):,}² cells, about {n:,.0f} particles of rain and inflow", memory, None)
+
+
+ESTIMATORS = {"hydrology": hydrology, "particle-stream": stream, "sph": sph, "sph-terrain": sph_terrain}
+
+
+def check(kind: str, cfg) -> Estimate | None:
+    """The run's estimate; a :class:`ConfigError` when it would need more memory than is free."""
+    fn = ESTIMATORS.get(kind)
+    est = fn(cfg) if fn is not None else None
+    if est is None:
+        return None
+    free = available_memory()
+    if free is not None and est.memory > free:
+        raise ConfigError(
+            f"This run ({est.what}) needs about {_bytes(est.memory)} of memory, but only {_bytes(free)} is free; "
+            "make the map or the particle count smaller (terrain.size, sph.spacing, run lengths) or use a machine "
+            "with more memory."
+        )
+    return est
