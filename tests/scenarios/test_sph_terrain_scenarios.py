@@ -196,7 +196,7 @@ def test_violent_inflow_on_steep_nodata_bordered_ground_stays_above_it(tmp_path)
         (["water.level=99.5", "water.seed=[500002.0, 4100002.0]"], "not below water.level"),
         (["sph.spacing=5.0"], "cannot follow the ground"),
         (["sph.walls=particles"], "ground and the map edges are the walls"),
-        (["rain.rate=1e9", "run.t_end=100"], "fit in memory"),
+        (["rain.rate=1e9", "run.t_end=100"], "of memory, but only"),
     ],
 )
 def test_bad_input_is_one_sentence_and_leaves_no_folder(tmp_path, sets, words):

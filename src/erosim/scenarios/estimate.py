@@ -36,6 +36,7 @@ class Estimate:
     what: str  # the sizes, in words
     memory: float  # bytes
     seconds: float | None  # rough wall time; None when the sizes do not tell
+    fix: str  # what makes the run smaller
 
     def line(self) -> str:
         time = f" and {_duration(self.seconds)}" if self.seconds is not None else ""
@@ -108,7 +109,8 @@ def hydrology(cfg) -> Estimate | None:
         return None
     n = math.isqrt(cells)
     seconds = cells * (HYDRO_CELL_S + HYDRO_CELL_CYCLE_S * cfg.run.cycles)
-    return Estimate(f"{n:,}² cells, {cfg.run.cycles:,} cycles", BASE_BYTES + HYDRO_CELL_BYTES * cells, seconds)
+    what = f"{n:,}² cells, {cfg.run.cycles:,} cycles"
+    return Estimate(what, BASE_BYTES + HYDRO_CELL_BYTES * cells, seconds, "make terrain.size smaller")
 
 
 def stream(cfg) -> Estimate | None:
@@ -118,7 +120,7 @@ def stream(cfg) -> Estimate | None:
     updates = sum(e.particles * e.steps for e in cfg.emitters.values())
     seconds = cells * STREAM_CELL_S + updates * STREAM_UPDATE_S
     what = f"{math.isqrt(cells):,}² cells, {updates:,} particle updates"
-    return Estimate(what, BASE_BYTES + STREAM_CELL_BYTES * cells, seconds)
+    return Estimate(what, BASE_BYTES + STREAM_CELL_BYTES * cells, seconds, "make terrain.size smaller")
 
 
 def sph(cfg) -> Estimate:
@@ -134,7 +136,9 @@ def sph(cfg) -> Estimate:
     top = max(f.hi[-1] for f in cfg.fluid)
     steps = _sph_steps(p, top, cfg.domain.lo[-1], cfg.run.t_end)
     seconds = n * steps / (SPH_STEPS_PER_CORE_S * _cores())
-    return Estimate(f"{n:,.0f} particles, about {steps:,.0f} steps", BASE_BYTES + SPH_PARTICLE_BYTES * n, seconds)
+    what = f"{n:,.0f} particles, about {steps:,.0f} steps"
+    fix = "raise sph.spacing or make the fluid blocks smaller"
+    return Estimate(what, BASE_BYTES + SPH_PARTICLE_BYTES * n, seconds, fix)
 
 
 def sph_terrain(cfg) -> Estimate | None:
@@ -149,7 +153,9 @@ def sph_terrain(cfg) -> Estimate | None:
     inflow = sum(i.discharge for i in cfg.inflows.values())
     n = (rain + inflow) * cfg.run.t_end / p.spacing**3  # the water the run adds (lakes come on top)
     memory = BASE_BYTES + SPH_PARTICLE_BYTES * n + GRID_CELL_BYTES * cells
-    return Estimate(f"{math.isqrt(cells):,}² cells, about {n:,.0f} particles of rain and inflow", memory, None)
+    what = f"{math.isqrt(cells):,}² cells, about {n:,.0f} particles of rain and inflow"
+    fix = "lower rain.rate or the inflows, shorten run.t_end, raise sph.spacing or make terrain.size smaller"
+    return Estimate(what, memory, None, fix)
 
 
 ESTIMATORS = {"hydrology": hydrology, "particle-stream": stream, "sph": sph, "sph-terrain": sph_terrain}
@@ -165,7 +171,6 @@ def check(kind: str, cfg) -> Estimate | None:
     if free is not None and est.memory > free:
         raise ConfigError(
             f"This run ({est.what}) needs about {_bytes(est.memory)} of memory, but only {_bytes(free)} is free; "
-            "make the map or the particle count smaller (terrain.size, sph.spacing, run lengths) or use a machine "
-            "with more memory."
+            f"{est.fix}, or use a machine with more memory."
         )
     return est
