@@ -269,6 +269,27 @@ MUTATIONS = (
         ("tests/unit/test_simulation.py",),
         "Ctrl-C interrupts a step half-way (a checkpoint of half a step)",
     ),
+    Mutation(
+        "probe-without-wall-extrapolation",
+        "analysis/gauges.py",
+        (("        if gravity is not None:\n", "        if gravity is None:\n"),),
+        ("tests/unit/test_gauges_front.py",),
+        "a probe on a wall reads the plain Shepard mean of its one-sided neighbours",
+    ),
+    Mutation(
+        "level-gauge-without-floor-mirror",
+        "analysis/gauges.py",
+        (("for image in (near[:, -1], 2.0 * floor - near[:, -1]):", "for image in (near[:, -1],):"),),
+        ("tests/unit/test_gauges_front.py",),
+        "the water-level gauge forgets the floor (φ = ½ on a wetted floor)",
+    ),
+    Mutation(
+        "animation-not-checkpointed",
+        "simulation/callbacks.py",
+        (('        return {"frames": np.stack(self.frames)} if self.frames else {}\n', "        return {}\n"),),
+        ("tests/scenarios/test_interrupt_resume.py",),
+        "a resumed run's animation starts at the resume",
+    ),
 )
 
 

@@ -216,6 +216,7 @@ VALIDATION_CASES = {
     "martin-moyce": "erosim.validation.martin_moyce:run",
     "hydrostatic": "erosim.validation.hydrostatic:run",
     "basin-at-rest": "erosim.validation.basin_at_rest:run",
+    "spheric2": "erosim.validation.spheric2:run",
 }
 
 

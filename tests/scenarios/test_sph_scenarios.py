@@ -18,6 +18,7 @@ CASES = {
     "falling-cube": ["sph.spacing=1.0", "run.t_end=0.02", "run.output_interval=0.01", "run.sample_interval=0.01"],
     "dam-break-2d": ["sph.spacing=0.007", "run.t_end=0.004", "run.output_interval=0.002", "run.sample_interval=0.001"],
     "hydrostatic": ["sph.spacing=0.02", "run.t_end=0.004", "run.output_interval=0.002", "run.sample_interval=0.001"],
+    "spheric2": ["sph.spacing=0.1", "run.t_end=0.02", "run.output_interval=0.01", "run.sample_interval=0.01"],
 }
 
 

@@ -1,15 +1,30 @@
 """Point measurements in a particle fluid: pressure probes and water-level gauges.
 
-Pressure at a probe point r is the Shepard-normalised SPH interpolant (SPEC SPH-1)
+Pressure at a probe point r is the Shepard-normalised SPH interpolant (SPEC SPH-1), with the
+hydrostatic extrapolation of each particle's pressure to the probe that Adami, Hu & Adams (2012,
+J. Comput. Phys. 231) use for the pressure a wall feels:
 
-    p(r) = Σ_j V_j p_j W(r − r_j, h) / Σ_j V_j W(r − r_j, h),   V_j = m_j/ρ_j,
+    p(r) = Σ_j V_j [p_j + ρ_j g·(r − r_j)] W(r − r_j, h) / Σ_j V_j W(r − r_j, h),   V_j = m_j/ρ_j,
 
 with the poly6 kernel shape W ∝ (h² − |r|²)³ (Müller et al. 2003; its constant cancels in the
-ratio). A probe with no particle within h is dry and reads 0 (gauge pressure of the air).
+ratio). Inside the fluid the extrapolation terms cancel by symmetry; on a wall, where every
+neighbour lies on one side, they carry the pressure from the neighbours' mean depth to the probe's
+(a probe on a tank's floor reads ρ₀gH, not the pressure half a support above it). Without ``g`` it
+is the plain Shepard mean. A probe with no particle within h is dry and reads 0 (gauge pressure of
+the air).
 
-The water level at a gauge (a vertical line at a horizontal position) is the top of the highest
-particle whose horizontal distance to the line is below ``radius``: z_max + Δx/2, given as depth
-above ``floor``; a dry gauge reads 0. Vertical is the last axis (y in 2-D, z in 3-D).
+The water level at a gauge (a vertical line at a horizontal position) is read as a wave gauge reads
+it, from the continuous water column at the line (:func:`water_level`): the SPH volume fraction
+
+    φ(z) = Σ_j V_j W(r(z) − r_j, h)          (the kernel sum; 1 inside water, ½ at a flat free surface)
+
+is sampled up the line from the floor, with the particles mirrored in the floor (so φ = 1 at a
+wetted floor, not ½); the column starts where φ first reaches ½ within one support of the floor
+(walls hold the lowest particles up to about a spacing, leaving a thin gap of low φ at the floor),
+and the level is the first height above that where φ falls below ½, interpolated between samples.
+Spray and jets detached from the column (φ < ½ between them and the water) are not water level.
+:func:`water_depth` keeps the older reading — the top of the highest particle within ``radius`` of
+the line — which counts spray. A dry gauge reads 0. Vertical is the last axis (y in 2-D, z in 3-D).
 Neighbours come from :class:`scipy.spatial.cKDTree` (a handful of points per output time).
 """
 
@@ -18,11 +33,21 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from erosim.kernels.sph_kernels import kernel_w
+
 
 def probe_pressure(
-    positions: np.ndarray, pressure: np.ndarray, volume: np.ndarray, points: np.ndarray, h: float
+    positions: np.ndarray,
+    pressure: np.ndarray,
+    volume: np.ndarray,
+    points: np.ndarray,
+    h: float,
+    *,
+    density: np.ndarray | None = None,
+    gravity: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Shepard-interpolated pressure at each of ``points`` (k, d); 0 where no particle is within h."""
+    """Pressure at each of ``points`` (k, d) by the module docstring's interpolant (``gravity`` and
+    ``density`` given: with the hydrostatic extrapolation); 0 where no particle is within h."""
     points = np.atleast_2d(np.asarray(points, dtype=np.float64))
     out = np.zeros(len(points))
     if len(positions) == 0 or len(points) == 0:
@@ -33,11 +58,15 @@ def probe_pressure(
         if not idx:
             continue
         idx = np.asarray(idx)
-        r2 = np.sum((positions[idx] - points[k]) ** 2, axis=1)
-        w = vol[idx] * (h * h - r2) ** 3
+        offset = points[k] - positions[idx]
+        w = vol[idx] * (h * h - np.sum(offset**2, axis=1)) ** 3
         s = w.sum()
-        if s > 0:
-            out[k] = float(np.dot(w, pressure[idx]) / s)
+        if s <= 0:
+            continue
+        value = pressure[idx]
+        if gravity is not None:
+            value = value + density[idx] * (offset @ np.asarray(gravity, dtype=np.float64))
+        out[k] = float(np.dot(w, value) / s)
     return out
 
 
@@ -57,4 +86,48 @@ def water_depth(positions: np.ndarray, gauges: np.ndarray, radius: float, spacin
     for k, idx in enumerate(tree.query_ball_point(gauges, r=radius)):
         if idx:
             out[k] = max(0.0, float(z[idx].max()) + 0.5 * spacing - floor)
+    return out
+
+
+def water_level(
+    positions: np.ndarray,
+    volume: np.ndarray,
+    gauges: np.ndarray,
+    h: float,
+    spacing: float,
+    floor: float,
+    kernel: str = "wendland",
+) -> np.ndarray:
+    """Height above ``floor`` of the continuous water column at each gauge line (module docstring).
+
+    ``gauges`` is (k, d−1); ``volume`` the particles' V = m/ρ (scalar or per particle); ``h`` the
+    kernel support and ``kernel`` the solver's; samples every ``spacing``/4 up the line.
+    """
+    gauges = np.asarray(gauges, dtype=np.float64).reshape(len(gauges), -1)
+    out = np.zeros(len(gauges))
+    if len(positions) == 0 or len(gauges) == 0:
+        return out
+    dim = positions.shape[1]
+    vol = np.broadcast_to(np.asarray(volume, dtype=np.float64), (len(positions),))
+    tree = cKDTree(positions[:, :-1])
+    dz = 0.25 * spacing
+    for k, idx in enumerate(tree.query_ball_point(gauges, r=h)):
+        if not idx:
+            continue
+        idx = np.asarray(idx)
+        near, v = positions[idx], vol[idx]
+        top = float(near[:, -1].max()) + h
+        z = floor + dz * np.arange(int(np.ceil((top - floor) / dz)) + 1)
+        horiz2 = np.sum((near[:, :-1] - gauges[k]) ** 2, axis=1)
+        phi = np.zeros(len(z))
+        for image in (near[:, -1], 2.0 * floor - near[:, -1]):  # the particles and their mirror in the floor
+            r = np.sqrt(horiz2[None, :] + (z[:, None] - image[None, :]) ** 2)
+            phi += kernel_w(r, h, dim, kernel) @ v
+        wet = np.nonzero(phi[z <= floor + h] >= 0.5)[0]
+        if len(wet) == 0:
+            continue  # no water within one support of the floor: dry
+        dry = np.nonzero(phi[wet[0] :] < 0.5)[0]
+        i = wet[0] + dry[0]  # φ crosses ½ between samples i − 1 and i (the top sample is always dry)
+        frac = (phi[i - 1] - 0.5) / (phi[i - 1] - phi[i])
+        out[k] = z[i - 1] + frac * dz - floor
     return out

@@ -19,7 +19,8 @@ MARTIN_MOYCE_SURGE = "martin_moyce_1952_n2_2_a2.25in_surge_front_Ocellaris.csv"
 MARTIN_MOYCE_COLUMN = "martin_moyce_1952_n2_2_a2.25in_column_height_Ocellaris.csv"
 MARTIN_MOYCE_FIG3 = "martin_moyce_1952_n2_2_surge_front_PySPH_fig3.csv"
 KOSHIZUKA_OKA = "koshizuka_oka_1996_dam_break.csv"
-REFERENCE_FILES = (MARTIN_MOYCE_SURGE, MARTIN_MOYCE_COLUMN, MARTIN_MOYCE_FIG3, KOSHIZUKA_OKA)
+SPHERIC2 = "spheric2_kleefsman2005_marin.csv"
+REFERENCE_FILES = (MARTIN_MOYCE_SURGE, MARTIN_MOYCE_COLUMN, MARTIN_MOYCE_FIG3, KOSHIZUKA_OKA, SPHERIC2)
 
 
 def reference_text(name: str) -> str:

@@ -134,7 +134,8 @@ class Snapshots(Callback):
 class Probes(Callback):
     """Pressure probes and water-level gauges (:mod:`erosim.analysis.gauges`) sampled into ``gauges.csv``.
 
-    Columns: ``t`` (s), ``p_<probe>`` (Pa), ``depth_<gauge>`` (m above ``floor``).
+    Columns: ``t`` (s), ``p_<probe>`` (Pa), ``depth_<gauge>`` (m above ``floor``: the continuous water
+    column at the gauge line, :func:`~erosim.analysis.gauges.water_level`).
     """
 
     def __init__(
@@ -151,16 +152,20 @@ class Probes(Callback):
         self.rows: list[list[float]] = []
 
     def __call__(self, sim) -> None:
-        from erosim.analysis.gauges import probe_pressure, water_depth
+        from erosim.analysis.gauges import probe_pressure, water_level
 
         s = self.fluid
         pos = s.fluid_positions()
         row = [float(s.t)]
+        vol = self.mass / s.fluid_density()
         if len(self.probe_points):
-            vol = self.mass / s.fluid_density()
-            row += probe_pressure(pos, s.fluid_pressure(), vol, self.probe_points, self.h).tolist()
+            row += probe_pressure(
+                pos, s.fluid_pressure(), vol, self.probe_points, self.h,
+                density=s.fluid_density(), gravity=s.params.gravity_vector(),
+            ).tolist()  # fmt: skip
         if len(self.gauge_points):
-            row += water_depth(pos, self.gauge_points, self.dx, self.dx, self.floor).tolist()
+            kernel = s.params.kernel
+            row += water_level(pos, vol, self.gauge_points, self.h, self.dx, self.floor, kernel).tolist()
         self.rows.append(row)
 
     def state_dict(self) -> dict[str, Any]:

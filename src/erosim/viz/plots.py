@@ -95,6 +95,29 @@ def front_vs_experiment(
     return _save(fig, path)
 
 
+def series_vs_experiment(path, panels: list[dict], title: str = "") -> Path:
+    """Time series of a run against an experiment, one panel each: ``title``, ``unit``, ``t``, ``value``
+    (the run) and ``t_exp``, ``exp`` (the measurement), and optionally the ``window`` (t0, t1) scored."""
+    cols = 2
+    rows = (len(panels) + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(11, 2.4 * rows), sharex=True, squeeze=False)
+    for ax, pan in zip(axes.ravel(), panels, strict=False):
+        ax.plot(pan["t_exp"], pan["exp"], color="0.45", lw=0.8, label="experiment")
+        ax.plot(pan["t"], pan["value"], color="tab:blue", lw=1.1, label="erosim")
+        if "window" in pan:
+            ax.axvspan(*pan["window"], color="tab:orange", alpha=0.08, lw=0)
+        ax.set_title(pan["title"], fontsize=9)
+        ax.set_ylabel(pan["unit"])
+    for ax in axes.ravel()[len(panels) :]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("t (s)")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def pressure_profile(
     path, z: np.ndarray, p: np.ndarray, *, rho0: float, g: float, H: float, floor: float = 0.0, title: str = ""
 ) -> Path:

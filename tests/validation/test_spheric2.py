@@ -1,0 +1,89 @@
+"""SPHERIC Test 2 (3-D dam break against a box, Kleefsman et al. 2005): the shipped measurements,
+the error measures on known series, and the coarse case against the experiment (issue 14)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from erosim.data import SPHERIC2, reference_csv
+from erosim.validation import spheric2 as sp
+
+EXP = reference_csv(SPHERIC2)
+
+
+def test_measurements_are_labelled_by_gauge_position():
+    """The source swaps H1 and H3; shipped under their gauges, H3 (1.488 m, 0.50 m from the gate) wets
+    before H2 (0.992 m), and H2 before H1 (0.496 m, behind the box); H4 starts at the column's 0.55 m."""
+
+    def wetted(name):
+        return EXP["t_s"][np.argmax(EXP[name] > 0.02)]
+
+    assert wetted("H3_m") < wetted("H2_m") < wetted("H1_m")
+    assert EXP["H4_m"][0] == pytest.approx(0.55, abs=0.01)
+    assert len(EXP["t_s"]) == 7395 and EXP["t_s"][-1] > 7.0
+
+
+def test_error_measures_on_known_series():
+    t = np.arange(0.0, 1.6, 0.002)
+    run = {"t": t}
+    for g in sp.GAUGES:
+        run[f"depth_{g}"] = np.interp(t, EXP["t_s"], EXP[f"{g}_m"])
+    for p in sp.PROBES:
+        run[f"p_{p}"] = np.interp(t, EXP["t_s"], EXP[f"{p}_Pa"])
+    e = sp.errors(run, EXP, 1000.0, 9.81)
+    assert max(e["level_rms_m"].values()) < 1e-12
+    assert max(e["pressure_rms_rel"].values()) < 0.02  # ±10 ms means of the 1 ms record vs of its 2 ms resampling
+    run["depth_H2"] = run["depth_H2"] + 0.055  # 10 % of H too high everywhere
+    run["p_P3"] = run["p_P3"] - 0.2 * 1000 * 9.81 * sp.H
+    e = sp.errors(run, EXP, 1000.0, 9.81)
+    assert e["level_rms_rel"]["H2"] == pytest.approx(0.10, rel=1e-9)
+    assert e["pressure_rms_rel"]["P3"] == pytest.approx(0.20, abs=0.02)
+
+
+def _level_errors(tmp_path, spacing):
+    from erosim.io.runfolder import RunFolder
+    from erosim.scenarios import loader
+    from erosim.scenarios.runner import execute
+
+    sets = [f"sph.spacing={spacing!r}", "run.t_end=1.6", "run.output_interval=0", "run.snapshots=0"]
+    folder = RunFolder(tmp_path / f"dx{spacing}")
+    execute(loader.load("spheric2", sets), folder, progress=False)
+    return sp.errors(sp._csv(folder.path / "gauges.csv"), EXP, 1000.0, 9.81)
+
+
+#: coarse (Δx = 0.05 m) errors measured 2026-11-24, and their scatter: the spread of each metric when
+#: the time step is changed by ±5 % (sph.cfl 0.19 / 0.21), which reorders the flow's small splashes
+COARSE_LEVEL = {"H1": (0.1168, 0.020), "H2": (0.0588, 0.003), "H3": (0.0713, 0.005), "H4": (0.0635, 0.005)}
+COARSE_PRESSURE = {"P1": (0.4378, 0.020), "P3": (0.4307, 0.015)}
+
+
+def test_coarse_case_against_the_experiment(tmp_path):
+    """Δx = 0.05 m (5 500 particles, about 35 s): the validation's outputs, and each gauge's level RMS
+    and P1/P3's pressure RMS held at the measured value plus its scatter (regression bounds; the
+    issue's targets, 10 % and 25 %, apply at the default resolution and are not met yet at P3)."""
+    result = sp.run("coarse", tmp_path / "v", progress=False)
+    assert result["case"] == "spheric2" and result["fluid_particles"] == 5500
+    assert (tmp_path / "v" / "figures" / "spheric2_vs_experiment.png").is_file()
+    assert json.loads((tmp_path / "v" / "validation.json").read_text())["value"] == result["value"]
+    for g, (measured, scatter) in COARSE_LEVEL.items():
+        assert result["level_rms_rel"][g] <= measured + scatter, (g, result["level_rms_rel"])
+    for p, (measured, scatter) in COARSE_PRESSURE.items():
+        assert result["pressure_rms_rel"][p] <= measured + scatter, (p, result["pressure_rms_rel"])
+    assert result["value"] == max(result["level_rms_rel"].values())
+
+
+def test_water_level_error_shrinks_with_resolution(tmp_path):
+    """Mean level RMS over H1–H4: Δx = 0.07 m → 0.05 m measured 10.0 % → 7.8 % of H (0.03 m: 5.8 %,
+    0.02 m: 5.4 %); the finer run must be better by more than the scatter of the coarser (±1 %)."""
+    coarser, coarse = (_level_errors(tmp_path, dx)["level_rms_rel"] for dx in (0.07, 0.05))
+    assert np.mean(list(coarse.values())) < np.mean(list(coarser.values())) - 0.01
+
+
+@pytest.mark.slow
+def test_default_resolution_levels_meet_the_target_at_h2_to_h4(tmp_path):
+    """Δx = 0.03 m (24 354 particles, about 2 min): H2–H4 within the issue's 10 % of H (measured 2.1,
+    5.0, 3.5 %); H1, in the box's lee, is at 12.4 % (the jet over the box arrives late)."""
+    result = sp.run("default", tmp_path / "v", progress=False)
+    for g in ("H2", "H3", "H4"):
+        assert result["level_rms_rel"][g] <= sp.LEVEL_THRESHOLD, result["level_rms_rel"]
