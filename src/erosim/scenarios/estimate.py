@@ -88,10 +88,14 @@ def map_cells(terrain) -> int | None:
             return int(np.prod(np.load(path, mmap_mode="r").shape))
         if path.suffix.lower() in (".r16", ".raw"):
             return path.stat().st_size // 2
+        import warnings
+
         import rasterio
 
-        with rasterio.open(path) as ds:
-            return int(ds.width * ds.height)
+        with warnings.catch_warnings():  # only the size is read: a PNG without a transform is fine here
+            warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+            with rasterio.open(path) as ds:
+                return int(ds.width * ds.height)
     except Exception:  # an unreadable file is reported by the builder, in its own words
         return None
 
