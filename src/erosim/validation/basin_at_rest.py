@@ -28,6 +28,7 @@ from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import loader
+from erosim.validation import run_facts
 
 P_THRESHOLD = 0.03
 # spacing (m), settling time (s)
@@ -104,10 +105,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
             and e["surface_mismatch_m"] <= spacing
             and e["particles_below_ground"] == 0
         )
-        e.update(
-            fluid_particles=int(solver.n_fluid), boundary_particles=int(solver.n_boundary), steps=int(solver.steps),
-            wall_time_s=round(time.perf_counter() - t0, 2), run_status=summary["status"],
-        )  # fmt: skip
+        e.update(run_facts(solver, summary, time.perf_counter() - t0))
         results[model] = e
     passed = all(r["passed"] for r in results.values())
     result = {

@@ -21,6 +21,7 @@ from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import loader
+from erosim.validation import run_facts
 
 P_THRESHOLD = 0.02
 RHO_THRESHOLD = 0.01
@@ -96,12 +97,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         "spacing": H / n_h,
         "particles_across_depth": n_h,
         "settling_time_s": float(solver.t),
-        "fluid_particles": int(solver.n_fluid),
-        "boundary_particles": int(solver.n_boundary),
-        "steps": int(solver.steps),
-        "wall_time_s": round(wall, 2),
+        **run_facts(solver, summary, wall),
         "figure": str(fig.relative_to(folder.path)),
-        "run_status": summary["status"],
     }
     atomic.write_json(folder.path / "validation.json", result)
     return result

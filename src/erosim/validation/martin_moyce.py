@@ -28,6 +28,7 @@ from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import loader
+from erosim.validation import run_facts
 
 A = 0.05715  # column width a (m), 2.25 in
 T_MAX_METRIC = 3.0
@@ -137,18 +138,14 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         "ground": ground,
         "spacing": A / n_a,
         "particles_across_column": n_a,
-        "fluid_particles": int(solver.n_fluid),
-        "boundary_particles": int(solver.n_boundary),
-        "steps": int(solver.steps),
+        **run_facts(solver, summary, wall),
         "simulated_time_s": float(solver.t),
-        "wall_time_s": round(wall, 2),
         "points": {
             "T": T_k.tolist(),
             "Z_experiment": ref["Z"][ref["T"] <= T_MAX_METRIC + 1e-12].tolist(),
             "Z_simulation": Z_k.tolist(),
         },
         "figure": str(fig.relative_to(folder.path)),
-        "run_status": summary["status"],
     }
     atomic.write_json(folder.path / "validation.json", result)
     return result

@@ -27,6 +27,7 @@ from erosim.core.errors import ConfigError
 from erosim.data import SPHERIC2, reference_csv
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import loader
+from erosim.validation import run_facts
 
 H = 0.55  # initial column height (m)
 LEVEL_WINDOW = (0.0, 1.5)
@@ -122,12 +123,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         "pressure_threshold": PRESSURE_THRESHOLD,
         "resolution": resolution,
         "spacing": dx,
-        "fluid_particles": int(solver.n_fluid),
-        "boundary_particles": int(solver.n_boundary),
-        "steps": int(solver.steps),
-        "wall_time_s": round(wall, 2),
+        **run_facts(solver, summary, wall),
         "figure": str(fig.relative_to(folder.path)),
-        "run_status": summary["status"],
     }
     atomic.write_json(folder.path / "validation.json", result)
     return result
