@@ -284,6 +284,13 @@ MUTATIONS = (
         "the water-level gauge forgets the floor (φ = ½ on a wetted floor)",
     ),
     Mutation(
+        "wall-load-without-wall-pressure",
+        "sph/wall_load.py",
+        (("pterm = p_a / rho_a**2 + p_b / rho_b**2\n", "pterm = p_a / rho_a**2 + 0.0 * p_b\n"),),
+        ("tests/unit/test_wall_load.py",),
+        "a wall sensor forgets the wall particles' own pressure in the pair force",
+    ),
+    Mutation(
         "animation-not-checkpointed",
         "simulation/callbacks.py",
         (('        return {"frames": np.stack(self.frames)} if self.frames else {}\n', "        return {}\n"),),

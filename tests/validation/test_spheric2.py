@@ -55,17 +55,23 @@ def _level_errors(tmp_path, spacing):
 #: coarse (Δx = 0.05 m) errors measured 2026-11-24, and their scatter: the spread of each metric when
 #: the time step is changed by ±5 % (sph.cfl 0.19 / 0.21), which reorders the flow's small splashes
 COARSE_LEVEL = {"H1": (0.1168, 0.020), "H2": (0.0588, 0.003), "H3": (0.0713, 0.005), "H4": (0.0635, 0.005)}
-COARSE_PRESSURE = {"P1": (0.4378, 0.020), "P3": (0.4307, 0.015)}
+COARSE_PRESSURE = {"P1": (0.2824, 0.010), "P3": (0.2523, 0.015)}
 
 
-def test_coarse_case_against_the_experiment(tmp_path):
+@pytest.fixture(scope="module")
+def coarse(tmp_path_factory):
+    out = tmp_path_factory.mktemp("spheric2") / "v"
+    return sp.run("coarse", out, progress=False), out
+
+
+def test_coarse_case_against_the_experiment(coarse):
     """Δx = 0.05 m (5 500 particles, about 35 s): the validation's outputs, and each gauge's level RMS
     and P1/P3's pressure RMS held at the measured value plus its scatter (regression bounds; the
-    issue's targets, 10 % and 25 %, apply at the default resolution and are not met yet at P3)."""
-    result = sp.run("coarse", tmp_path / "v", progress=False)
+    issue's targets, 10 % and 25 %, apply at the default resolution)."""
+    result, out = coarse
     assert result["case"] == "spheric2" and result["fluid_particles"] == 5500
-    assert (tmp_path / "v" / "figures" / "spheric2_vs_experiment.png").is_file()
-    assert json.loads((tmp_path / "v" / "validation.json").read_text())["value"] == result["value"]
+    assert (out / "figures" / "spheric2_vs_experiment.png").is_file()
+    assert json.loads((out / "validation.json").read_text())["value"] == result["value"]
     for g, (measured, scatter) in COARSE_LEVEL.items():
         assert result["level_rms_rel"][g] <= measured + scatter, (g, result["level_rms_rel"])
     for p, (measured, scatter) in COARSE_PRESSURE.items():
@@ -73,17 +79,21 @@ def test_coarse_case_against_the_experiment(tmp_path):
     assert result["value"] == max(result["level_rms_rel"].values())
 
 
-def test_water_level_error_shrinks_with_resolution(tmp_path):
+def test_water_level_error_shrinks_with_resolution(tmp_path, coarse):
     """Mean level RMS over H1–H4: Δx = 0.07 m → 0.05 m measured 10.0 % → 7.8 % of H (0.03 m: 5.8 %,
     0.02 m: 5.4 %); the finer run must be better by more than the scatter of the coarser (±1 %)."""
-    coarser, coarse = (_level_errors(tmp_path, dx)["level_rms_rel"] for dx in (0.07, 0.05))
-    assert np.mean(list(coarse.values())) < np.mean(list(coarser.values())) - 0.01
+    coarser = _level_errors(tmp_path, 0.07)["level_rms_rel"]
+    finer = coarse[0]["level_rms_rel"]
+    assert np.mean(list(finer.values())) < np.mean(list(coarser.values())) - 0.01
 
 
 @pytest.mark.slow
-def test_default_resolution_levels_meet_the_target_at_h2_to_h4(tmp_path):
-    """Δx = 0.03 m (24 354 particles, about 2 min): H2–H4 within the issue's 10 % of H (measured 2.1,
-    5.0, 3.5 %); H1, in the box's lee, is at 12.4 % (the jet over the box arrives late)."""
+def test_default_resolution_meets_the_targets_but_h1(tmp_path):
+    """Δx = 0.03 m (24 354 particles, about 2 min 20 s): H2–H4 within the issue's 10 % of H (measured
+    2.1, 5.0, 3.5 %) and the box's P1 and P3 within 25 % of ρ₀gH (measured 13 %, 13 %); H1, in the
+    box's lee, is at 12.4 % (the water over and round the box arrives about 0.2 s late)."""
     result = sp.run("default", tmp_path / "v", progress=False)
     for g in ("H2", "H3", "H4"):
         assert result["level_rms_rel"][g] <= sp.LEVEL_THRESHOLD, result["level_rms_rel"]
+    for p in ("P1", "P3"):
+        assert result["pressure_rms_rel"][p] <= sp.PRESSURE_THRESHOLD, result["pressure_rms_rel"]

@@ -114,6 +114,37 @@ def build(cfg: SPHScenario) -> Built:
     return Built(solver=solver, fluid_pos=pos, info=derivation(cfg, len(pos)))
 
 
+def probe_wall(cfg: SPHScenario, point) -> tuple | None:
+    """(normal into the fluid, the wall's solid box) when ``point`` lies on a face of an obstacle or,
+    with boundary-particle walls, of the domain's floor or sides; None for a probe in the fluid."""
+    if cfg.sph.walls != "particles":
+        return None  # reflecting walls have no particles to feel the load
+    q = np.asarray(point, dtype=np.float64)
+    lo, hi = np.asarray(cfg.domain.lo, float), np.asarray(cfg.domain.hi, float)
+    tol = 1e-6 * float(np.max(hi - lo))
+    for ob in cfg.obstacles:
+        olo, ohi = np.asarray(ob.lo, float), np.asarray(ob.hi, float)
+        if np.any(q < olo - tol) or np.any(q > ohi + tol):
+            continue
+        for k in range(len(q)):
+            for face, sign in ((olo[k], -1.0), (ohi[k], 1.0)):
+                if abs(q[k] - face) <= tol and not (k == len(q) - 1 and sign < 0):
+                    normal = np.zeros(len(q))
+                    normal[k] = sign
+                    return normal, (olo, ohi)
+    reach = 10.0 * cfg.sph.support()  # the walls' particles lie within a support outside the domain
+    for k in range(len(q)):
+        for face, sign in ((lo[k], 1.0), (hi[k], -1.0)):
+            top = k == len(q) - 1 and sign < 0  # no wall on top
+            if abs(q[k] - face) <= tol and not top:
+                normal = np.zeros(len(q))
+                normal[k] = sign
+                solid_lo, solid_hi = lo - reach, hi + reach
+                (solid_hi if sign > 0 else solid_lo)[k] = face
+                return normal, (solid_lo, solid_hi)
+    return None
+
+
 def column_width(cfg: SPHScenario) -> float:
     """Width a of the first fluid block along x (the collapsing column)."""
     return float(cfg.fluid[0].hi[0] - cfg.fluid[0].lo[0])
@@ -144,6 +175,7 @@ def setup(scenario, out) -> Setup:
                 TimeInterval(r.sample_interval), solver, out.path / "gauges.csv",
                 probes=[(q.name, q.position) for q in cfg.probes], gauges=[(g.name, g.position) for g in cfg.gauges],
                 support=p.support(), spacing=p.spacing, mass=p.rho0 * p.spacing**p.dim, floor=cfg.domain.lo[-1],
+                walls=[probe_wall(cfg, q.position) for q in cfg.probes],
             )
         )  # fmt: skip
     front = None

@@ -135,12 +135,15 @@ class Probes(Callback):
     """Pressure probes and water-level gauges (:mod:`erosim.analysis.gauges`) sampled into ``gauges.csv``.
 
     Columns: ``t`` (s), ``p_<probe>`` (Pa), ``depth_<gauge>`` (m above ``floor``: the continuous water
-    column at the gauge line, :func:`~erosim.analysis.gauges.water_level`).
+    column at the gauge line, :func:`~erosim.analysis.gauges.water_level`). A probe with a wall
+    (``walls[k]`` = (normal, solid box)) reads the load the fluid puts on that wall's particles
+    (:func:`~erosim.sph.wall_load.wall_pressure`, over a patch one support wide each way); the others
+    the fluid's pressure interpolated at their point.
     """
 
     def __init__(
         self, schedule: Schedule, fluid, path: Path, *, probes, gauges, support: float, spacing: float,
-        mass: float, floor: float,
+        mass: float, floor: float, walls=None,
     ):  # fmt: skip
         super().__init__(schedule, name="probes")
         self.fluid = fluid
@@ -148,6 +151,7 @@ class Probes(Callback):
         self.probe_points = np.array([p for _, p in probes], dtype=np.float64)
         self.gauge_points = np.array([g for _, g in gauges], dtype=np.float64)
         self.h, self.dx, self.mass, self.floor = support, spacing, mass, floor
+        self.walls = list(walls) if walls is not None else [None] * len(probes)
         self.header = ["t"] + [f"p_{n}" for n, _ in probes] + [f"depth_{n}" for n, _ in gauges]
         self.rows: list[list[float]] = []
 
@@ -159,10 +163,16 @@ class Probes(Callback):
         row = [float(s.t)]
         vol = self.mass / s.fluid_density()
         if len(self.probe_points):
-            row += probe_pressure(
+            from erosim.sph.wall_load import wall_pressures
+
+            values = probe_pressure(
                 pos, s.fluid_pressure(), vol, self.probe_points, self.h,
                 density=s.fluid_density(), gravity=s.params.gravity_vector(),
-            ).tolist()  # fmt: skip
+            )  # fmt: skip
+            on_walls = [k for k, wall in enumerate(self.walls) if wall is not None]
+            loads = wall_pressures(s, [(self.probe_points[k], *self.walls[k]) for k in on_walls], self.h)
+            values[on_walls] = loads
+            row += values.tolist()
         if len(self.gauge_points):
             kernel = s.params.kernel
             row += water_level(pos, vol, self.gauge_points, self.h, self.dx, self.floor, kernel).tolist()

@@ -11,8 +11,8 @@ with the MARIN measurements (``erosim/data/reference/spheric2_kleefsman2005_mari
 
 The experiment's time origin is the gate's release (the measurements start at t = 0). Levels are
 read as the continuous water column at the gauge line (:func:`erosim.analysis.gauges.water_level`),
-as the experiment's wave gauges read them; pressures as the fluid's Shepard-interpolated pressure at
-the sensor's point on the face.
+as the experiment's wave gauges read them; pressures as the load the fluid puts on the box's
+particles around the sensor (:mod:`erosim.sph.wall_load`), as the sensors feel it.
 """
 
 from __future__ import annotations
