@@ -103,9 +103,9 @@ def execute(scenario_ref, overrides, preset, out, resume, overwrite, *, progress
     except BaseException as exc:
         resumable = (run_folder.path / "checkpoint").is_dir()
         started = (run_folder.path / "report.json").is_file()  # a started run reports whatever happens
-        if not resume and created and not started:
+        if not resume and created and not started and not resumable:
             # failed or stopped before the run started (bad input found while building it, Ctrl-C while
-            # compiling, a disk too full for even the report): nothing to keep, so the folder goes
+            # compiling, a disk too full for even the report or a checkpoint): nothing to keep, so it goes
             shutil.rmtree(run_folder.path, ignore_errors=True)
             if isinstance(exc, KeyboardInterrupt):
                 msg = "Interrupted before the first step; nothing was kept, run the command again."

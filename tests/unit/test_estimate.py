@@ -43,3 +43,24 @@ def test_memory_estimate_is_within_a_factor_of_two_of_the_peak(tmp_path, name, s
     peak = float(subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout)
     assert peak / 2 < guess.memory < 2 * peak, (guess.memory, peak)
     assert json.loads((tmp_path / "r" / "report.json").read_text())["status"] == "completed"
+
+
+def test_a_run_without_gravity_gets_no_time_but_no_crash():
+    cfg = loader.load("dam-break-2d", ["sph.gravity=[0.0, 0.0]"]).config
+    guess = estimate.check("sph", cfg)
+    assert guess.seconds is None and guess.memory > estimate.BASE_BYTES
+    assert "steps" not in guess.what
+
+
+def test_a_generated_terrains_default_cell_size_counts_in_the_rain_estimate():
+    """A generated map with no terrain.cell_size has 10 m cells; rain over 10 m cells is 25× the water
+    of 2 m cells on the same grid."""
+    from erosim.scenarios.schema_common import TerrainSection
+
+    assert estimate.map_size(TerrainSection(size=64)) == (64 * 64, estimate.GENERATED_CELL)
+    sets = ["rain.rate=1e5", "run.t_end=10"]
+    small, large = (
+        estimate.sph_terrain(loader.load("rain-erosion", [*sets, f"terrain.cell_size={c}"]).config) for c in (2.0, 10.0)
+    )
+    water = (large.memory - small.memory) / estimate.SPH_PARTICLE_BYTES  # particles added by the larger map
+    assert water == pytest.approx(24 * (small.memory - estimate.BASE_BYTES - 200.0 * 64 * 64) / 800.0, rel=1e-6)

@@ -98,3 +98,13 @@ def test_probe_on_the_walls_of_a_tank_at_rest_reads_rho_g_depth():
     np.testing.assert_allclose(got, exact, rtol=0.02)
     plain = probe_pressure(*args)
     assert np.all(plain[4:] < 0.97 * exact[4:])
+
+
+def test_probe_above_the_water_never_reads_suction():
+    """Half a support above a tank's surface the hydrostatic extrapolation alone would read −ρ₀g·Δz;
+    a probe in the air reads no less than its neighbours' pressure (≥ 0 here)."""
+    pos = _tank(2)  # water to 0.2 m
+    p = 1000 * 9.81 * (0.2 - pos[:, 1])
+    rho = np.full(len(pos), 1000.0)
+    got = probe_pressure(pos, p, DX**2 / 1.0, np.array([[0.1, 0.215]]), 2 * DX, density=rho, gravity=[0.0, -9.81])
+    assert got[0] >= 0.0

@@ -106,12 +106,14 @@ def test_asc_with_rectangular_cells_keeps_dx_dy(tmp_path, geo_hm):
     assert back.cell_size == pytest.approx(86.3, rel=0.002)
 
 
-def test_unreadable_sidecars_are_one_sentence(tmp_path, geo_hm):
+def test_unreadable_world_file_is_one_sentence_and_an_unreadable_prj_is_skipped(tmp_path, geo_hm):
     io.write(tmp_path / "m.png", geo_hm)
     (tmp_path / "m.pgw").write_text("10\n0\n0\n")
     with pytest.raises(InputError, match="^World file .* does not hold six numbers"):
         io.read(tmp_path / "m.png")
     (tmp_path / "m.pgw").unlink()
-    (tmp_path / "m.prj").write_text("not a CRS")
-    with pytest.raises(InputError, match="^Cannot read the CRS in .*m.prj"):
-        io.read(tmp_path / "m.png")
+    (tmp_path / "m.prj").write_text("Projection UTM\nZone 33\nDatum WGS84\nUnits METERS")  # old ArcInfo style
+    with pytest.warns(UserWarning, match="holds no CRS erosim can read"):
+        back = io.read(tmp_path / "m.png")  # the heights still load, without a CRS
+    assert back.crs is None
+    np.testing.assert_allclose(back.z, geo_hm.z, atol=(geo_hm.z.max() - geo_hm.z.min()) / 65535)

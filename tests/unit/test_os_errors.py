@@ -165,3 +165,22 @@ def _one_sentence_any_code(result) -> str:
 def test_each_os_error_class_has_its_sentence(code, words):
     line = os_error_message(OSError(code, os.strerror(code), "p"))
     assert words in line and line.endswith(".") and "\n" not in line
+
+
+def test_an_os_error_without_a_path_keeps_its_own_message():
+    line = os_error_message(OSError("Free disk space available is 10 bytes, whereas 2000 are at least necessary."))
+    assert line.startswith("Free disk space available is 10 bytes") and "\n" not in line and line.endswith(".")
+
+
+def test_a_run_whose_report_cannot_be_written_keeps_its_checkpoint_and_says_how_to_resume(tmp_path, monkeypatch):
+    from erosim.io.runfolder import RunFolder
+
+    def no_space(self, *args, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self.path / "report.json"))
+
+    monkeypatch.setattr(RunFolder, "write_report", no_space)
+    out = tmp_path / "run"
+    result = CliRunner().invoke(cli, ["--quiet", "run", "dam-break-2d", "--set", "run.t_end=0.01", "--out", str(out)])
+    line = _one_sentence(result)
+    assert "No space left" in line and f"erosim run --resume {out}" in line
+    assert (out / "checkpoint").is_dir()

@@ -1,6 +1,7 @@
 """The pressure a wall sensor reads: the load the fluid puts on the wall's particles (erosim.sph.wall_load)."""
 
 import numpy as np
+import pytest
 
 from erosim.scenarios import loader
 from erosim.scenarios.builders_sph import build, lattice, probe_wall
@@ -46,3 +47,14 @@ def test_probes_on_faces_get_their_walls():
     floor = probe_wall(tank, [10.0, 3.5, 0.0])
     np.testing.assert_array_equal(floor[0], [0.0, 0.0, 1.0])
     assert probe_wall(loader.load("dam-break", ["sph.walls=reflect"]).config, [10.0, 3.5, 0.0]) is None
+
+
+def test_face_area_uses_the_walls_own_step():
+    """Walls are laid at extent/round(extent/Δx): a 3 × 3 patch of a face whose particles are 0.031 m
+    apart in y and 0.0322 m in z covers 9 · 0.031 · 0.0322 m², not 9 Δx² (Δx = 0.03)."""
+    from erosim.sph.wall_load import _face_area
+
+    y, z = np.meshgrid(0.5 + 0.031 * np.arange(3), 0.0161 + 0.0322 * np.arange(3), indexing="ij")
+    layers = [np.stack([np.full(y.size, x), y.ravel(), z.ravel()], axis=1) for x in (0.8, 0.77)]
+    wall = np.vstack(layers)  # two layers behind the face: the same columns
+    assert _face_area(wall, np.array([1.0, 0.0, 0.0]), 0.03) == pytest.approx(9 * 0.031 * 0.0322)

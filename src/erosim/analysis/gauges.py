@@ -9,9 +9,9 @@ J. Comput. Phys. 231) use for the pressure a wall feels:
 with the poly6 kernel shape W ∝ (h² − |r|²)³ (Müller et al. 2003; its constant cancels in the
 ratio). Inside the fluid the extrapolation terms cancel by symmetry; on a wall, where every
 neighbour lies on one side, they carry the pressure from the neighbours' mean depth to the probe's
-(a probe on a tank's floor reads ρ₀gH, not the pressure half a support above it). Without ``g`` it
-is the plain Shepard mean. A probe with no particle within h is dry and reads 0 (gauge pressure of
-the air).
+(a probe on a tank's floor reads ρ₀gH, not the pressure half a support above it); above the water
+it never reads less than its neighbours (or 0). Without ``g`` it is the plain Shepard mean. A probe
+with no particle within h is dry and reads 0 (gauge pressure of the air).
 
 The water level at a gauge (a vertical line at a horizontal position) is read as a wave gauge reads
 it, from the continuous water column at the line (:func:`water_level`): the SPH volume fraction
@@ -66,7 +66,8 @@ def probe_pressure(
         value = pressure[idx]
         if gravity is not None:
             value = value + density[idx] * (offset @ np.asarray(gravity, dtype=np.float64))
-        out[k] = float(np.dot(w, value) / s)
+        # above the water the extrapolation would read suction: no lower than the neighbours' (or 0)
+        out[k] = max(float(np.dot(w, value) / s), min(0.0, float(pressure[idx].min())))
     return out
 
 
@@ -103,11 +104,11 @@ def water_level(
     ``gauges`` is (k, d−1); ``volume`` the particles' V = m/ρ (scalar or per particle); ``h`` the
     kernel support and ``kernel`` the solver's; samples every ``spacing``/4 up the line.
     """
-    gauges = np.asarray(gauges, dtype=np.float64).reshape(len(gauges), -1)
-    out = np.zeros(len(gauges))
-    if len(positions) == 0 or len(gauges) == 0:
-        return out
+    if len(gauges) == 0 or len(positions) == 0:
+        return np.zeros(len(gauges))
     dim = positions.shape[1]
+    gauges = np.asarray(gauges, dtype=np.float64).reshape(-1, dim - 1)
+    out = np.zeros(len(gauges))
     vol = np.broadcast_to(np.asarray(volume, dtype=np.float64), (len(positions),))
     tree = cKDTree(positions[:, :-1])
     dz = 0.25 * spacing

@@ -42,7 +42,10 @@ def os_error_message(exc: OSError) -> str:
     way of a folder …): what happened to which path, and the fix."""
     import errno
 
-    path = exc.filename if exc.filename is not None else "the output"
+    if exc.filename is None:  # no path to name (a library's own I/O error): its message, in one line
+        text = " ".join((exc.strerror or str(exc) or type(exc).__name__).split())
+        return f"{text.rstrip('.')}; check the paths involved and the disk."
+    path = exc.filename
     sentences = {
         errno.EACCES: f"Permission denied for '{path}'; choose a place you can write to (for a run, --out DIR) "
         "or change its permissions.",
@@ -55,5 +58,5 @@ def os_error_message(exc: OSError) -> str:
     }
     sentences[errno.EPERM] = sentences[errno.EACCES]
     sentences[errno.EDQUOT] = sentences[errno.ENOSPC]
-    reason = exc.strerror or type(exc).__name__
+    reason = exc.strerror or str(exc) or type(exc).__name__
     return sentences.get(exc.errno, f"{reason} for '{path}'; check the path and the disk.")

@@ -188,10 +188,17 @@ def _read_sidecars(p: Path, world: bool = True):
     crs = transform = None
     prj = p.with_suffix(".prj")
     if prj.is_file():
-        try:
-            crs = CRS.from_wkt(prj.read_text(encoding="utf-8", errors="replace").strip())
-        except Exception as exc:
-            raise InputError(f"Cannot read the CRS in '{prj}' ({exc}); fix that file or delete it.") from None
+        text = prj.read_text(encoding="utf-8", errors="replace").strip()
+        for parse in (CRS.from_wkt, CRS.from_user_input):  # WKT (either dialect), else PROJ/EPSG strings
+            try:
+                crs = parse(text)
+                break
+            except Exception:
+                continue
+        else:  # an old ArcInfo or unknown .prj must not stop the heights from loading
+            import warnings
+
+            warnings.warn(f"'{prj}' holds no CRS erosim can read; the map is read without one.", stacklevel=3)
     wld = next((w for w in (_world_path(p), p.with_suffix(".wld")) if w.is_file()), None) if world else None
     if wld is not None:
         try:

@@ -76,18 +76,22 @@ def _cores() -> int:
     return max(1, min(int(os.environ.get("NUMBA_NUM_THREADS", os.cpu_count() or 1)), os.cpu_count() or 1))
 
 
-def map_cells(terrain) -> int | None:
-    """Cells of a ``[terrain]`` section: generated (size²) or a file's header; None if unknown."""
+GENERATED_CELL = 10.0  # m, a generated terrain's cell size when terrain.cell_size is not set
+
+
+def map_size(terrain) -> tuple[int, float] | None:
+    """(cells, cell size in m) of a ``[terrain]`` section: generated (size², ``cell_size`` or 10 m) or
+    a file's header (its own cell size unless ``cell_size`` is set); None if unknown."""
     if terrain.file is None:
-        return int(terrain.size) ** 2
+        return int(terrain.size) ** 2, float(terrain.cell_size or GENERATED_CELL)
     path = Path(str(terrain.file))
     try:
         if path.suffix.lower() == ".npy":
             import numpy as np
 
-            return int(np.prod(np.load(path, mmap_mode="r").shape))
+            return int(np.prod(np.load(path, mmap_mode="r").shape)), float(terrain.cell_size or 1.0)
         if path.suffix.lower() in (".r16", ".raw"):
-            return path.stat().st_size // 2
+            return path.stat().st_size // 2, float(terrain.cell_size or 1.0)
         import warnings
 
         import rasterio
@@ -95,16 +99,25 @@ def map_cells(terrain) -> int | None:
         with warnings.catch_warnings():  # only the size is read: a PNG without a transform is fine here
             warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
             with rasterio.open(path) as ds:
-                return int(ds.width * ds.height)
+                return int(ds.width * ds.height), float(terrain.cell_size or abs(ds.res[0]) or 1.0)
     except Exception:  # an unreadable file is reported by the builder, in its own words
         return None
 
 
-def _sph_steps(params, top: float, floor: float, t_end: float) -> float:
+def map_cells(terrain) -> int | None:
+    """Cells of a ``[terrain]`` section (:func:`map_size`)."""
+    size = map_size(terrain)
+    return None if size is None else size[0]
+
+
+def _sph_steps(params, top: float, floor: float, t_end: float, speed: float) -> float | None:
+    """Steps to ``t_end`` at the CFL limit with the solver's auto sound speed (10·√(2|g|H) or 10× the
+    initial ``speed``); None when nothing sets a speed (no gravity, fluid at rest, no sound speed)."""
     g = math.sqrt(sum(x * x for x in params.gravity_vector()))
-    c = params.sound_speed or 10.0 * math.sqrt(2.0 * g * max(top - floor, params.spacing))
-    dt = params.dt or params.cfl * params.support() / c
-    return t_end / dt
+    c = params.sound_speed or 10.0 * max(math.sqrt(2.0 * g * max(top - floor, params.spacing)), speed)
+    if params.dt:
+        return t_end / params.dt
+    return t_end * c / (params.cfl * params.support()) if c > 0 else None
 
 
 def hydrology(cfg) -> Estimate | None:
@@ -138,9 +151,10 @@ def sph(cfg) -> Estimate:
         walls = area / p.spacing ** (dim - 1) * math.ceil(p.support() / p.spacing)
     n = fluid + walls
     top = max(f.hi[-1] for f in cfg.fluid)
-    steps = _sph_steps(p, top, cfg.domain.lo[-1], cfg.run.t_end)
-    seconds = n * steps / (SPH_STEPS_PER_CORE_S * _cores())
-    what = f"{n:,.0f} particles, about {steps:,.0f} steps"
+    speed = max((math.sqrt(sum(v * v for v in f.velocity)) for f in cfg.fluid if f.velocity), default=0.0)
+    steps = _sph_steps(p, top, cfg.domain.lo[-1], cfg.run.t_end, speed)
+    seconds = n * steps / (SPH_STEPS_PER_CORE_S * _cores()) if steps is not None else None
+    what = f"{n:,.0f} particles" + (f", about {steps:,.0f} steps" if steps is not None else "")
     fix = "raise sph.spacing or make the fluid blocks smaller"
     return Estimate(what, BASE_BYTES + SPH_PARTICLE_BYTES * n, seconds, fix)
 
@@ -149,10 +163,11 @@ def sph_terrain(cfg) -> Estimate | None:
     p = cfg.sph
     if cfg.profile is not None:
         return None  # a 2-D flume: small by construction
-    cells = map_cells(cfg.terrain)
-    if cells is None:
+    size = map_size(cfg.terrain)
+    if size is None:
         return None
-    extent = math.sqrt(cells) * (cfg.terrain.cell_size or 1.0)
+    cells, cell = size
+    extent = math.sqrt(cells) * cell
     rain = cfg.rain.rate * extent**2 / 3.6e6 if cfg.rain.rate > 0 else 0.0  # mm/h over the map → m³/s
     inflow = sum(i.discharge for i in cfg.inflows.values())
     n = (rain + inflow) * cfg.run.t_end / p.spacing**3  # the water the run adds (lakes come on top)

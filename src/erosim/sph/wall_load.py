@@ -8,7 +8,7 @@ and their fluid neighbours a,
 
 with P_ab the solver's pressure term, f_ab = ∇W_ab/r_ab and (c_r, c_v) its viscous term; the
 pressure is its component against the face's normal n (pointing into the fluid) over the patch's
-face area, p = −F·n / A, A = (boundary-particle columns in the patch) · Δx^(d−1).
+face area, p = −F·n / A, A = (boundary-particle columns in the patch) × (their cell on the face).
 
 Why not an interpolated pressure: dynamic boundary particles (Crespo et al. 2007) hold the fluid
 off by their own pressure, far above the fluid's beside them (15–26 kPa against the 3 kPa measured
@@ -58,14 +58,25 @@ def wall_pressure(solver, point, normal, half_width: float, solid) -> float:
     return wall_pressures(solver, [(point, normal, solid)], half_width)[0]
 
 
+def _face_area(wall: np.ndarray, normal: np.ndarray, spacing: float) -> float:
+    """Face area of a patch of wall particles: its columns along the face times their cell. Walls are
+    laid at extent/round(extent/Δx), not Δx, so each tangential axis's step is read off the particles
+    (one column along an axis: Δx); the normal is along an axis (``probe_wall``)."""
+    area, keys = 1.0, []
+    for k in np.nonzero(np.asarray(normal) == 0.0)[0]:
+        coords = np.unique(np.round(wall[:, k], 9))
+        step = float(np.median(np.diff(coords))) if len(coords) > 1 else spacing
+        area *= step
+        keys.append(np.floor((wall[:, k] - coords[0]) / step + 0.25).astype(np.int64))
+    columns = len(np.unique(np.stack(keys, axis=1), axis=0)) if keys else 1
+    return columns * area
+
+
 def _load(solver, tree, bpos: np.ndarray, idx_b: np.ndarray, normal: np.ndarray) -> float:
     st, prm = solver.state, solver.params
     nf, h, m, dim = st.n_fluid, solver.h, solver.m, solver.dim
     fpos = tree.data
-    tangential = bpos[idx_b] - (bpos[idx_b] @ normal)[:, None] * normal[None, :]
-    # columns of the wall's lattice along the face (floor(·/Δx + ¼) sends i·Δx and (i + ½)Δx alike to i)
-    columns = len(np.unique(np.floor(tangential / prm.spacing + 0.25).astype(np.int64), axis=0))
-    area = columns * prm.spacing ** (dim - 1)
+    area = _face_area(bpos[idx_b], normal, prm.spacing)
     force = np.zeros(dim)
     for b, near in zip(idx_b, tree.query_ball_point(bpos[idx_b], h), strict=True):
         if not near:
