@@ -1,4 +1,4 @@
-"""Snapshots of one run share one colour scale: 0 to the free-fall speed over the domain's height."""
+"""Snapshots of one run share one colour scale: 0 to Ritter's front speed 2√(gΔz) for the domain's height."""
 
 import numpy as np
 import pytest
@@ -35,4 +35,4 @@ def test_every_frame_has_the_same_colour_scale(tmp_path, monkeypatch):
             IterationInterval(1), _Fluid(speed), tmp_path, lo=[0, 0], hi=[1.0, 0.5], spacing=0.05, title="t", g=9.81
         )
         cb(None)
-    assert seen[0] == seen[1] == pytest.approx(np.sqrt(2 * 9.81 * 0.5))
+    assert seen[0] == seen[1] == pytest.approx(2 * np.sqrt(9.81 * 0.5))

@@ -103,15 +103,15 @@ class ParticleFrames(Callback):
 
 class Snapshots(Callback):
     """``figures/snapshot_NNN.png``: the particles coloured by speed, on one scale for every frame:
-    0 to the free-fall speed √(2|g|Δz) over the domain's height (no gravity-driven flow from rest
-    inside it is faster)."""
+    0 to 2√(|g|Δz), Δz the domain's height (Ritter's dam-break front speed 2√(gH) for the deepest
+    water the domain holds, above the free-fall speed √(2gΔz)); without gravity each frame's own."""
 
     def __init__(self, schedule: Schedule, fluid, folder: Path, *, lo, hi, spacing: float, title: str, g: float):
         super().__init__(schedule, name="snapshots")
         self.fluid = fluid
         self.folder = Path(folder)
         self.lo, self.hi, self.spacing, self.title = lo, hi, spacing, title
-        self.speed_max = float(np.sqrt(2.0 * abs(g) * (hi[-1] - lo[-1])))
+        self.speed_max = 2.0 * float(np.sqrt(abs(g) * (hi[-1] - lo[-1]))) or None
         self.count = 0
 
     def __call__(self, sim) -> None:
