@@ -163,7 +163,7 @@ def _world_path(p: Path) -> Path:
     return p.with_suffix(".pgw" if p.suffix.lower() == ".png" else ".wld")
 
 
-def _write_sidecars(p: Path, fmt: str, hm: Heightmap, transform_in_file: bool) -> list[str]:
+def _write_sidecars(p: Path, hm: Heightmap, transform_in_file: bool) -> list[str]:
     """Write ``<stem>.prj`` (CRS as WKT) and, unless the file holds it, the world file."""
     from rasterio.crs import CRS
 
@@ -464,7 +464,7 @@ def write(
                 )
     sidecars = []
     if fmt in _SIDECAR_FORMATS and (fmt != "asc" or asc_corner):
-        sidecars = _write_sidecars(p, fmt, hm, transform_in_file=fmt == "asc")
+        sidecars = _write_sidecars(p, hm, transform_in_file=fmt == "asc")
         if sidecars:
             info["sidecars"] = sidecars
     info["georeference"] = _georeference_note(fmt, hm, sidecars, asc_corner)

@@ -111,12 +111,11 @@ def map_cells(terrain) -> int | None:
 
 
 def _sph_steps(params, top: float, floor: float, t_end: float, speed: float) -> float | None:
-    """Steps to ``t_end`` at the CFL limit with the solver's auto sound speed (10·√(2|g|H) or 10× the
-    initial ``speed``); None when nothing sets a speed (no gravity, fluid at rest, no sound speed)."""
-    g = math.sqrt(sum(x * x for x in params.gravity_vector()))
-    c = params.sound_speed or 10.0 * max(math.sqrt(2.0 * g * max(top - floor, params.spacing)), speed)
+    """Steps to ``t_end`` at the CFL limit with the solver's sound speed (``SPHParams.sound_speed_for``);
+    None when nothing sets a speed (no gravity, fluid at rest, no sound speed)."""
     if params.dt:
         return t_end / params.dt
+    c = params.sound_speed_for(top - floor + 0.5 * params.spacing, speed)
     return t_end * c / (params.cfl * params.support()) if c > 0 else None
 
 

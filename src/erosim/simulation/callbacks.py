@@ -165,13 +165,16 @@ class Probes(Callback):
         if len(self.probe_points):
             from erosim.sph.wall_load import wall_pressures
 
-            values = probe_pressure(
-                pos, s.fluid_pressure(), vol, self.probe_points, self.h,
-                density=s.fluid_density(), gravity=s.params.gravity_vector(),
-            )  # fmt: skip
+            values = np.zeros(len(self.probe_points))
+            inside = [k for k, wall in enumerate(self.walls) if wall is None]
             on_walls = [k for k, wall in enumerate(self.walls) if wall is not None]
-            loads = wall_pressures(s, [(self.probe_points[k], *self.walls[k]) for k in on_walls], self.h)
-            values[on_walls] = loads
+            if inside:
+                values[inside] = probe_pressure(
+                    pos, s.fluid_pressure(), vol, self.probe_points[inside], self.h,
+                    density=s.fluid_density(), gravity=s.params.gravity_vector(),
+                )  # fmt: skip
+            if on_walls:
+                values[on_walls] = wall_pressures(s, [(self.probe_points[k], *self.walls[k]) for k in on_walls], self.h)
             row += values.tolist()
         if len(self.gauge_points):
             kernel = s.params.kernel

@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from typing import Literal
 
+import numpy as np
 from pydantic import model_validator
 
 from erosim.core.config import Section, param
@@ -148,6 +149,15 @@ class SPHParams(Section):
                 f"give {self.dim} numbers, e.g. gravity = {[0.0] * (self.dim - 1) + [-9.81]}."
             )
         return self
+
+    def sound_speed_for(self, height: float, speed: float = 0.0) -> float:
+        """The numerical sound speed c: ``sound_speed`` when set, else the larger of 10·√(2|g|H), H the
+        height the fluid can fall, and 10× the fastest initial ``speed`` (c ≥ 10·u_max keeps density
+        within 1 %); 0 when neither gravity nor motion sets one."""
+        if self.sound_speed > 0:
+            return float(self.sound_speed)
+        gnorm = float(np.linalg.norm(np.asarray(self.gravity_vector(), np.float64)))
+        return max(10.0 * math.sqrt(2.0 * gnorm * height), 10.0 * speed)
 
     def gravity_vector(self) -> tuple[float, ...]:
         """Gravity as a ``dim``-tuple (the default points down the last axis)."""

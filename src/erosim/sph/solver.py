@@ -134,15 +134,12 @@ class SPHSolver:
         # the fastest a particle can fall: from the fluid's top to the domain's lowest point
         bottom = float(np.minimum(up * self.lo, up * self.hi).sum())
         self.fluid_height = float((fluid @ up).max(initial=bottom)) + 0.5 * prm.spacing - bottom
-        if prm.sound_speed > 0:
-            c = prm.sound_speed
-        else:
-            c = max(10.0 * math.sqrt(2.0 * gnorm * self.fluid_height), 10.0 * v0max)
-            if c <= 0:
-                raise ConfigError(
-                    "Cannot choose a sound speed without gravity or motion; set sph.sound_speed (m/s), "
-                    "e.g. 10× the fastest expected flow speed."
-                )
+        c = prm.sound_speed_for(self.fluid_height, v0max)
+        if c <= 0:
+            raise ConfigError(
+                "Cannot choose a sound speed without gravity or motion; set sph.sound_speed (m/s), "
+                "e.g. 10× the fastest expected flow speed."
+            )
         self.c = float(c)
         b, gam = eos_mod.eos_constants(prm.eos, prm.rho0, self.c, prm.gamma, prm.stiffness)
         self.b, self.gamma = float(b), float(gam)

@@ -75,31 +75,29 @@ def _face_area(wall: np.ndarray, normal: np.ndarray, spacing: float) -> float:
 def _load(solver, tree, bpos: np.ndarray, idx_b: np.ndarray, normal: np.ndarray) -> float:
     st, prm = solver.state, solver.params
     nf, h, m, dim = st.n_fluid, solver.h, solver.m, solver.dim
-    fpos = tree.data
-    area = _face_area(bpos[idx_b], normal, prm.spacing)
-    force = np.zeros(dim)
-    for b, near in zip(idx_b, tree.query_ball_point(bpos[idx_b], h), strict=True):
-        if not near:
-            continue
-        a = np.asarray(near)
-        rab = fpos[a] - bpos[b]
-        r2 = np.sum(rab**2, axis=1)
-        r = np.sqrt(r2)
-        f = kernel_f(r, h, dim, prm.kernel)
-        rho_a, rho_b = st.rho[a].astype(np.float64), float(st.rho[nf + b])
-        p_a, p_b = st.p[a].astype(np.float64), float(st.p[nf + b])
-        if prm.pressure_form == "wcsph":
-            pterm = p_a / rho_a**2 + p_b / rho_b**2
-        else:
-            pterm = (p_a + p_b) / (2.0 * rho_a * rho_b)
-        vel = st.vel[a].astype(np.float64)
-        if prm.viscosity == "artificial":
-            vdotr = np.sum(vel * rab, axis=1)
-            c_r = solver.kv * np.minimum(vdotr, 0.0) * f / ((rho_a + rho_b) * (r2 + solver.eps2))
-            c_v = np.zeros_like(r)
-        else:
-            c_r = np.zeros_like(r)
-            c_v = -solver.kv * kernel_lap(r, h, dim, prm.kernel) / (rho_a * rho_b)
-        on_fluid = m * m * ((c_r - pterm * f)[:, None] * rab + c_v[:, None] * vel)
-        force -= on_fluid.sum(axis=0)
-    return float(-(force @ normal) / area)
+    near = tree.query_ball_point(bpos[idx_b], h)
+    counts = np.fromiter((len(x) for x in near), dtype=np.int64, count=len(near))
+    if counts.sum() == 0:
+        return 0.0
+    a = np.concatenate([np.asarray(x, dtype=np.int64) for x in near if x])  # every (fluid a, wall b) pair
+    b = np.repeat(idx_b, counts)
+    rab = tree.data[a] - bpos[b]
+    r2 = np.sum(rab**2, axis=1)
+    r = np.sqrt(r2)
+    f = kernel_f(r, h, dim, prm.kernel)
+    rho_a, rho_b = st.rho[a].astype(np.float64), st.rho[nf + b].astype(np.float64)
+    p_a, p_b = st.p[a].astype(np.float64), st.p[nf + b].astype(np.float64)
+    if prm.pressure_form == "wcsph":
+        pterm = p_a / rho_a**2 + p_b / rho_b**2
+    else:
+        pterm = (p_a + p_b) / (2.0 * rho_a * rho_b)
+    vel = st.vel[a].astype(np.float64)
+    if prm.viscosity == "artificial":
+        vdotr = np.sum(vel * rab, axis=1)
+        c_r = solver.kv * np.minimum(vdotr, 0.0) * f / ((rho_a + rho_b) * (r2 + solver.eps2))
+        c_v = np.zeros_like(r)
+    else:
+        c_r = np.zeros_like(r)
+        c_v = -solver.kv * kernel_lap(r, h, dim, prm.kernel) / (rho_a * rho_b)
+    on_fluid = m * m * ((c_r - pterm * f)[:, None] * rab + c_v[:, None] * vel)  # the wall's force on the fluid
+    return float((on_fluid.sum(axis=0) @ normal) / _face_area(bpos[idx_b], normal, prm.spacing))
