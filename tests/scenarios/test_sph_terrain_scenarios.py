@@ -64,15 +64,17 @@ def test_library_scenario_runs_and_reports(tmp_path, name):
         assert (out / "profile.csv").read_text().startswith("x,height_initial,height,")
 
 
-def _dem(tmp_path, ext=".tif"):
-    """A 24 × 20 DEM of 2 m cells in UTM 33N: a valley falling north with a basin in it."""
+def _dem(tmp_path, ext=".tif", cell=2.0):
+    """A 24 × 20 DEM of ``cell`` m cells in UTM 33N: a valley falling north with a basin in it."""
     ny, nx = 20, 24
-    x = (np.arange(nx) + 0.5) * 2.0
-    y = (np.arange(ny)[::-1] + 0.5) * 2.0
+    x = (np.arange(nx) + 0.5) * cell
+    y = (np.arange(ny)[::-1] + 0.5) * cell
     X, Y = np.meshgrid(x, y)
-    z = 100.0 + 0.1 * np.abs(X - 24.0) + 0.04 * Y - 2.0 * np.exp(-((X - 24) ** 2 + (Y - 20) ** 2) / 60.0)
+    xc, yc = 12.0 * cell, 10.0 * cell
+    z = 100.0 + 0.1 * np.abs(X - xc) + 0.04 * Y - 2.0 * np.exp(-((X - xc) ** 2 + (Y - yc) ** 2) / (15.0 * cell**2))
     crs = CRS.from_epsg(32633).to_wkt()
-    dem = Heightmap(z=z, cell_size=2.0, crs=crs, transform=(2.0, 0.0, 500000.0, 0.0, -2.0, 4100040.0))
+    top = 4100000.0 + ny * cell
+    dem = Heightmap(z=z, cell_size=cell, crs=crs, transform=(cell, 0.0, 500000.0, 0.0, -cell, top))
     path = tmp_path / f"dem{ext}"
     hio.write(path, dem)
     return path, dem
@@ -106,14 +108,18 @@ def test_rain_erosion_on_a_users_dem_keeps_its_grid_and_crs(tmp_path):
     assert depth[8:13, 10:14].max() >= 0.75  # the lake around the seed: a layer or more of 1 m particles
 
 
-def test_an_esri_ascii_dem_gives_its_own_cell_size(tmp_path):
-    dem_path, _ = _dem(tmp_path, ".asc")
-    out = tmp_path / "asc"
+@pytest.mark.parametrize("ext", [".asc", ".tif"])
+def test_a_dem_gives_its_own_cell_size(tmp_path, ext):
+    """3 m cells, not the library scenario's 2 m (which describe its generated terrain); the maps come
+    back on the DEM's grid."""
+    dem_path, dem = _dem(tmp_path, ext, cell=3.0)
+    out = tmp_path / "run"
     code, text = _cli("run", "rain-erosion", "--out", str(out), "--set", f"terrain.file={dem_path}",
                       *_sets(["run.t_end=0.1", "rain.rate=0", "water.level=100.5", "sph.spacing=1.0",
                               "run.map_frames=0"]))  # fmt: skip
     assert code == 0, text
-    assert json.loads((out / "report.json").read_text())["terrain"]["cell_size_m"] == 2.0
+    assert json.loads((out / "report.json").read_text())["terrain"]["cell_size_m"] == 3.0
+    assert hio.read(out / "maps" / "height.tif").transform == pytest.approx(dem.transform)
 
 
 SMALL_RAIN = ["terrain.size=12", "terrain.cell_size=2.0", "sph.spacing=1.0", "rain.every=5", "run.map_frames=0",

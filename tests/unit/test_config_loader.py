@@ -95,3 +95,16 @@ def test_bad_override_and_unknown_preset(toy_kind):
 def test_unknown_scenario_name_suggests():
     with pytest.raises(ConfigError, match="No scenario named"):
         loader.load("surely-not-a-scenario")
+
+
+def test_a_users_dem_keeps_its_cell_size_unless_one_is_set():
+    """A library scenario's terrain.cell_size describes its generated terrain; --set terrain.file=DEM
+    without --set terrain.cell_size runs at the DEM's own cell size."""
+    from erosim.scenarios import loader
+
+    assert loader.load("rain-erosion").config.terrain.cell_size == 2.0
+    assert loader.load("rain-erosion", ["terrain.file=dem.tif"]).config.terrain.cell_size is None
+    seed_preset = loader.load("hydrology", ["terrain.file=dem.tif"], preset="simplehydrology-2020")
+    assert seed_preset.config.terrain.cell_size is None  # a preset's generated cell size too
+    kept = loader.load("rain-erosion", ["terrain.file=dem.tif", "terrain.cell_size=4.0"]).config.terrain.cell_size
+    assert kept == 4.0

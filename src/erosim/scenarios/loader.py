@@ -185,6 +185,10 @@ def load(
             names = ", ".join(sorted(presets)) or "none"
             raise ConfigError(f"Scenario '{path.stem}' has no preset '{preset}'; its presets: {names}.")
         body = _merge(body, presets[preset])
+    set_keys = {tuple(keys) for keys, _value, _item in sets}
+    if ("terrain", "file") in set_keys and ("terrain", "cell_size") not in set_keys and "terrain" in body:
+        # the scenario's cell size described its generated terrain: the user's DEM keeps its own
+        body["terrain"] = {k: v for k, v in body["terrain"].items() if k != "cell_size"}
     for keys, value, item in sets:
         if keys[0] in META_KEYS:
             if keys != ["preset"]:

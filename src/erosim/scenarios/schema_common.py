@@ -43,7 +43,11 @@ class TerrainSection(Section):
     )
     size: int = param(256, ge=2, le=16384, unit="cells", doc="generated terrain: cells per side")
     cell_size: float | None = param(
-        None, gt=0, unit="m", doc=f"cell size; generated default {DEFAULT_CELL_SIZE:g} m, files default to their own"
+        None,
+        gt=0,
+        unit="m",
+        doc=f"cell size; generated default {DEFAULT_CELL_SIZE:g} m; a DEM given with --set terrain.file keeps its "
+        "own unless terrain.cell_size is set too (a scenario's value describes its generated terrain)",
     )
     file: str | None = param(None, doc='DEM file (.tif .png .raw .r16 .asc .npy .npz) or "sample:jacksboro"')
     raw_shape: list[int] | None = param(None, doc="[rows, cols] of a RAW16 file that is not square")
