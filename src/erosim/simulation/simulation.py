@@ -17,6 +17,8 @@ the status (completed / unstable / interrupted / failed) written to ``report.jso
 happens, and Ctrl-C: the first press is held until the current iteration and its callbacks are
 complete (a checkpoint never sees half a step), then a checkpoint is written and
 :class:`~erosim.core.errors.Interrupted` raised with the resume command; a second press stops at once.
+A sweep's worker, where no signal reaches the run's thread, asks the same of every run in its process
+with :func:`request_stop`.
 The pattern is Oceananigans' ``Simulation`` / ``Callback`` / ``Checkpointer``.
 """
 
@@ -24,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -38,6 +41,25 @@ from erosim.simulation.schedules import WallTimeInterval
 
 MODEL = "model."
 CALLBACK = "callback."
+
+_STOP = threading.Event()
+
+
+def request_stop() -> None:
+    """Stop every run of this process as a Ctrl-C would: after the current iteration, with a checkpoint.
+
+    For runs in threads that no signal reaches (a Dask worker's): ``erosim sweep`` calls it on each
+    worker when the sweep is interrupted. :func:`clear_stop_request` re-arms the process.
+    """
+    _STOP.set()
+
+
+def clear_stop_request() -> None:
+    _STOP.clear()
+
+
+def stop_requested() -> bool:
+    return _STOP.is_set()
 
 
 @contextlib.contextmanager
@@ -219,7 +241,7 @@ class Simulation:
                         self._step()
                         self._fire()
                         bar.update(self.time, self.iteration - steps0)
-                        if pressed:
+                        if pressed or _STOP.is_set():
                             raise KeyboardInterrupt
                     bar.update(self.time, self.iteration - steps0)
                 self.wall_time = time.perf_counter() - self._loop_start
