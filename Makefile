@@ -28,6 +28,7 @@ bench: $(STAMP)
 	$(BIN)/erosim bench hydrology --size 256
 	$(BIN)/erosim bench hydrology --size 512
 	$(BIN)/erosim bench stream
+	$(BIN)/erosim bench sweep
 
 mutation: $(STAMP)
 	$(BIN)/python benchmarks/mutation_check.py

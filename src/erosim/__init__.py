@@ -64,6 +64,7 @@ _LAZY = {
     "run": "erosim.api:run",
     "RunResult": "erosim.api:RunResult",
     "load_scenario": "erosim.api:load_scenario",
+    "run_sweep": "erosim.sweep.runner:run_sweep",
     "Scenario": "erosim.scenarios.loader:Scenario",
     "ErosimError": "erosim.core.errors:ErosimError",
     "Heightmap": "erosim.core.heightmap:Heightmap",

@@ -1,4 +1,4 @@
-"""Command line: ``erosim run | demo | list | describe | validate | bench | convert | info``.
+"""Command line: ``erosim run | sweep | demo | list | describe | validate | bench | convert | info``.
 
 Thin by design: parse, load the scenario, call a runner / benchmark / validation, print. Errors meant
 for the user (:class:`~erosim.core.errors.ErosimError`) are printed as one sentence with a non-zero
@@ -125,6 +125,57 @@ def run(scenario, overrides, preset, out, resume, overwrite):
     if summary:
         _print_result(summary, as_json=False)
     click.echo(f"Results in {run_folder.path}/: {_contents(run_folder.path)}")
+
+
+@cli.command()
+@click.argument("scenario", required=False)
+@click.option(
+    "--vary", multiple=True, metavar="KEY=SPEC",
+    help="A setting to vary: v1,v2,… | lo:hi:n (evenly spaced) | lo:hi~n (random, seeded); repeatable.",
+)  # fmt: skip
+@click.option("--seeds", type=int, default=None, help="Run every design point with K seeds (seed, seed+1, …).")
+@click.option(
+    "--design", type=click.Choice(["grid", "lhs"]), default=None, help="Every combination, or a Latin hypercube."
+)
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="Override a setting of every member.")
+@click.option("--preset", default=None, help="Apply a named preset of the scenario to every member.")
+@click.option(
+    "--exceed", multiple=True, metavar="'MAP > VALUE'",
+    help="An exceedance probability to map, e.g. 'erosion > 1' (repeatable; default: lake, erosion, depth).",
+)  # fmt: skip
+@click.option("--quantiles", default=None, metavar="Q1,Q2,…", help="Quantiles of every map (default 0.1,0.5,0.9).")
+@click.option("--random-seed", type=int, default=None, help="Seed of lo:hi~n draws and of the Latin hypercube.")
+@click.option(
+    "--scheduler", default=None, metavar="ADDRESS", help="A dask.distributed scheduler (default: local workers)."
+)
+@click.option("--workers", type=int, default=None, help="Local worker processes (default: one per core).")
+@click.option("--threads-per-member", "threads", type=int, default=None, help="Numba threads of each member.")
+@click.option("--out", type=click.Path(file_okay=False), default=None, help="Sweep folder (default runs/<name>-sweep).")
+@click.option("--resume", type=click.Path(file_okay=False), default=None, help="Continue a sweep from its folder.")
+@click.option("--overwrite", is_flag=True, help="Replace the sweep in --out.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
+def sweep(scenario, vary, seeds, design, overrides, preset, exceed, quantiles, random_seed, scheduler, workers, threads,
+          out, resume, overwrite, as_json):  # fmt: skip
+    """Run SCENARIO many times on Dask and map how likely each outcome is (sweep.nc, sweep.csv).
+
+    \b
+    erosim sweep hydrology --set terrain.size=128 --vary hydrology.capacity=0.5:2:4 --seeds 3
+    erosim sweep rain-erosion --vary erosion.capacity=0.25,0.5,1 --scheduler tcp://10.0.0.5:8786
+    """
+    from erosim.sweep.runner import run_sweep
+
+    qs = None
+    if quantiles is not None:
+        try:
+            qs = [float(q) for q in quantiles.split(",")]
+        except ValueError:
+            _fail(ErosimError(f"--quantiles {quantiles} is not a list of numbers; write e.g. --quantiles 0.1,0.5,0.9."))
+    summary = _guard(
+        run_sweep, scenario, list(overrides), preset, list(vary), design=design, seeds=seeds, random_seed=random_seed,
+        quantiles=qs, exceed=list(exceed) or None, scheduler=scheduler, workers=workers, threads=threads, out=out,
+        resume=resume, overwrite=overwrite, progress=not STATE.quiet and not as_json,
+    )  # fmt: skip
+    _print_result(summary, as_json=as_json)
 
 
 def _contents(folder: Path) -> str:
@@ -306,6 +357,23 @@ def bench_hydrology(size, droplets, batch, as_json):
 
     fn = _guard(resolve, "erosim.bench.hydrology:run")
     _print_result(_guard(fn, size, droplets, batch=batch), as_json)
+
+
+@bench.command(name="sweep")
+@click.option("--members", type=click.IntRange(min=1), default=8, show_default=True, help="Members of the sweep.")
+@click.option(
+    "--workers", type=click.IntRange(min=1), default=2, show_default=True, help="Workers of the parallel run."
+)
+@click.option(
+    "--cycles", type=click.IntRange(min=1), default=600, show_default=True, help="Hydrology cycles a member runs."
+)
+@click.option("--json", "as_json", is_flag=True)
+def bench_sweep(members, workers, cycles, as_json):
+    """A sweep on one worker, then on several: speed-up and overhead per member."""
+    from erosim.scenarios.kinds import resolve
+
+    fn = _guard(resolve, "erosim.bench.sweep:run")
+    _print_result(_guard(fn, members=members, workers=workers, cycles=cycles), as_json)
 
 
 @bench.command(name="stream")

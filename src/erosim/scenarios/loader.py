@@ -8,6 +8,7 @@ Layout of a scenario file (``docs/architecture.md``)::
     description = "..."
     preset = "thesis"       # optional: apply [presets.thesis] before --set overrides
     [presets.thesis] ...    # named partial overrides
+    [sweep] ...             # optional: what `erosim sweep` varies (erosim.sweep.plan)
     ...                     # everything else: the kind's schema (a Section)
 
 Order of precedence: file < preset < ``--set``. The resolved scenario (all defaults filled in, the
@@ -37,7 +38,7 @@ from erosim.scenarios import kinds
 
 SCHEMA_VERSION = 1
 LIBRARY = Path(__file__).with_name("library")
-META_KEYS = ("schema_version", "kind", "name", "description", "preset", "presets")
+META_KEYS = ("schema_version", "kind", "name", "description", "preset", "presets", "sweep")
 
 
 @dataclass

@@ -194,3 +194,18 @@ def profile_panel(x: np.ndarray, bed0: np.ndarray, bed: np.ndarray, water: np.nd
         ax.set_title(title)
     fig.tight_layout()
     return _canvas_rgb(fig)
+
+
+def probability_map(path, p: np.ndarray, extent: tuple, title: str, shade: np.ndarray | None = None) -> Path:
+    """A probability map (0–1, NaN = no data) over an optional hillshade; ``extent`` = (x0, x1, y0, y1) in m."""
+    fig, ax = plt.subplots(figsize=(6.4, 5.2))
+    if shade is not None:
+        ax.imshow(shade, cmap="gray", extent=extent, vmin=0, vmax=1, interpolation="nearest")
+    shown = np.ma.masked_where(~np.isfinite(p) | (p <= 0), p)  # P = 0 shows the terrain beneath
+    im = ax.imshow(shown, cmap="magma_r", vmin=0.0, vmax=1.0, alpha=0.8, extent=extent, interpolation="nearest")
+    fig.colorbar(im, ax=ax, label="probability over the members")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title)
+    fig.tight_layout()
+    return _save(fig, path)
