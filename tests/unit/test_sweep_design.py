@@ -123,3 +123,13 @@ def test_sweep_table_of_a_scenario_file_and_command_line_precedence(tmp_path):
     src.write_text(text + "\n[sweep]\nvary = 3\n", encoding="utf-8")
     with pytest.raises(ConfigError, match="sweep"):
         build(str(src), HYDROLOGY_SMALL, None, [], threads=1)
+
+
+def test_terrain_seed_keeps_one_terrain_while_the_run_seed_varies():
+    from erosim.scenarios.schema_common import TerrainSection, build_terrain
+
+    own = TerrainSection(preset="hills", size=24, seed=5)
+    assert np.array_equal(build_terrain(own, 1).z, build_terrain(own, 2).z)
+    assert np.array_equal(build_terrain(own, 1).z, build_terrain(TerrainSection(preset="hills", size=24), 5).z)
+    shared = TerrainSection(preset="hills", size=24)
+    assert not np.array_equal(build_terrain(shared, 1).z, build_terrain(shared, 2).z)

@@ -49,6 +49,9 @@ class TerrainSection(Section):
         doc=f"cell size; generated default {DEFAULT_CELL_SIZE:g} m; a DEM given with --set terrain.file keeps its "
         "own unless terrain.cell_size is set too (a scenario's value describes its generated terrain)",
     )
+    seed: int | None = param(
+        None, ge=0, doc="generated terrain: its own seed (none = the scenario's), e.g. to sweep seeds on one terrain"
+    )
     file: str | None = param(None, doc='DEM file (.tif .png .raw .r16 .asc .npy .npz) or "sample:jacksboro"')
     raw_shape: list[int] | None = param(None, doc="[rows, cols] of a RAW16 file that is not square")
     height_range: list[float] | None = param(None, unit="m", doc="[low, high] heights of a 16-bit file's 0 and 65535")
@@ -118,6 +121,7 @@ def build_terrain(section: TerrainSection, seed: int) -> Heightmap:
         )  # fmt: skip
     from erosim.terrain.generate import generate
 
+    own = section.seed if section.seed is not None else seed
     return generate(
-        section.preset, section.size, section.cell_size or DEFAULT_CELL_SIZE, seed, **section.noise_overrides()
+        section.preset, section.size, section.cell_size or DEFAULT_CELL_SIZE, own, **section.noise_overrides()
     )
