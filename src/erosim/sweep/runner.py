@@ -66,6 +66,7 @@ class SweepProgress:
     def close(self) -> None:
         if self._progress is not None:
             self._progress.stop()
+            self._progress = None
 
 
 def _folder_for(plan: Plan, base_toml: str, out: str | None, overwrite: bool) -> tuple[Path, Plan]:
@@ -177,16 +178,16 @@ def run_sweep(
                     client, tasks, on_done=bar.member_done, member_function=member_function
                 ):
                     records[rec["index"]] = rec
-    except KeyboardInterrupt:
         bar.close()
+        ordered = [records[i] for i in range(len(plan.members))]
+        summary = aggregate.aggregate(folder, plan, ordered)
+    except KeyboardInterrupt:
         raise Interrupted(
             f"Sweep interrupted; finished members are kept and running ones wrote checkpoints — continue with "
             f"`erosim sweep --resume {folder}`."
         ) from None
     finally:
         bar.close()
-    ordered = [records[i] for i in range(len(plan.members))]
-    summary = aggregate.aggregate(folder, plan, ordered)
     summary = {
         "sweep": plan.scenario, "kind": plan.kind, "design": plan.design, "varied": plan.keys, **summary,
         "ran_now": sum(r["action"] != "kept" for r in ordered), "workers": n_workers or "remote",
