@@ -81,7 +81,7 @@ def test_own_dem_and_hardness_files(tmp_path):
     )
     assert res.exit_code == 0, res.output
     rep = json.loads((out / "report.json").read_text())
-    assert rep["hardness_source"] == "file" and rep["terrain"]["cell_size"] == 5.0
+    assert rep["hardness_source"] == "file" and rep["terrain"]["cell_size_m"] == 5.0
     np.testing.assert_array_equal(hio.read(out / "maps" / "hardness.tif").z, d.astype(np.float32))  # float32 file
     h0 = hio.read(out / "maps" / "height_initial.tif").z
     h = hio.read(out / "maps" / "height.tif").z

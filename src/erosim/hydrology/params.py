@@ -18,8 +18,11 @@ until it evaporates; trees: 10 seedlings per cycle, spread 0.03). The ``simplehy
 preset restores the seed's. The defaults are the library ``hydrology`` scenario's: ``HydrologyParams()``
 is what a scenario that leaves ``[hydrology]`` out runs with (tests/unit/test_api.py checks it).
 
-With ℓ fixed in metres the same terrain at 256² or 512² cells (same extent) runs the same
-physics; ``length_scale = 0`` takes ℓ = one cell, the seed's own convention (used by the
+By default (``length_scale`` unset) ℓ is two cells of the terrain: 40 m on the library's 20 m
+generated terrain, 2 m on a 1 m lidar tile, 166 m on an 83 m DEM, so every DEM runs at its own scale
+with no tuning (droplets per cycle follow the map's area in ℓ², footprints and steps the cell). With
+ℓ set in metres the same terrain at 256² or 512² cells (same extent) runs the same physics;
+``length_scale = 0`` takes ℓ = one cell, the seed's own convention (used by the
 ``simplehydrology-2020`` preset and the benchmark, resolution dependent by design).
 """
 
@@ -35,9 +38,10 @@ from erosim.core.config import Section, param
 class HydrologyParams(Section):
     """Droplet, lake and stream parameters (HY-1…HY-4); defaults give the demo's look."""
 
-    length_scale: float = param(
-        40.0, ge=0, unit="m", doc="reference length ℓ (the seed's cell): footprints, volume, acceleration; 0 = one cell"
-    )
+    length_scale: float | None = param(
+        None, ge=0, unit="m",
+        doc="reference length ℓ (the seed's cell): footprints, volume, acceleration; none = 2 cells; 0 = one cell",
+    )  # fmt: skip
     dt: float = param(1.2, gt=0, unit="s", doc="droplet time step (seed 1.2)")
     density: float = param(1.0, gt=0, unit="1", doc="droplet density relative to the seed's (seed 1.0)")
     friction: float = param(0.5, ge=0, unit="1/s", doc="speed damping, × (1 − 0.5·stream) (seed 0.1)")
@@ -119,7 +123,9 @@ P_SIZE = 22
 
 
 def reference_length(p: HydrologyParams, cell_size: float) -> float:
-    """ℓ in metres (one cell when ``length_scale`` is 0)."""
+    """ℓ in metres: ``length_scale``; two cells when it is unset, one cell when it is 0."""
+    if p.length_scale is None:
+        return 2.0 * float(cell_size)
     return float(p.length_scale) if p.length_scale > 0 else float(cell_size)
 
 

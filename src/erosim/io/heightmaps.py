@@ -126,7 +126,9 @@ def _as_heightmap(hm_or_array, like: Heightmap | None) -> Heightmap:
     if like is not None:
         if z.shape != like.shape:
             raise InputError(f"Array shape {z.shape} does not match the reference map's {like.shape}.")
-        return Heightmap(z=z, cell_size=like.cell_size, crs=like.crs, transform=like.transform)
+        # a map of the terrain keeps the terrain's georeference and its nodata cells
+        nodata = like.nodata if like.nodata is not None and like.nodata.any() else None
+        return Heightmap(z=z, cell_size=like.cell_size, crs=like.crs, transform=like.transform, nodata=nodata)
     return Heightmap(z=z, cell_size=1.0)
 
 
@@ -219,6 +221,8 @@ def _georeferenced(p: Path, z: np.ndarray, cs: float | None, rng=None, notes: bo
     hm = Heightmap(z=z, cell_size=cs or 1.0, crs=crs.to_wkt() if crs is not None else None, transform=t)
     if notes:
         hm.notes.extend(_assumptions(p, rng, cs))
+    elif cs is None:
+        hm.notes.append(_no_cell_size(p))
     return hm
 
 
@@ -298,15 +302,19 @@ def _read_geotiff(p: Path, cs: float | None) -> Heightmap:
     mask = np.ma.getmaskarray(band) | ~np.isfinite(z)
     georef = not t.is_identity
     transform = tuple(t)[:6] if georef else None
+    assumed = cs is None and not georef
     if cs is None:
         cs = _cell_from_transform(transform, crs, z.shape[0]) if georef else 1.0
-    return Heightmap(
+    hm = Heightmap(
         z=z,
         cell_size=cs,
         crs=crs.to_wkt() if crs is not None else None,
         transform=transform,
         nodata=mask if mask.any() else None,
     )
+    if assumed:
+        hm.notes.append(_no_cell_size(p))
+    return hm
 
 
 def _read_png(p: Path, cs: float | None, rng) -> Heightmap:
@@ -326,6 +334,14 @@ def _read_png(p: Path, cs: float | None, rng) -> Heightmap:
     return _georeferenced(p, _dequantise(np.asarray(a, dtype=np.float64), rng, full), cs, rng, notes=True)
 
 
+#: words of the note a reader leaves when the file holds no cell size (runs show it as an assumption)
+NO_CELL_SIZE = "stores no cell size"
+
+
+def _no_cell_size(p: Path) -> str:
+    return f"'{p.name}' {NO_CELL_SIZE}, so 1 m was assumed; set terrain.cell_size."
+
+
 def _assumptions(p: Path, rng, cs) -> list[str]:
     """What a 16-bit file without erosim's metadata leaves to assumption, in words for the report."""
     notes = []
@@ -335,7 +351,7 @@ def _assumptions(p: Path, rng, cs) -> list[str]:
             "set terrain.height_range = [low, high] if they stand for another range."
         )
     if cs is None:
-        notes.append(f"'{p.name}' stores no cell size, so 1 m was assumed; set terrain.cell_size.")
+        notes.append(_no_cell_size(p))
     return notes
 
 
@@ -415,7 +431,10 @@ def _read_npz(p: Path, cs: float | None) -> Heightmap:
             tuple(float(v) for v in data["transform"]) if "transform" in keys and data["transform"].size == 6 else None
         )
         mask = data["nodata"].astype(bool) if "nodata" in keys and data["nodata"].shape == z.shape else None
-    return Heightmap(z=z, cell_size=cs or file_cs or 1.0, crs=crs, transform=transform, nodata=mask)
+    hm = Heightmap(z=z, cell_size=cs or file_cs or 1.0, crs=crs, transform=transform, nodata=mask)
+    if not (cs or file_cs):
+        hm.notes.append(_no_cell_size(p))
+    return hm
 
 
 # ------------------------------------------------------------------------------------------ write

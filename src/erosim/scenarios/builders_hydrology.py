@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from erosim.core.errors import ConfigError
-from erosim.scenarios.schema_common import build_terrain
+from erosim.scenarios.schema_common import build_terrain, terrain_facts
 from erosim.scenarios.setup import Setup
 from erosim.simulation.callbacks import Animation, BudgetCheck, Callback
 from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
@@ -119,6 +119,19 @@ def setup(scenario, out) -> Setup:
     cfg = scenario.config
     terrain, model = build_model(cfg)
     warnings = list(terrain.notes)
+    facts, assumed = terrain_facts(terrain, cfg.terrain)
+    if facts["nodata_cells"]:
+        warnings.append(
+            f"{facts['nodata_cells']} cells of the terrain are nodata: the maps keep them as nodata, and "
+            "the model runs over them at the nearest valid height."
+        )
+    how = (
+        "hydrology.length_scale"
+        if cfg.hydrology.length_scale
+        else ("one cell" if cfg.hydrology.length_scale == 0 else "two cells, hydrology.length_scale unset")
+    )
+    assumed.append(f"scaled: ℓ = {model.ell:g} m ({how}), {model.per_cycle} droplets per cycle "
+                   f"({cfg.hydrology.cycle_droplets} per (256 ℓ)² of map)")  # fmt: skip
     ratio = model.ell / model.cell_size
     if ratio > 8:
         warnings.append(
@@ -146,13 +159,8 @@ def setup(scenario, out) -> Setup:
             model.per_cycle * done / sim.wall_time if sim.wall_time > 0 and done and not sim.resumed else None
         )
         return {
-            "terrain": {
-                "shape": list(terrain.shape),
-                "cell_size_m": terrain.cell_size,
-                "crs": terrain.crs,
-                "z_min": float(model.z0.min()),
-                "z_max": float(model.z0.max()),
-            },
+            "terrain": facts,
+            "scaled": {"length_scale_m": model.ell, "droplets_per_cycle": model.per_cycle},
             "water_budget": model.water_budget(),
             "sediment_budget": model.sediment_budget(),
             "statistics": stats,
@@ -173,6 +181,7 @@ def setup(scenario, out) -> Setup:
     return Setup(
         models=[model], callbacks=callbacks, stop_time=float(cfg.run.cycles), unit="cycles", report=report,
         summary=summary, checkpoint_wall_s=cfg.run.checkpoint_interval, seed=cfg.seed, warnings=warnings,
+        assumed=assumed,
     )  # fmt: skip
 
 

@@ -24,7 +24,7 @@ import numpy as np
 from erosim.core.errors import InputError
 from erosim.core.heightmap import Heightmap
 from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
-from erosim.scenarios.schema_common import build_terrain
+from erosim.scenarios.schema_common import build_terrain, terrain_facts
 from erosim.scenarios.schema_stream import HardnessSection, StreamScenario
 from erosim.scenarios.setup import Setup
 from erosim.simulation.callbacks import BudgetCheck, Callback
@@ -32,8 +32,10 @@ from erosim.simulation.schedules import IterationInterval, Schedule
 from erosim.terrain import hardness as hardness_mod
 from erosim.terrain.hardness import Strata
 
-#: Emitter fields that are horizontal lengths (scaled by the cell size when length_unit = "cells").
-LENGTH_FIELDS = ("width", "length", "speed", "max_speed", "radius_per_mass", "pivot_offset")
+#: Emitter fields that are lengths, scaled by the cell size when length_unit = "cells": the horizontal
+#: ones and the depth of a cut, so that a canyon keeps its shape in cells on any DEM (10 cells wide and
+#: 7 deep on the library's 10 m cells is 10 m wide and 7 m deep on a 1 m lidar tile, not a 70 m slot).
+LENGTH_FIELDS = ("width", "length", "speed", "max_speed", "radius_per_mass", "pivot_offset", "depth_per_mass")
 
 
 def build_hardness(section: HardnessSection, hm: Heightmap, seed: int) -> tuple[np.ndarray, Strata | None]:
@@ -216,6 +218,15 @@ def setup(scenario, out) -> Setup:
     """The stream and its outputs for a ``particle-stream`` run (see the module docstring)."""
     cfg: StreamScenario = scenario.config
     hm, d0, stream = build(cfg)
+    facts, assumed = terrain_facts(hm, cfg.terrain)
+    warnings = list(hm.notes)
+    if facts["nodata_cells"]:
+        warnings.append(
+            f"{facts['nodata_cells']} cells of the terrain are nodata: the maps keep them as nodata, and "
+            "particles cross them at the nearest valid height."
+        )
+    if cfg.stream.length_unit == "cells":
+        assumed.append(f"scaled: emitter lengths and depths in cells of {hm.cell_size:g} m (stream.length_unit)")
     stream.advance(0)  # compile (or load the cached kernel) outside the timed stream
     # the removed material leaves the map (the method does not deposit): Σ Δz·A = −removed volume
     budget = BudgetCheck(
@@ -238,12 +249,7 @@ def setup(scenario, out) -> Setup:
             "emitters": list(cfg.emitters),
             "hardness_source": cfg.hardness.kind,
             "strata_follow_cut": stream.strata is not None,
-            "terrain": {
-                "shape": list(hm.shape),
-                "cell_size": hm.cell_size,
-                "z_min": float(hm.z.min()),
-                "z_max": float(hm.z.max()),
-            },
+            "terrain": facts,
             "stream_wall_s": wall,
             "impacts_per_s": stream.impacts / wall if wall > 0 else None,
         }
@@ -260,5 +266,5 @@ def setup(scenario, out) -> Setup:
     return Setup(
         models=[stream], callbacks=[budget, StreamOutputs(hm, d0, stream)], stop_time=float(stream.particles_total),
         unit="particles", report=report, summary=summary, checkpoint_wall_s=cfg.stream.checkpoint_wall_s,
-        seed=cfg.seed, warnings=list(hm.notes),
+        seed=cfg.seed, warnings=warnings, assumed=assumed,
     )  # fmt: skip

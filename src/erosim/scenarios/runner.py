@@ -29,6 +29,9 @@ def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progres
     setup = builder(scenario, out)
     for note in setup.warnings:
         out.warn(note)
+    if progress and not resume:
+        for line in [*(f"assumed: {a}" for a in setup.assumed), *(f"warning: {w}" for w in setup.warnings)]:
+            print(f"{scenario.name}: {line}", file=sys.stderr, flush=True)
     sim = Simulation(
         setup.models, out=out, stop_time=setup.stop_time, callbacks=setup.callbacks, kind=scenario.kind,
         label=scenario.name, unit=setup.unit, checkpoint_wall_s=setup.checkpoint_wall_s, progress=progress,

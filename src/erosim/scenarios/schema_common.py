@@ -125,3 +125,54 @@ def build_terrain(section: TerrainSection, seed: int) -> Heightmap:
     return generate(
         section.preset, section.size, section.cell_size or DEFAULT_CELL_SIZE, own, **section.noise_overrides()
     )
+
+
+def _crs_name(wkt: str | None) -> str:
+    if not wkt:
+        return "none (positions in metres from the map's south-west corner)"
+    try:
+        from rasterio.crs import CRS
+
+        crs = CRS.from_wkt(wkt)
+        code = crs.to_epsg()
+        name = wkt.split('"')[1] if '"' in wkt else ""
+        return f"EPSG:{code} ({name})" if code else name or "custom"
+    except Exception:  # a CRS GDAL cannot parse still runs; say what it is called
+        return wkt.split('"')[1] if '"' in wkt else "unreadable WKT"
+
+
+def terrain_facts(hm: Heightmap, section: TerrainSection) -> tuple[dict, list[str]]:
+    """What a run takes its terrain to be: report.json's ``terrain`` entries and the console's
+    "assumed" lines (cell size and where it came from, height range, nodata cells, CRS)."""
+    from erosim.io.heightmaps import NO_CELL_SIZE
+
+    ny, nx = hm.shape
+    valid = hm.z if hm.nodata is None else hm.z[~hm.nodata]
+    nodata = int(hm.nodata.sum()) if hm.nodata is not None else 0
+    if not section.uses_file:
+        came = "generated"
+    elif section.cell_size is not None:
+        came = "terrain.cell_size"
+    elif any(NO_CELL_SIZE in note for note in hm.notes):
+        came = "assumed: the file stores none, set terrain.cell_size"
+    else:
+        came = "the file"
+    facts = {
+        "shape": [ny, nx],
+        "cell_size_m": hm.cell_size,
+        "cell_size_from": came,
+        "crs": hm.crs,
+        "nodata_cells": nodata,
+        "z_min": float(valid.min()),
+        "z_max": float(valid.max()),
+    }
+    lines = [
+        f"terrain: {ny} × {nx} cells of {hm.cell_size:g} m ({came}), {nx * hm.cell_size:,.0f} m × "
+        f"{ny * hm.cell_size:,.0f} m",
+        f"heights: {facts['z_min']:.6g} … {facts['z_max']:.6g} m",
+        f"nodata: {nodata} cells ({100 * nodata / (nx * ny):.2g} %) are outside the terrain"
+        if nodata
+        else "nodata: none",
+        f"CRS: {_crs_name(hm.crs)}",
+    ]
+    return facts, lines

@@ -99,7 +99,8 @@ class StreamSection(Section):
 
     pool: int = param(64, ge=1, le=65536, unit="particles", doc="particles in flight per emitter (pool size)")
     length_unit: Literal["cells", "m"] = param(
-        "cells", doc="unit of the emitters' width, length, speed, max_speed, radius_per_mass, pivot_offset"
+        "cells",
+        doc="unit of the emitters' width, length, speed, max_speed, radius_per_mass, pivot_offset, depth_per_mass",
     )
     impacts_per_batch: int = param(
         200_000, ge=1, unit="impacts", doc="work between progress updates and checkpoint checks"

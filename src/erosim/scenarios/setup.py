@@ -12,7 +12,9 @@ class Setup:
     """A run ready to go: a :class:`~erosim.simulation.simulation.Simulation` is made from it.
 
     ``report(sim)`` gives the kind's entries of ``report.json`` (whatever the run's status);
-    ``summary(sim, report)`` the few lines the command line prints. ``warnings`` go into the report.
+    ``summary(sim, report)`` the few lines the command line prints. ``warnings`` go into the report
+    and onto the console; ``assumed`` (what the run takes its inputs to be: cell size and where it came
+    from, heights, nodata, CRS, parameters scaled to the terrain) onto the console before the run.
     """
 
     models: list
@@ -24,3 +26,4 @@ class Setup:
     checkpoint_wall_s: float = 300.0
     seed: int | None = None
     warnings: list[str] = field(default_factory=list)
+    assumed: list[str] = field(default_factory=list)

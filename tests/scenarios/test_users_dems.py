@@ -1,0 +1,90 @@
+"""Hydrology and the particle stream on the DEMs users bring: the file's own scale with no setting,
+nodata kept in the outputs and counted, assumptions stated (issue 12)."""
+
+import json
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import rasterio
+from rasterio.transform import Affine
+
+from erosim.api import run
+from erosim.terrain.generate import generate
+
+NODATA = -9999.0
+
+
+def _dem(path, cell, size=64, relief=115.0, hole=False, seed=4):
+    """A georeferenced GeoTIFF (UTM 33N) of ``size``² cells of ``cell`` m; ``hole``: a nodata square
+    and a NaN band."""
+    z = generate("hills", size, cell, seed=seed, relief=relief).z.astype(np.float32)
+    if hole:
+        z[20:30, 20:30] = NODATA
+        z[:, -4:] = np.nan
+    profile = dict(driver="GTiff", height=size, width=size, count=1, dtype="float32", crs="EPSG:32633",
+                   transform=Affine(cell, 0, 500000, 0, -cell, 5000000), nodata=NODATA)  # fmt: skip
+    with rasterio.open(path, "w", **profile) as ds:
+        ds.write(z, 1)
+    return path
+
+
+@pytest.mark.parametrize("cell", [1.0, 20.0, 83.0])
+def test_hydrology_runs_at_the_dem_scale_with_no_setting(tmp_path, cell):
+    dem = _dem(tmp_path / "dem.tif", cell)
+    rep = run("hydrology", tmp_path / "run", set={"terrain.file": str(dem), "run.cycles": 4, "run.frames": 0}).report
+    t = rep["terrain"]
+    assert t["cell_size_m"] == pytest.approx(cell) and t["cell_size_from"] == "the file"
+    assert t["nodata_cells"] == 0 and "UTM zone 33N" in t["crs"]
+    # ℓ follows the cell (two cells) and the droplets the map's area in ℓ²: the same on every scale
+    assert rep["scaled"]["length_scale_m"] == pytest.approx(2 * cell)
+    expected = round(250 * 64 * 64 / (256 * 2) ** 2)
+    assert rep["scaled"]["droplets_per_cycle"] == expected
+    assert not any("length_scale" in w for w in rep["warnings"])
+
+
+def test_nodata_cells_are_counted_and_stay_nodata_in_every_map(tmp_path):
+    dem = _dem(tmp_path / "dem.tif", 2.0, hole=True)
+    result = run("hydrology", tmp_path / "run", set={"terrain.file": str(dem), "run.cycles": 4, "run.frames": 0})
+    hole = np.zeros((64, 64), bool)
+    hole[20:30, 20:30] = True
+    hole[:, -4:] = True
+    assert result.report["terrain"]["nodata_cells"] == int(hole.sum())
+    assert any(f"{int(hole.sum())} cells of the terrain are nodata" in w for w in result.report["warnings"])
+    for name in ("height", "erosion", "lake_depth", "stream"):
+        with rasterio.open(result.path / "maps" / f"{name}.tif") as ds:
+            band = ds.read(1, masked=True)
+        np.testing.assert_array_equal(np.ma.getmaskarray(band), hole, err_msg=name)
+    assert result.report["terrain"]["z_min"] > 0  # the nodata value is not a height
+
+
+def test_a_png_without_a_cell_size_is_an_assumption_said_aloud(tmp_path):
+    from PIL import Image
+
+    png = tmp_path / "dem.png"  # a 16-bit PNG from another tool: heights, no cell size, no world file
+    z = generate("hills", 48, 5.0, seed=1).z
+    Image.fromarray((1000 * (z - z.min()) / np.ptp(z)).astype(np.uint16)).save(png)
+    done = subprocess.run(
+        [sys.executable, "-m", "erosim.cli", "run", "hydrology", "--set", f"terrain.file={png}",
+         "--set", "run.cycles=2", "--set", "run.frames=0", "--out", str(tmp_path / "run")],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    err = done.stderr
+    assert re.search(r"assumed: terrain: 48 × 48 cells of 1 m \(assumed: the file stores none", err)
+    assert "warning: 'dem.png' stores no cell size, so 1 m was assumed" in err
+    rep = json.loads((tmp_path / "run" / "report.json").read_text())
+    assert rep["terrain"]["cell_size_from"].startswith("assumed")
+
+
+def test_the_stream_cuts_a_canyon_to_the_dem_scale(tmp_path):
+    """On a 1 m lidar-like tile of 31 m relief the library stream cut a 72 m slot (its depth was in
+    metres while its widths were in cells); in cells throughout it cuts a canyon shaped as on 10 m cells."""
+    dem = _dem(tmp_path / "dem.tif", 1.0, size=256)
+    with rasterio.open(dem) as ds:
+        relief = float(ds.read(1).max() - ds.read(1).min())
+    rep = run("particle-stream", tmp_path / "run", set={"terrain.file": str(dem)}).report
+    assert rep["terrain"]["cell_size_m"] == 1.0
+    assert 0.5 < rep["max_depth"] < relief  # a canyon, not a scratch and not a slot below the terrain
