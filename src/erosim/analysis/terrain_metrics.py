@@ -1,0 +1,58 @@
+"""Measures of an eroded terrain that a terrain artist judges by eye, as numbers (issue 12's demo
+targets; ``benchmarks/demo_metrics.py`` prints them for a run folder).
+
+* **Hillslope roughness**: the standard deviation of the discrete Laplacian ∇²z (m⁻¹; 5-point
+  stencil, ``scipy.ndimage.laplace`` / Δx²) over hillslope cells — where the stream map is below 0.05
+  and there is no lake. Cell-scale artefacts (pits, diagonal ridges) raise it; smooth slopes do not.
+  Compared before and after a run, the ratio says whether the model roughened the hills.
+* **River network**: river cells are those with stream ≥ 0.2, grouped 8-connected
+  (``scipy.ndimage.label``). The longest river's span is the larger side of its bounding box as a
+  fraction of the map's width; a river *reaches an outlet* when it touches (8-adjacent) a lake cell
+  or the map's edge. Short streaks that end on a hillside do neither.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+RIVER_STREAM = 0.2
+HILLSLOPE_STREAM = 0.05
+EIGHT = np.ones((3, 3), bool)
+
+
+def laplacian_roughness(z: np.ndarray, cell_size: float, where: np.ndarray) -> float:
+    """std of ∇²z (m⁻¹) over the cells in ``where``, the map's border row and column left out."""
+    lap = ndimage.laplace(np.asarray(z, dtype=np.float64), mode="nearest") / cell_size**2
+    inner = np.zeros_like(where, dtype=bool)
+    inner[1:-1, 1:-1] = True
+    values = lap[where & inner]
+    return float(values.std()) if values.size else float("nan")
+
+
+def hillslopes(stream: np.ndarray, lake_depth: np.ndarray) -> np.ndarray:
+    return (stream < HILLSLOPE_STREAM) & (lake_depth <= 0)
+
+
+def river_network(stream: np.ndarray, lake_depth: np.ndarray) -> dict:
+    """The longest river's span (fraction of the width) and the share of river cells whose river
+    reaches a lake or the edge."""
+    rivers = stream >= RIVER_STREAM
+    labels, count = ndimage.label(rivers, structure=EIGHT)
+    if count == 0:
+        return {"rivers": 0, "river_cells": 0, "longest_span_fraction": 0.0, "reaching_outlet_fraction": 0.0}
+    ny, nx = stream.shape
+    spans = np.zeros(count)
+    for k, sl in enumerate(ndimage.find_objects(labels)):
+        spans[k] = max(sl[0].stop - sl[0].start, sl[1].stop - sl[1].start)
+    outlet = ndimage.binary_dilation(lake_depth > 0, structure=EIGHT)
+    outlet[0, :] = outlet[-1, :] = outlet[:, 0] = outlet[:, -1] = True
+    reaching = np.unique(labels[outlet & rivers])
+    sizes = ndimage.sum_labels(rivers, labels, index=np.arange(1, count + 1))
+    reached_cells = sizes[reaching[reaching > 0] - 1].sum()
+    return {
+        "rivers": int(count),
+        "river_cells": int(rivers.sum()),
+        "longest_span_fraction": float(spans.max() / nx),
+        "reaching_outlet_fraction": float(reached_cells / rivers.sum()),
+    }
