@@ -88,3 +88,25 @@ def test_the_stream_cuts_a_canyon_to_the_dem_scale(tmp_path):
     rep = run("particle-stream", tmp_path / "run", set={"terrain.file": str(dem)}).report
     assert rep["terrain"]["cell_size_m"] == 1.0
     assert 0.5 < rep["max_depth"] < relief  # a canyon, not a scratch and not a slot below the terrain
+
+
+def test_nodata_cells_drain_water_like_the_map_edge():
+    """A bowl holds its rain as a lake; with its centre nodata the same rain leaves there instead."""
+    from erosim.core.heightmap import Heightmap
+    from erosim.hydrology.model import HydrologyModel
+    from erosim.hydrology.params import HydrologyParams, VegetationParams
+
+    y, x = np.mgrid[0:64, 0:64]
+    r = np.hypot(x - 31.5, y - 31.5)
+    results = {}
+    for hole in (False, True):
+        hm = Heightmap(z=0.05 * r**2, cell_size=5.0, nodata=r < 4 if hole else None)
+        model = HydrologyModel(hm, HydrologyParams(cycle_droplets=2000), VegetationParams(), seed=1)
+        for _ in range(30):
+            model.advance()
+        results[hole] = model.water_budget(), model.lake_depth()
+    closed, drained = results[False][0], results[True][0]
+    assert closed["left_edges"] == 0 and closed["in_lakes"] > 0.9 * closed["rained"]
+    # most of the rain reaches the hole and leaves (the rest evaporates on the way or fills pits)
+    assert drained["left_edges"] > 0.8 * drained["rained"] and abs(drained["closure_rel"]) < 1e-12
+    assert not (results[True][1][r < 4] > 0).any()  # no lake stands in the hole

@@ -49,7 +49,18 @@ from erosim.hydrology.params import (
     P_V0,
     P_VMIN,
 )
-from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_SIZE, B_STEPS, walk_down
+from erosim.hydrology.pools import (
+    B_CARRIED,
+    B_DEPOSITED,
+    B_ERODED,
+    B_EVAP,
+    B_LEFT,
+    B_SIZE,
+    B_STEPS,
+    NO_LAKE,
+    OUTSIDE,
+    walk_down,
+)
 
 PAUSED = 3  # the droplet's log is full: it goes on descending in the serial phase
 LOG = 2048  # logged steps per droplet and first descent
@@ -130,7 +141,7 @@ def descend_logged(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, lev
             status = LEFT
             break
         cn = int(y + 0.5) * nx + int(x + 0.5)
-        if zf[cn] < sea:
+        if zf[cn] < sea or lake_of[cn] == OUTSIDE:
             bd[B_LEFT] += V
             bd[B_CARRIED] += S
             V, S = 0.0, 0.0
@@ -157,7 +168,7 @@ def descend_logged(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, lev
         ceq = (cap * vrel * speed) * max(h - h1, 0.0)
         diff = ceq - S
         amt = (khe if diff > 0.0 else kh) * diff
-        if lake_of[c] < 0:  # lake cells are never eroded or filled by descent
+        if lake_of[c] == NO_LAKE:  # lake cells are never eroded or filled by descent
             ldz[steps - 1] = amt * inv_ca
             eroded += max(amt, 0.0)
             deposited += max(-amt, 0.0)

@@ -11,7 +11,8 @@ moves more than ``max_step`` cells — at a finer grid it then sees every cell i
     z   −= ΔS spread over the ℓ×ℓ footprint of the old position; S += ΔS
     V   *= 1 − h·e_eff,                               e_eff = evaporation·(1 − 0.2·stream)
 
-The droplet ends when V < V_min, or leaves the world (map edge, sea: its water and sediment leave),
+The droplet ends when V < V_min, or leaves the world (map edge, sea, a nodata cell of the DEM: its
+water and sediment leave),
 or stops for HY-2 flood: it enters a lake, or it is in a strong stream (> 0.5) with |a| below
 0.01 ℓ/s², or (``pit_flood``, an erosim addition) it moves less than ℓ/2 per sub-step and a
 steepest-descent walk of at most 2·ℓ/Δx + 1 cells from its cell reaches a local minimum: it
@@ -54,7 +55,17 @@ from erosim.hydrology.params import (
     P_V0,
     P_VMIN,
 )
-from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_STEPS, walk_down
+from erosim.hydrology.pools import (
+    B_CARRIED,
+    B_DEPOSITED,
+    B_ERODED,
+    B_EVAP,
+    B_LEFT,
+    B_STEPS,
+    NO_LAKE,
+    OUTSIDE,
+    walk_down,
+)
 from erosim.kernels.raster import locate, q4_shape, upper_nodes
 
 ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
@@ -121,7 +132,7 @@ def transfer(zf, lake_of, nx, ny, x, y, m, amount, cell_area):
     """
     if m == 1:
         c = int(y + 0.5) * nx + int(x + 0.5)
-        if lake_of[c] >= 0:
+        if lake_of[c] != NO_LAKE:
             return 0.0
         zf[c] -= amount / cell_area
         return amount
@@ -130,7 +141,7 @@ def transfer(zf, lake_of, nx, ny, x, y, m, amount, cell_area):
     cnt = 0
     for j in range(max(j0, 0), min(j0 + m, ny)):
         for i in range(max(i0, 0), min(i0 + m, nx)):
-            if lake_of[j * nx + i] < 0:
+            if lake_of[j * nx + i] == NO_LAKE:
                 cnt += 1
     if cnt == 0:
         return 0.0
@@ -138,7 +149,7 @@ def transfer(zf, lake_of, nx, ny, x, y, m, amount, cell_area):
     for j in range(max(j0, 0), min(j0 + m, ny)):
         for i in range(max(i0, 0), min(i0 + m, nx)):
             c = j * nx + i
-            if lake_of[c] < 0:
+            if lake_of[c] == NO_LAKE:
                 zf[c] -= dz
     return amount
 
@@ -232,7 +243,7 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
         jx = int(x + 0.5)
         jy = int(y + 0.5)
         cn = jy * nx + jx
-        if zf[cn] < sea:
+        if zf[cn] < sea or lake_of[cn] == OUTSIDE:
             B[B_LEFT] += V
             B[B_CARRIED] += S
             B[B_STEPS] += steps
@@ -262,7 +273,7 @@ def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, tra
         if amt != 0.0:
             if m == 1:
                 moved = 0.0
-                if lake_of[c] < 0:
+                if lake_of[c] == NO_LAKE:
                     zf[c] -= amt / ca
                     moved = amt
             else:
@@ -360,7 +371,7 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
             _settle_budget(B, steps, evap, eroded, deposited)
             return LEFT, x0, y0, vx, vy, 0.0, 0.0
         cn = int(y + 0.5) * nx + int(x + 0.5)
-        if zf[cn] < sea:
+        if zf[cn] < sea or lake_of[cn] == OUTSIDE:
             B[B_LEFT] += V
             B[B_CARRIED] += S
             _settle_budget(B, steps, evap, eroded, deposited)
@@ -390,7 +401,7 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
         ceq = (cap * vrel * speed) * max(h - h1, 0.0)
         diff = ceq - S
         amt = (khe if diff > 0.0 else kh) * diff
-        if lake_of[c] < 0:  # lake cells are never eroded or filled by descent
+        if lake_of[c] == NO_LAKE:  # lake cells are never eroded or filled by descent
             dz = amt * inv_ca
             zf[c] -= dz
             eroded += max(amt, 0.0)

@@ -402,14 +402,19 @@ class HydrologyModel:
         self.trees = np.zeros((ny, nx), np.uint8)
         self.track = np.zeros(n, np.uint8)
         self.erod = np.ones((ny, nx)) if erodibility is None else _check_map("erodibility", erodibility, (ny, nx))
-        if rain is None:
+        outside = terrain.nodata.ravel() if terrain.nodata is not None else None
+        if rain is None and outside is None:
             self.rain_cdf = np.zeros(0)
         else:
-            r = _check_map("rain", rain, (ny, nx)).ravel()
+            r = np.ones(n) if rain is None else _check_map("rain", rain, (ny, nx)).ravel().astype(np.float64)
+            if outside is not None:
+                r = np.where(outside, 0.0, r)  # no rain falls outside the terrain (nodata)
             if r.sum() <= 0:
                 raise InputError("The rain map is zero everywhere; give positive values where rain falls.")
             self.rain_cdf = np.cumsum(r)
-        self.lake_of = np.full(n, -1, np.int64)
+        self.lake_of = np.full(n, pools.NO_LAKE, np.int64)
+        if outside is not None:
+            self.lake_of[outside] = pools.OUTSIDE  # water that reaches a nodata cell leaves, as at the edge
         self.per_cycle = droplets_per_cycle(self.p, (ny, nx), self.cell_size)
         self.lake_cap = n + self.p.spill * self.per_cycle + 16
         self.level = np.zeros(self.lake_cap)

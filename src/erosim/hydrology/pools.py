@@ -17,8 +17,9 @@ lake filling dominated the seed's run time. Here each lake is kept **incremental
   ``area[k]`` — its member count A. Every member has h ≤ L (wet, or exactly at the level), so the
   stored water is Σ (L − h)·Δx² and raising or lowering L by δ changes it by exactly A·δ·Δx².
 * a **boundary min-heap** per lake holds the 8-neighbours of its members keyed by their surface
-  (terrain h, another lake's level, the sea level; cells on the map edge add an *off-map* entry at
-  the sea level, −∞ without a sea: HY-8, water leaves at the edges instead of meeting a wall);
+  (terrain h, another lake's level, the sea level; cells on the map edge, or beside a nodata cell of
+  the DEM (``lake_of`` = OUTSIDE), add an *off-map* entry at the sea level, −∞ without a sea: HY-8,
+  water leaves at the edges instead of meeting a wall);
 * a **member max-heap** per lake, keyed by h, gives the members that fall dry when the level drops.
 
 Both heaps are *leftist heaps* in one shared node pool, so merging two lakes' heaps costs
@@ -68,6 +69,10 @@ B_FLOODS = 10  # flood calls
 B_SIZE = 12
 
 OFF = -1  # heap cell code offset: off-map entries are stored as -(edge cell + 2)
+
+# lake_of codes besides a lake's index
+NO_LAKE = -1  # a dry cell
+OUTSIDE = -2  # a nodata cell of the DEM: outside the world, like the map's edge (water reaching it leaves)
 
 # flood results
 SPENT = 0  # volume went into a lake
@@ -179,6 +184,8 @@ def walk_down(c, max_walk, zf, lake_of, level, sea_level, nx, ny):
         for j in range(max(iy - 1, 0), min(iy + 2, ny)):
             for i in range(max(ix - 1, 0), min(ix + 2, nx)):
                 n = j * nx + i
+                if lake_of[n] == OUTSIDE:
+                    continue
                 h = surface(n, zf, lake_of, level, sea_level)
                 if h < hb:
                     hb = h
@@ -209,6 +216,9 @@ def _push_neighbours(
                 edge = True
                 continue
             n = jy * nx + jx
+            if lake_of[n] == OUTSIDE:  # a nodata cell drains the lake as the map's edge does
+                edge = True
+                continue
             if lake_of[n] == k:
                 continue
             broot[k] = push(
@@ -613,6 +623,9 @@ def rebuild(
                     if jx < 0 or jx >= nx or (dx == 0 and dy == 0):
                         continue
                     m = jy * nx + jx
+                    if lake_of[m] == OUTSIDE:
+                        edge = True
+                        continue
                     if lake_of[m] == k or stamp[m] == k:
                         continue
                     stamp[m] = k

@@ -34,6 +34,7 @@ from numba import njit
 
 from erosim.hydrology.counter_rng import unit
 from erosim.hydrology.params import VegetationParams
+from erosim.hydrology.pools import OUTSIDE
 
 
 @functools.lru_cache(maxsize=8)
@@ -53,8 +54,9 @@ def disc_offsets(radius_cells: float) -> tuple[np.ndarray, np.ndarray, float]:
 
 @njit(cache=True, inline="always")
 def _wet_at(c, zf, lake_of, level, sea_level):
+    """Under a lake or the sea, or outside the world (a nodata cell): no tree there."""
     k = lake_of[c]
-    return (k >= 0 and level[k] > zf[c]) or zf[c] < sea_level
+    return (k >= 0 and level[k] > zf[c]) or zf[c] < sea_level or k == OUTSIDE
 
 
 @njit(cache=True, inline="always")

@@ -122,8 +122,8 @@ def setup(scenario, out) -> Setup:
     facts, assumed = terrain_facts(terrain, cfg.terrain)
     if facts["nodata_cells"]:
         warnings.append(
-            f"{facts['nodata_cells']} cells of the terrain are nodata: the maps keep them as nodata, and "
-            "the model runs over them at the nearest valid height."
+            f"{facts['nodata_cells']} cells of the terrain are nodata: outside the world, like the map's edge "
+            "(water reaching them leaves and counts in water_budget.left_edges); the maps keep them as nodata."
         )
     how = (
         "hydrology.length_scale"
