@@ -85,3 +85,25 @@ def test_lakes_are_shaded_flat_on_their_water_surface():
     rgb = maps.hydrology_map(z, 1.0, np.zeros_like(z), depth, lake_depth_ref=1.0)
     inner = rgb[2:-2, 2:8]  # depth >= 2 there: full lake opacity, no shore pixels
     assert np.ptp(inner.reshape(-1, 3), axis=0).max() < 1e-12
+
+
+def test_map_figures_carry_axes_scale_and_legend(tmp_path):
+    """A map figure is a figure, not the raw raster: axes in the DEM's coordinates, and the pixels of
+    the legend's swatch colours and of the scale bar's black and white are there."""
+    from PIL import Image
+
+    from erosim.viz.maps import DARK_BLUE
+    from erosim.viz.plots import change_figure, extent_of, map_figure
+
+    assert extent_of(None, (10, 20), 5.0) == (0.0, 100.0, 0.0, 50.0)
+    assert extent_of((5.0, 0.0, 400000.0, 0.0, -5.0, 5100000.0), (10, 20), 5.0) == (400000.0, 400100.0, 5099950.0,
+                                                                                   5100000.0)  # fmt: skip
+    rgb = np.full((64, 96, 3), 0.8)
+    path = map_figure(tmp_path / "m.png", rgb, 20.0, "test", legend=[("lake", DARK_BLUE)])
+    img = np.asarray(Image.open(path).convert("RGB"))
+    assert img.shape[:2] != (64, 96)
+    blue = np.round(DARK_BLUE * 255).astype(int)
+    assert (np.abs(img.astype(int) - blue).sum(axis=2) < 12).sum() > 20  # the legend's swatch
+    assert (img.sum(axis=2) == 0).sum() > 20  # the scale bar's black half
+    change = np.linspace(-3, 5, 64 * 96).reshape(64, 96)
+    assert change_figure(tmp_path / "c.png", change, 20.0, "change").stat().st_size > 5000

@@ -8,7 +8,8 @@ A run cycles :class:`erosim.hydrology.model.HydrologyModel` ``run.cycles`` times
   mask_lake_depth.png, mask_erosion.png, mask_deposition.png, mask_vegetation.png
   (value = q·vmax/65535, vmax in report.json);
 * ``figures/``: hillshade_before.png, hillshade_after.png, hydrology.png (HY-9: light blue streams,
-  dark blue lakes, green forest), evolution.gif (``run.frames`` pictures over the run);
+  dark blue lakes, green forest; legend), erosion_deposition.png (diverging scale in metres), each
+  with axes in the DEM's coordinates and a scale bar; evolution.gif (``run.frames`` pictures);
 * ``report.json``: water_budget, sediment_budget, statistics, output list and ranges.
 """
 
@@ -68,7 +69,6 @@ def _thumbnail(model, size: int = 256):
 def write_outputs(model, terrain, folder) -> dict:
     """Maps, engine exports and pictures of the model's current state into a run folder; their ranges."""
     from erosim.io import heightmaps as hio
-    from erosim.viz.maps import hillshade, save_png
 
     maps = {
         "height_initial": model.z0,
@@ -97,9 +97,17 @@ def write_outputs(model, terrain, folder) -> dict:
         vmax = 1.0 if name in ("stream", "vegetation") else None
         m = hio.write_mask_png16(folder.maps / f"mask_{name}.png", maps[name], vmax=vmax)
         info["masks"][name] = {"path": f"maps/mask_{name}.png", "vmax": m["vmax"]}
-    save_png(folder.figures / "hillshade_before.png", hillshade(model.z0, model.cell_size))
-    save_png(folder.figures / "hillshade_after.png", hillshade(model.z, model.cell_size))
-    save_png(folder.figures / "hydrology.png", picture(model))
+    from erosim.viz.maps import DARK_BLUE, FOREST, GROUND, LIGHT_BLUE
+    from erosim.viz.plots import change_figure, extent_of, hillshade_figure, map_figure
+
+    cs, box = model.cell_size, extent_of(terrain.transform, model.z.shape, model.cell_size)
+    hillshade_figure(folder.figures / "hillshade_before.png", model.z0, cs, "Terrain before", box)
+    hillshade_figure(folder.figures / "hillshade_after.png", model.z, cs, "Terrain after", box)
+    legend = [("stream", LIGHT_BLUE), ("lake", DARK_BLUE), ("forest", FOREST), ("bare ground", GROUND)]
+    map_figure(folder.figures / "hydrology.png", picture(model), cs, "Rivers, lakes and forest", legend=legend,
+               extent=box)  # fmt: skip
+    change_figure(folder.figures / "erosion_deposition.png", maps["deposition"] - maps["erosion"], cs,
+                  "Erosion and deposition", box)  # fmt: skip
     return info
 
 

@@ -290,15 +290,21 @@ class TerrainOutputs(cb.Callback):
             out.write_text("profile.csv", cb.csv_text(cols, rows))
             return {"outputs": {"profile": "profile.csv", "figure": "figures/maps_final.png"}}
         from erosim.io import heightmaps as hio
-        from erosim.viz.maps import hillshade
 
         written = {}
         for name, arr in fields.items():
             mapped = np.ascontiguousarray(arr[::-1])
             hio.write(out.maps / f"{name}.tif", mapped, like=g.dem)
             written[name] = {"path": f"maps/{name}.tif", "min": float(mapped.min()), "max": float(mapped.max())}
-        save_png(out.figures / "hillshade_before.png", hillshade(g.initial[::-1], g.raster.dx))
-        save_png(out.figures / "hillshade_after.png", hillshade(self.coupler.terrain[::-1], g.raster.dx))
+        from erosim.viz.plots import change_figure, extent_of, hillshade_figure
+
+        north_up = g.initial[::-1]
+        box = extent_of(g.dem.transform if g.dem is not None else None, north_up.shape, g.raster.dx)
+        hillshade_figure(out.figures / "hillshade_before.png", north_up, g.raster.dx, "Terrain before", box)
+        hillshade_figure(out.figures / "hillshade_after.png", self.coupler.terrain[::-1], g.raster.dx, "Terrain after",
+                         box)  # fmt: skip
+        change_figure(out.figures / "erosion_deposition.png", (self.coupler.terrain - g.initial)[::-1], g.raster.dx,
+                      "Erosion and deposition", box)  # fmt: skip
         return {"outputs": {"maps": written, "figure": "figures/maps_final.png"}}
 
 

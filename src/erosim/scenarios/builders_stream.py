@@ -174,7 +174,7 @@ def canyon_figure(path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: floa
 def write_outputs(out, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) -> dict[str, Any]:
     """Maps and figures of a finished (or interrupted) stream; returns what the report needs."""
     from erosim.io import heightmaps as hio
-    from erosim.viz.maps import colormap_png, hillshade, save_png
+    from erosim.viz.plots import extent_of, hillshade_figure, map_figure
 
     maps, figs = out.maps, out.figures
     final = hm.copy(stream.h)
@@ -187,10 +187,14 @@ def write_outputs(out, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) ->
     hio.write(maps / "hardness.tif", stream.d, like=hm)
     hio.write(maps / "erosion.tif", erosion, like=hm)
     mask = hio.write_mask_png16(maps / "erosion_mask.png", erosion)
-    save_png(figs / "hillshade_before.png", hillshade(hm.z, hm.cell_size))
-    save_png(figs / "hillshade_after.png", hillshade(stream.h, hm.cell_size))
-    save_png(figs / "strata_after.png", _strata_picture(stream.h, stream.d, hm.cell_size))
-    colormap_png(figs / "erosion.png", erosion, "magma")
+    cs, box = hm.cell_size, extent_of(hm.transform, hm.shape, hm.cell_size)
+    hillshade_figure(figs / "hillshade_before.png", hm.z, cs, "Terrain before", box)
+    hillshade_figure(figs / "hillshade_after.png", stream.h, cs, "Terrain after", box)
+    hard = {"cmap": "copper_r", "vmin": 0.0, "vmax": 1.0, "label": "hardness (0 soft … 1 unerodible)"}
+    map_figure(figs / "strata_after.png", _strata_picture(stream.h, stream.d, cs), cs, "Rock at the surface after",
+               colorbar=hard, extent=box)  # fmt: skip
+    depth = {"cmap": "magma", "vmin": 0.0, "vmax": max(float(erosion.max()), 1e-9), "label": "erosion depth (m)"}
+    map_figure(figs / "erosion.png", erosion, cs, "Erosion", colorbar=depth, extent=box)
     canyon_figure(figs / "canyon.png", hm.z, stream.h, stream.d, hm.cell_size, stream.strata)
     return {
         "height_png_range": png.get("height_range"),

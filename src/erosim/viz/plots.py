@@ -209,3 +209,92 @@ def probability_map(path, p: np.ndarray, extent: tuple, title: str, shade: np.nd
     ax.set_title(title)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def _nice_length(span: float) -> float:
+    """A round length (1, 2 or 5 × 10ᵏ m) near a fifth of ``span``."""
+    target = span / 5.0
+    k = 10.0 ** np.floor(np.log10(target))
+    return float(min((1.0, 2.0, 5.0, 10.0), key=lambda f: abs(f * k - target)) * k)
+
+
+def _scale_bar(ax, extent: tuple, km: bool) -> None:
+    x0, x1, y0, y1 = extent
+    length = _nice_length(x1 - x0)
+    label = f"{length:g} km" if km else (f"{length / 1000:g} km" if length >= 1000 else f"{length:g} m")
+    px, py = x0 + 0.05 * (x1 - x0), y0 + 0.05 * (y1 - y0)
+    height = 0.012 * (y1 - y0)
+    ax.add_patch(plt.Rectangle((px, py), length, height, color="black", zorder=5))
+    ax.add_patch(plt.Rectangle((px + length / 2, py), length / 2, height, color="white", ec="black", lw=0.5, zorder=6))
+    ax.text(px + length / 2, py + 2.5 * height, label, ha="center", va="bottom", fontsize=9, zorder=6,
+            bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "none", "alpha": 0.8})  # fmt: skip
+
+
+def extent_of(transform: tuple | None, shape: tuple[int, int], cell_size: float) -> tuple:
+    """(x0, x1, y0, y1) of a map: from its affine transform (a, b, c, d, e, f), or 0 at the south-west corner."""
+    ny, nx = shape
+    if transform is None:
+        return (0.0, nx * cell_size, 0.0, ny * cell_size)
+    a, _, c, _, e, f = transform[:6]
+    xs, ys = sorted((c, c + a * nx)), sorted((f, f + e * ny))
+    return (xs[0], xs[1], ys[0], ys[1])
+
+
+def map_figure(
+    path,
+    picture: np.ndarray,
+    cell_size: float,
+    title: str,
+    *,
+    legend: list[tuple[str, np.ndarray]] | None = None,
+    colorbar: dict | None = None,
+    extent: tuple | None = None,
+) -> Path:
+    """A map picture (RGB, or one band with ``colorbar`` = {cmap, vmin, vmax, label}) with axes in
+    metres (km for maps over 5 km), a scale bar, and a ``legend`` of (label, colour) swatches.
+    ``extent`` = (x0, x1, y0, y1) in the DEM's coordinates (default: 0 at the south-west corner)."""
+    from matplotlib.patches import Patch
+
+    ny, nx = picture.shape[:2]
+    x0, x1, y0, y1 = extent or (0.0, nx * cell_size, 0.0, ny * cell_size)
+    km = (x1 - x0) > 5000.0
+    f = 1e-3 if km else 1.0
+    fig, ax = plt.subplots(figsize=(7.2, 6.4 * ny / nx + 0.6 if nx >= ny else 7.2))
+    shown = (x0 * f, x1 * f, y0 * f, y1 * f)
+    if picture.ndim == 2:  # one band through the colour bar's map
+        im = ax.imshow(picture, extent=shown, cmap=colorbar["cmap"], vmin=colorbar.get("vmin"),
+                       vmax=colorbar.get("vmax"), interpolation="antialiased")  # fmt: skip
+        fig.colorbar(im, ax=ax, label=colorbar["label"], shrink=0.85)
+    else:
+        ax.imshow(picture, extent=shown, interpolation="antialiased")
+        if colorbar is not None:  # a picture tinted by a colour map (shaded): its scale
+            norm = matplotlib.colors.Normalize(colorbar.get("vmin", 0.0), colorbar.get("vmax", 1.0))
+            sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=colorbar["cmap"])
+            fig.colorbar(sm, ax=ax, label=colorbar["label"], shrink=0.85)
+    _scale_bar(ax, shown, km)
+    if legend:
+        handles = [Patch(facecolor=tuple(np.clip(c, 0, 1)), edgecolor="black", lw=0.5, label=t) for t, c in legend]
+        ax.legend(handles=handles, loc="upper right", fontsize=9, framealpha=0.85)
+    unit = "km" if km else "m"
+    ax.set_xlabel(f"x ({unit})")
+    ax.set_ylabel(f"y ({unit})")
+    ax.set_title(title)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def hillshade_figure(path, z: np.ndarray, cell_size: float, title: str, extent: tuple | None = None) -> Path:
+    """The terrain's hillshade (sun from the north-west, 45°) with axes and a scale bar."""
+    from erosim.viz.maps import hillshade
+
+    shade = hillshade(np.asarray(z, dtype=np.float64), cell_size)
+    return map_figure(path, np.repeat(shade[..., None], 3, axis=2), cell_size, title, extent=extent)
+
+
+def change_figure(path, change: np.ndarray, cell_size: float, title: str, extent: tuple | None = None) -> Path:
+    """Deposition (+, blue) and erosion (−, red) in metres on a diverging scale centred on zero (the
+    99th percentile of |change| at its ends, so a few deep cuts do not wash the rest out)."""
+    finite = np.abs(change[np.isfinite(change)])
+    top = float(np.percentile(finite, 99)) if finite.size and finite.max() > 0 else 1.0
+    bar = {"cmap": "RdBu", "vmin": -top, "vmax": top, "label": "deposition (+) / erosion (−) (m)"}
+    return map_figure(path, np.asarray(change, dtype=np.float64), cell_size, title, colorbar=bar, extent=extent)
