@@ -60,6 +60,7 @@ from erosim.hydrology.batch import (
 from erosim.hydrology.batch import check as check_batch
 from erosim.hydrology.counter_rng import spawn_base, spawn_point, splitmix64
 from erosim.hydrology.droplets import ENDED, LEFT, descend, descend_cell, descend_variant
+from erosim.hydrology.hillslope_creep_culling1960 import creep_step
 from erosim.hydrology.params import (
     P_CA,
     P_DRAIN,
@@ -387,6 +388,7 @@ class HydrologyModel:
         self.ell = reference_length(self.p, self.cell_size)
         self.P = kernel_constants(self.p, self.cell_size)
         self.P[P_ROOT] = self.veg.root_strength if self.veg.enabled else 0.0
+        self._creep = self.p.creep * (self.ell / self.cell_size) ** 2  # κ/Δx² per cycle
         self._descend = descend_variant(self.P)
         self._driver = run_droplets_cell if self._descend is descend_cell else run_droplets_general
         check_batch(self.p, int(self.P[P_FOOT]))
@@ -525,6 +527,9 @@ class HydrologyModel:
                 self._run(first, nb, res[:nb])
                 todo -= nb
         streams.update(self.stream, self.track, self.p.stream_rate)
+        if self._creep > 0.0:
+            mobility = np.where((self.lake_of == pools.NO_LAKE).reshape(self.z.shape), self.erod, 0.0)
+            self.budget[pools.B_CREPT] += creep_step(self.z, mobility, self._creep) * self.cell_size**2
         if self.veg.enabled:
             rng = np.random.default_rng([self.seed & 0xFFFFFFFF, self.cycles, 0x5EED])
             vegetation.step(
@@ -611,6 +616,7 @@ class HydrologyModel:
             "closure_rel": closure,
             "terrain_change": change,
             "terrain_change_rel_error": abs(change - (deposited - eroded)) / eroded if eroded > 0 else 0.0,
+            "moved_by_creep": float(B[pools.B_CREPT]),
         }
 
     def sediment_in_transit(self) -> tuple[float, float]:

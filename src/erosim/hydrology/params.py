@@ -14,7 +14,8 @@ maps to physical units as
 Defaults differ from the seed where its values made droplets slow and long-lived on steep
 physical terrain (friction 0.5 /s, evaporation 0.003 /s, sub-steps of at most one cell, and
 ``pit_flood``: a droplet that comes to rest in a pit floods there at once instead of oscillating
-until it evaporates; trees: 10 seedlings per cycle, spread 0.03). The ``simplehydrology-2020``
+until it evaporates; trees: 10 seedlings per cycle, spread 0.03; hillslope creep, which the seed
+does not have: without it droplets leave cell-scale pits on the slopes). The ``simplehydrology-2020``
 preset restores the seed's. The defaults are the library ``hydrology`` scenario's: ``HydrologyParams()``
 is what a scenario that leaves ``[hydrology]`` out runs with (tests/unit/test_api.py checks it).
 
@@ -73,6 +74,10 @@ class HydrologyParams(Section):
         doc="0: droplets one after another (the seed); N: batches of N descend in parallel "
         "against the batch-start terrain (hydrology/batch.py; one-cell footprint, max_step 0)",
     )
+    creep: float = param(
+        0.00025, ge=0, unit="ℓ²/cycle",
+        doc="hillslope creep κ/ℓ² per cycle (∂z/∂t = κ∇²z, Culling 1960): smooths cell-scale pits; 0 = off (the seed)",
+    )  # fmt: skip
     rebuild_every: int = param(
         16, ge=1, unit="cycles", doc="rebuild the lake heaps (fresh keys after erosion) every N cycles"
     )

@@ -66,6 +66,7 @@ B_CARRIED = 7  # sediment that left the world
 B_FLOOD_NS = 8  # nanoseconds spent in flood (when timing)
 B_STEPS = 9  # descend steps
 B_FLOODS = 10  # flood calls
+B_CREPT = 11  # terrain volume moved by hillslope creep (hydrology/hillslope_creep_culling1960.py)
 B_SIZE = 12
 
 OFF = -1  # heap cell code offset: off-map entries are stored as -(edge cell + 2)

@@ -1,0 +1,68 @@
+"""Hillslope creep (∂z/∂t = κ∇²z, Culling 1960) against its analytic behaviour."""
+
+import numpy as np
+
+from erosim.hydrology.hillslope_creep_culling1960 import creep_step
+
+
+def _checkerboard(n=16, a=1.0):
+    return a * ((np.add.outer(np.arange(n), np.arange(n)) % 2) * 2.0 - 1.0)
+
+
+def test_a_checkerboard_decays_by_one_minus_8c_and_volume_is_kept():
+    """Away from the edges every cell of a ±a checkerboard has ∇²z = −8z/Δx² (4 neighbours of the
+    other sign): one explicit step multiplies it by 1 − 8c exactly; the sum over the map is unchanged."""
+    z = 100.0 + _checkerboard()
+    before = z.sum()
+    creep_step(z, np.ones(z.shape), 0.05)
+    inner = z[2:-2, 2:-2] - 100.0
+    np.testing.assert_allclose(np.abs(inner), 1.0 - 8 * 0.05, rtol=1e-12)
+    assert abs(z.sum() - before) < 1e-9 * abs(before)
+
+
+def test_long_waves_barely_move():
+    """A ridge 64 cells across loses (2π/64)²·c of its amplitude per step: 0.02 % at c = 0.02."""
+    x = np.arange(128)
+    z = np.tile(np.sin(2 * np.pi * x / 64.0), (8, 1))
+    z0 = z.copy()
+    creep_step(z, np.ones(z.shape), 0.02)
+    assert np.abs(z - z0)[:, 4:-4].max() < 2 * (2 * np.pi / 64) ** 2 * 0.02
+
+
+def test_no_flux_into_rock_lakes_or_beyond_the_edge():
+    z = _checkerboard(8) + np.arange(8)[None, :]
+    mobility = np.ones(z.shape)
+    mobility[:, 4:] = 0.0  # bedrock (or lake) on the east half
+    z0 = z.copy()
+    creep_step(z, mobility, 0.1)
+    np.testing.assert_array_equal(z[:, 4:], z0[:, 4:])
+    assert not np.array_equal(z[:, :4], z0[:, :4]) and abs(z.sum() - z0.sum()) < 1e-12
+
+
+def test_a_large_coefficient_is_sub_stepped_and_stays_stable():
+    """c = 1 in one explicit step would flip and grow a checkerboard (1 − 8 = −7); split into
+    sub-steps of at most 0.2 it decays."""
+    z = _checkerboard()
+    creep_step(z, np.ones(z.shape), 1.0)
+    assert np.abs(z[2:-2, 2:-2]).max() < 0.5
+
+
+def test_creep_keeps_the_slopes_of_a_hydrology_run_as_smooth_as_they_were():
+    """Without creep the droplets double the hillslope roughness (std of ∇²z off rivers and lakes);
+    with the default creep it stays within the demo's bound (≤ 1.1 × the initial terrain's)."""
+    from erosim.analysis.terrain_metrics import hillslopes, laplacian_roughness
+    from erosim.hydrology.model import HydrologyModel
+    from erosim.hydrology.params import HydrologyParams, VegetationParams
+    from erosim.terrain.generate import generate
+
+    hm = generate("mountains", 128, 20.0, seed=2)
+    ratios = {}
+    for creep in (0.0, HydrologyParams().creep):
+        m = HydrologyModel(hm, HydrologyParams(creep=creep), VegetationParams(), seed=1)
+        for _ in range(300):
+            m.advance()
+        slopes = hillslopes(m.stream, m.lake_depth())
+        ratios[creep] = laplacian_roughness(m.z, 20.0, slopes) / laplacian_roughness(m.z0, 20.0, slopes)
+        budget = m.sediment_budget()
+        assert budget["terrain_change_rel_error"] < 1e-9  # creep moves terrain, it makes none
+    assert ratios[0.0] > 1.3 and ratios[HydrologyParams().creep] <= 1.1
