@@ -41,7 +41,9 @@ def test_hydrology_runs_at_the_dem_scale_with_no_setting(tmp_path, cell):
     assert t["nodata_cells"] == 0 and "UTM zone 33N" in t["crs"]
     # ℓ follows the cell (two cells) and the droplets the map's area in ℓ²: the same on every scale
     assert rep["scaled"]["length_scale_m"] == pytest.approx(2 * cell)
-    expected = round(250 * 64 * 64 / (256 * 2) ** 2)
+    from erosim.hydrology.params import HydrologyParams
+
+    expected = round(HydrologyParams().cycle_droplets * 64 * 64 / (256 * 2) ** 2)
     assert rep["scaled"]["droplets_per_cycle"] == expected
     assert not any("length_scale" in w for w in rep["warnings"])
 
