@@ -45,6 +45,12 @@ class Mutation:
 SPH_CORE = ("tests/unit/test_sph_solver.py", "tests/verification/test_sph_viscosity.py",
             "tests/validation/test_hydrostatic.py", "tests/validation/test_martin_moyce.py")  # fmt: skip
 
+# the general descend's exit into a nodata cell (the demo's ℓ = 2 cells runs that kernel)
+NODATA_LEAVES = (
+    "        if zf[cn] < sea or lake_of[cn] == OUTSIDE:\n            B[B_LEFT] += V\n            B[B_CARRIED] += S\n"
+    "            B[B_STEPS] += steps"
+)
+
 MUTATIONS = (
     Mutation(
         "artificial-viscosity-off",
@@ -296,6 +302,39 @@ MUTATIONS = (
         (('        return {"frames": np.stack(self.frames)} if self.frames else {}\n', "        return {}\n"),),
         ("tests/scenarios/test_interrupt_resume.py",),
         "a resumed run's animation starts at the resume",
+    ),
+    Mutation(
+        "hillslope-creep-off",
+        "hydrology/hillslope_creep_culling1960.py",
+        (
+            ("        qx = wx * (z[:, 1:] - z[:, :-1])", "        qx = 0.0 * wx * (z[:, 1:] - z[:, :-1])"),
+            ("        qy = wy * (z[1:, :] - z[:-1, :])", "        qy = 0.0 * wy * (z[1:, :] - z[:-1, :])"),
+        ),
+        ("tests/unit/test_hillslope_creep.py",),
+        "hillslope creep (Culling 1960) moves no soil",
+    ),
+    Mutation(
+        "creep-into-bedrock",
+        "hydrology/hillslope_creep_culling1960.py",
+        (
+            (
+                "    wx = ci * np.minimum(mobility[:, 1:], mobility[:, :-1])",
+                "    wx = ci * np.maximum(mobility[:, 1:], mobility[:, :-1])",
+            ),
+            (
+                "    wy = ci * np.minimum(mobility[1:, :], mobility[:-1, :])",
+                "    wy = ci * np.maximum(mobility[1:, :], mobility[:-1, :])",
+            ),
+        ),
+        ("tests/unit/test_hillslope_creep.py",),
+        "creep crosses into lakes and bedrock (face weight the larger mobility)",
+    ),
+    Mutation(
+        "nodata-does-not-drain",
+        "hydrology/droplets.py",
+        ((NODATA_LEAVES, NODATA_LEAVES.replace(" or lake_of[cn] == OUTSIDE", "")),),
+        ("tests/scenarios/test_users_dems.py",),
+        "a droplet reaching a nodata cell goes on over its filled height instead of leaving",
     ),
 )
 

@@ -98,6 +98,7 @@ def test_nodata_cells_drain_water_like_the_map_edge():
     from erosim.core.heightmap import Heightmap
     from erosim.hydrology.model import HydrologyModel
     from erosim.hydrology.params import HydrologyParams, VegetationParams
+    from erosim.hydrology.pools import OUTSIDE
 
     y, x = np.mgrid[0:64, 0:64]
     r = np.hypot(x - 31.5, y - 31.5)
@@ -108,6 +109,9 @@ def test_nodata_cells_drain_water_like_the_map_edge():
         for _ in range(30):
             model.advance()
         results[hole] = model.water_budget(), model.lake_depth()
+        if hole:  # outside the world: never eroded, filled or made a lake, whatever reached it
+            np.testing.assert_array_equal(model.z[r < 4], model.z0[r < 4])
+            assert (model.lake_of.reshape(r.shape)[r < 4] == OUTSIDE).all()
     closed, drained = results[False][0], results[True][0]
     assert closed["left_edges"] == 0 and closed["in_lakes"] > 0.9 * closed["rained"]
     # most of the rain reaches the hole and leaves (the rest evaporates on the way or fills pits)
