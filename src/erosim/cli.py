@@ -365,7 +365,7 @@ def bench_hydrology(size, droplets, batch, as_json):
     "--workers", type=click.IntRange(min=1), default=2, show_default=True, help="Workers of the parallel run."
 )
 @click.option(
-    "--cycles", type=click.IntRange(min=1), default=600, show_default=True, help="Hydrology cycles a member runs."
+    "--cycles", type=click.IntRange(min=1), default=200, show_default=True, help="Hydrology cycles a member runs."
 )
 @click.option("--json", "as_json", is_flag=True)
 def bench_sweep(members, workers, cycles, as_json):

@@ -41,7 +41,7 @@ def _member_seconds(folder: Path) -> list[float]:
         return [float(row["wall_s"]) for row in csv.DictReader(f)]
 
 
-def run(members: int = 8, workers: int = 2, cycles: int = 600) -> dict:
+def run(members: int = 8, workers: int = 2, cycles: int = 200) -> dict:
     with tempfile.TemporaryDirectory(prefix="erosim-bench-sweep-") as tmp:
         root = Path(tmp)
         sets = {k: v for k, v in (s.split("=") for s in _settings(2))}
