@@ -157,3 +157,38 @@ def test_the_stream_cuts_the_same_canyon_in_cells_on_any_scale(tmp_path):
     assert out[10.0].max() > 0.5  # a canyon was cut
     for cell in (1.0, 83.0):
         np.testing.assert_allclose(out[cell], out[10.0], atol=1e-6 * out[10.0].max())
+
+
+def test_the_stream_leaves_at_nodata_and_never_cuts_it(tmp_path):
+    """A nodata band across the stream's path: no cell of it is cut, and the canyon stops at it."""
+    dem = tmp_path / "dem.tif"
+    z = generate("hills", 128, 10.0, seed=4, relief=115.0).z.astype(np.float32)
+    z[:, 60:70] = NODATA  # a north-south band of no data in the stream's way (it runs east)
+    profile = dict(driver="GTiff", height=128, width=128, count=1, dtype="float32", crs="EPSG:32633",
+                   transform=Affine(10.0, 0, 500000, 0, -10.0, 5000000), nodata=NODATA)  # fmt: skip
+    with rasterio.open(dem, "w", **profile) as ds:
+        ds.write(z, 1)
+    result = run("particle-stream", tmp_path / "run", set={"terrain.file": str(dem)})
+    with rasterio.open(result.path / "maps" / "erosion.tif") as ds:
+        erosion = ds.read(1, masked=True)
+    assert np.ma.getmaskarray(erosion)[:, 60:70].all() and result.report["terrain"]["nodata_cells"] == 128 * 10
+    cut = np.ma.filled(erosion, 0.0)
+    assert cut[:, :60].max() > 1.0  # the canyon west of the band
+    assert cut[:, 70:].max() < 0.05 * cut[:, :60].max()  # particles left at the band: nothing beyond it
+    with rasterio.open(result.path / "maps" / "height.tif") as ds:
+        assert np.ma.getmaskarray(ds.read(1, masked=True))[:, 60:70].all()
+
+
+def test_stream_cells_outside_the_map_keep_their_height():
+    from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
+
+    h = generate("hills", 64, 10.0, seed=1).z
+    outside = np.zeros(h.shape, bool)
+    outside[:, 30:34] = True
+    em = [Emitter(x=0.05, y=0.5, width=60.0, particles=300, steps=60, speed=10.0, max_speed=20.0,
+                  radius_per_mass=30.0, depth_per_mass=0.05)]  # fmt: skip
+    stream = ParticleStream(h, np.full(h.shape, 0.3), 10.0, em, seed=2, outside=outside)
+    while not stream.done:
+        stream.advance()
+    np.testing.assert_array_equal(stream.h[outside], h[outside])
+    assert (h - stream.h)[:, :30].max() > 0.1

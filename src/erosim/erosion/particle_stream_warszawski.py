@@ -202,7 +202,7 @@ def _stamp(h, d, x0, y0, lam, depth):
             dx = i - x0
             g = 1.0 - (dx * dx + dy * dy) * inv
             if g > 0.0:
-                dh = depth * g * (1.0 - d[j, i])
+                dh = depth * g * max(0.0, 1.0 - d[j, i])  # nodata cells (OFF_MAP) are not cut
                 h[j, i] -= dh
                 total += dh
     return total
@@ -250,7 +250,7 @@ def _stamp_strata(h, d, floor, x0, y0, lam, depth, strata, edges, values):
             dx = i - x0
             g = 1.0 - (dx * dx + dy * dy) * inv
             if g > 0.0:
-                dh = depth * g * (1.0 - d[j, i])
+                dh = depth * g * max(0.0, 1.0 - d[j, i])  # nodata cells (OFF_MAP) are not cut
                 h[j, i] -= dh
                 total += dh
                 if h[j, i] < floor[j, i]:
@@ -272,6 +272,8 @@ def _act(h, d, table, e, st, s, key, age):
         py += rho * math.sin(beta)
     ny, nx = h.shape
     if px < 0.0 or py < 0.0 or px > nx - 1.0 or py > ny - 1.0:
+        return px, py, False
+    if d[int(py + 0.5), int(px + 0.5)] >= OFF_MAP:  # a nodata cell: outside the map, the particle leaves
         return px, py, False
     nprobe = int(table[e, EPROBES])
     step = table[e, EGAMMA] / nprobe
@@ -432,7 +434,8 @@ class ParticleStream:
     omitted); ``done`` tells when every emitter has emitted all its particles and the last one has
     acted. As a model of :class:`~erosim.simulation.simulation.Simulation`, its ``time`` is the number
     of particles that have finished acting; ``state_dict()`` / ``load_state_dict()`` give and take
-    everything needed to resume exactly.
+    everything needed to resume exactly. ``outside`` marks a DEM's nodata cells: outside the map, so
+    a particle reaching one leaves, probes see them as the map's edge, and no cut lowers them.
     """
 
     name = "stream"
@@ -447,6 +450,7 @@ class ParticleStream:
         strata: Strata | None = None,
         pool: int = 64,
         rounds: int = 1,
+        outside: np.ndarray | None = None,
     ):
         h = np.asarray(h)
         if h.ndim != 2:
@@ -475,6 +479,8 @@ class ParticleStream:
             # cuts use) together with each cell's stratum floor
             self.floor = np.empty_like(self.h)
             strata_init(self.h, self._sp, self._se, self._sv, self.d, self.floor)
+        if outside is not None:  # nodata cells of the DEM: outside the map, probed and left as its edge
+            self.d[np.asarray(outside, dtype=bool)] = OFF_MAP
         self.finished = False
         self.rounds = max(1, int(rounds))
 

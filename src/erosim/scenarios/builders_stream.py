@@ -97,7 +97,9 @@ def build(cfg: StreamScenario) -> tuple[Heightmap, np.ndarray, ParticleStream]:
     d0, strata = build_hardness(cfg.hardness, hm, cfg.seed)
     emitters = emitters_in_metres(cfg, hm.cell_size)
     rounds = max(1, cfg.stream.impacts_per_batch // max(1, len(emitters) * cfg.stream.pool))
-    stream = ParticleStream(hm.z, d0, hm.cell_size, emitters, cfg.seed, strata, pool=cfg.stream.pool, rounds=rounds)
+    stream = ParticleStream(
+        hm.z, d0, hm.cell_size, emitters, cfg.seed, strata, pool=cfg.stream.pool, rounds=rounds, outside=hm.nodata
+    )
     return hm, d0, stream
 
 
@@ -226,8 +228,8 @@ def setup(scenario, out) -> Setup:
     warnings = list(hm.notes)
     if facts["nodata_cells"]:
         warnings.append(
-            f"{facts['nodata_cells']} cells of the terrain are nodata: the maps keep them as nodata, and "
-            "particles cross them at the nearest valid height."
+            f"{facts['nodata_cells']} cells of the terrain are nodata: outside the map, like its edge (a "
+            "particle reaching one leaves, none is cut); the maps keep them as nodata."
         )
     if cfg.stream.length_unit == "cells":
         assumed.append(f"scaled: emitter lengths and depths in cells of {hm.cell_size:g} m (stream.length_unit)")
