@@ -88,6 +88,7 @@ def cli(threads: int | None, quiet: bool, debug: bool) -> None:
       erosim demo                          rivers, lakes and vegetation on a generated terrain
       erosim list                          the scenario library
       erosim run dam-break-2d              run a scenario (results in runs/<name>/)
+      erosim sweep hydrology --seeds 8     an ensemble on Dask: probability maps (sweep.nc)
       erosim validate martin-moyce         compare with the Martin & Moyce (1952) experiment
     """
     STATE.debug = debug
