@@ -133,11 +133,9 @@ def setup(scenario, out) -> Setup:
             f"{facts['nodata_cells']} cells of the terrain are nodata: outside the world, like the map's edge "
             "(water reaching them leaves and counts in water_budget.left_edges); the maps keep them as nodata."
         )
-    how = (
-        "hydrology.length_scale"
-        if cfg.hydrology.length_scale
-        else ("one cell" if cfg.hydrology.length_scale == 0 else "two cells, hydrology.length_scale unset")
-    )
+    how = "hydrology.length_scale" if cfg.hydrology.length_scale else "one cell"  # set in m, or 0
+    if cfg.hydrology.length_scale is None:
+        how = "two cells, hydrology.length_scale unset"
     assumed.append(f"scaled: ℓ = {model.ell:g} m ({how}), {model.per_cycle} droplets per cycle "
                    f"({cfg.hydrology.cycle_droplets} per (256 ℓ)² of map)")  # fmt: skip
     ratio = model.ell / model.cell_size

@@ -74,13 +74,14 @@ def _read_map(path: Path):
 
 
 def _coordinates(hm, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """Cell-centre x and y of the map (the DEM's coordinates) and its extent for the figures."""
     from erosim.io.heightmaps import default_transform
+    from erosim.viz.plots import extent_of
 
     ny, nx = shape
-    a, b, c, d, e, f = hm.transform or default_transform(ny, nx, hm.cell_size)
-    x = c + a * (np.arange(nx) + 0.5)
-    y = f + e * (np.arange(ny) + 0.5)
-    return x, y, (c, c + a * nx, f + e * ny, f)
+    transform = hm.transform or default_transform(ny, nx, hm.cell_size)
+    a, _, c, _, e, f = transform
+    return c + a * (np.arange(nx) + 0.5), f + e * (np.arange(ny) + 0.5), extent_of(transform, shape, hm.cell_size)
 
 
 def _member_coordinate(values: list) -> np.ndarray:

@@ -26,7 +26,7 @@ from erosim.core.errors import ErosimError
 from erosim.simulation.simulation import clear_stop_request, request_stop
 from erosim.sweep.member import MemberTask, run_member
 
-STOP_WAIT_S = 120.0
+STOP_WAIT_S = 120.0  # how long an interrupted sweep waits for its members' checkpoints
 # a retry after a worker's death; no statistical profiler (it takes the GIL from a member every 10 ms)
 # and a slower system monitor: on a small machine every cycle the workers' housekeeping takes is a
 # cycle a member does not get
@@ -34,7 +34,7 @@ LOCAL_CONFIG = {
     "distributed.scheduler.allowed-failures": 1,
     "distributed.worker.profile.enabled": False,
     "distributed.admin.system-monitor.interval": "2s",
-}  # how long an interrupted sweep waits for its members' checkpoints
+}
 
 
 def local_cores() -> int:

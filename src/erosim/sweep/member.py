@@ -40,6 +40,18 @@ def read_report(folder: Path) -> dict[str, Any] | None:
         return None
 
 
+def record(index: int, name: str, report: dict[str, Any], action: str) -> dict[str, Any]:
+    """A member's line in the sweep: index, name, status, message, action (ran, resumed, kept), wall_s."""
+    return {
+        "index": index,
+        "member": name,
+        "status": report.get("status", "failed"),
+        "message": report.get("error", ""),
+        "action": action,
+        "wall_s": report.get("wall_time_s"),
+    }
+
+
 def has_checkpoint(folder: Path) -> bool:
     return (folder / "checkpoint").is_dir() and any((folder / "checkpoint").iterdir())
 
@@ -74,11 +86,4 @@ def run_member(task: MemberTask) -> dict[str, Any]:
         report = read_report(folder) or {"status": "failed", "error": message}
         if message and not report.get("error"):
             report = {**report, "status": "failed", "error": message}
-    return {
-        "index": task.index,
-        "member": task.name,
-        "status": report.get("status", "failed"),
-        "message": report.get("error", ""),
-        "action": action,
-        "wall_s": report.get("wall_time_s"),
-    }
+    return record(task.index, task.name, report, action)

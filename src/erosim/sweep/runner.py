@@ -26,7 +26,7 @@ from erosim.core.atomic import write_json, write_text
 from erosim.core.errors import ConfigError, ErosimError, Interrupted
 from erosim.io.runfolder import default_out
 from erosim.sweep import aggregate, dask_executor
-from erosim.sweep.member import FINISHED, MemberTask, read_report, run_member
+from erosim.sweep.member import FINISHED, MemberTask, read_report, record, run_member
 from erosim.sweep.plan import BASE_FILE, PLAN_FILE, Plan, build
 
 OUTPUTS = ("members", "sweep.csv", "sweep.nc", "figures", "report.json", PLAN_FILE, BASE_FILE)
@@ -159,8 +159,7 @@ def run_sweep(
         member_dir = (folder / "members" / name).resolve()
         report = read_report(member_dir)
         if report is not None and report.get("status") in FINISHED:
-            records[i] = {"index": i, "member": name, "status": report["status"], "message": report.get("error", ""),
-                          "action": "kept", "wall_s": report.get("wall_time_s")}  # fmt: skip
+            records[i] = record(i, name, report, "kept")
         else:
             tasks.append(MemberTask(i, name, str(member_dir), str(base), tuple(plan.overrides(i)), plan.threads))
     if progress:

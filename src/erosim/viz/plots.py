@@ -256,7 +256,7 @@ def map_figure(
     from matplotlib.patches import Patch
 
     ny, nx = picture.shape[:2]
-    x0, x1, y0, y1 = extent or (0.0, nx * cell_size, 0.0, ny * cell_size)
+    x0, x1, y0, y1 = extent or extent_of(None, (ny, nx), cell_size)
     km = (x1 - x0) > 5000.0
     f = 1e-3 if km else 1.0
     fig, ax = plt.subplots(figsize=(7.2, 6.4 * ny / nx + 0.6 if nx >= ny else 7.2))
