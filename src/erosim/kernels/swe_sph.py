@@ -1,0 +1,356 @@
+"""Numba kernels of the shallow-water SPH solver (erosim.sph.shallow_water_vacondio2012).
+
+Why hand-written: the variable-smoothing-length depth (a Newton iteration per particle), the
+variational momentum equation with its Ω correction terms, the per-cell wall reflections and the
+particle splitting have no library implementation; each pass is one parallel loop over particles
+gathering from their neighbours, so the result does not depend on the thread count.
+
+Conventions: positions are metres in the DEM's *cell frame* — x = column·Δ, y = row·Δ (rows grow
+southward, a mirror image of the map that the equations do not notice), so node (row, col) of the
+DEM sits at (col·Δ, row·Δ). The kernel is Wendland C2 in 2-D with support radius H (zero for
+r ≥ H); ∇_i W_ij = f(r, H)·(x_i − x_j). For W = H⁻² g(r/H), ∂W/∂H = −(2W + f r²)/H.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from erosim.kernels.raster import bilinear, gradient
+from erosim.kernels.sph_kernels import wendland_f_2d, wendland_w_2d
+
+
+@njit(inline="always", cache=True)
+def dw_dh(r, h):
+    """∂W/∂H of the 2-D Wendland C2 kernel: −(2W + f r²)/H."""
+    return -(2.0 * wendland_w_2d(r, h) + wendland_f_2d(r, h) * r * r) / h
+
+
+# ---------------------------------------------------------------- neighbour search
+
+
+@njit(cache=True)
+def bin_particles(pos, n, x0, y0, cell, ncx, ncy, cell_start, order):
+    """Counting sort of particles 0…n−1 into a dense ncy×ncx grid of square cells of edge ``cell``.
+
+    ``cell_start`` (ncx·ncy + 1) gets each cell's first index into ``order`` (stable: particles of a
+    cell keep their index order, so every later sum runs in the same order on any thread count).
+    """
+    counts = np.zeros(ncx * ncy + 1, np.int64)
+    cid = np.empty(n, np.int64)
+    for i in range(n):
+        cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
+        cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
+        c = cy * ncx + cx
+        cid[i] = c
+        counts[c + 1] += 1
+    for c in range(ncx * ncy):
+        counts[c + 1] += counts[c]
+    cell_start[: ncx * ncy + 1] = counts
+    fill = counts[: ncx * ncy].copy()
+    for i in range(n):
+        c = cid[i]
+        order[fill[c]] = i
+        fill[c] += 1
+
+
+@njit(parallel=True, cache=True)
+def count_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, count):
+    """count[i] = number of j ≠ i with r_ij < max(H_i, H_j) (cells of edge ≥ max H)."""
+    for i in prange(n):
+        cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
+        cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
+        k = 0
+        for gy in range(max(cy - 1, 0), min(cy + 2, ncy)):
+            for gx in range(max(cx - 1, 0), min(cx + 2, ncx)):
+                c = gy * ncx + gx
+                for q in range(cell_start[c], cell_start[c + 1]):
+                    j = order[q]
+                    if j == i:
+                        continue
+                    dx = pos[i, 0] - pos[j, 0]
+                    dy = pos[i, 1] - pos[j, 1]
+                    hm = max(hsup[i], hsup[j])
+                    if dx * dx + dy * dy < hm * hm:
+                        k += 1
+        count[i] = k
+
+
+@njit(parallel=True, cache=True)
+def fill_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, start, nbr):
+    """CSR neighbour lists: nbr[start[i]:start[i+1]] in cell order (same criterion as count_pairs)."""
+    for i in prange(n):
+        cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
+        cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
+        k = start[i]
+        for gy in range(max(cy - 1, 0), min(cy + 2, ncy)):
+            for gx in range(max(cx - 1, 0), min(cx + 2, ncx)):
+                c = gy * ncx + gx
+                for q in range(cell_start[c], cell_start[c + 1]):
+                    j = order[q]
+                    if j == i:
+                        continue
+                    dx = pos[i, 0] - pos[j, 0]
+                    dy = pos[i, 1] - pos[j, 1]
+                    hm = max(hsup[i], hsup[j])
+                    if dx * dx + dy * dy < hm * hm:
+                        nbr[k] = j
+                        k += 1
+
+
+# ---------------------------------------------------------------- depth and smoothing length
+
+
+@njit(parallel=True, cache=True)
+def depth_and_support(pos, vol, hsup, n, start, nbr, k2, h_min, h_max, tol, max_iter, depth, omega):
+    """Depth d_i = Σ_j V_j W(r_ij, H_i) (self included) with H_i = k·√(V_i/d_i), by Newton's method.
+
+    Residual R(H) = Σ_j V_j W(r_ij, H) − k²V_i/H², R'(H) = Σ_j V_j ∂W/∂H + 2k²V_i/H³ (Vacondio et al.
+    2012, Rodriguez-Paz & Bonet 2005). H is kept in [h_min, h_max] (a particle alone on dry ground
+    has no consistent H: it gets h_max). Ω_i = 1 + (H_i/(2d_i)) Σ_j V_j ∂W_ij/∂H (from dH/dd = −H/(2d)),
+    1 where H sits on a bound. Returns the largest number of iterations any particle needed.
+    ``hsup`` holds the previous H on entry (the first guess) and the new one on exit; neighbours
+    are those found with the previous supports, so a support may grow by the lists' margin only.
+    """
+    iters = np.zeros(n, np.int64)
+    for i in prange(n):
+        h = min(max(hsup[i], h_min), h_max)
+        vi = vol[i]
+        it = 0
+        for it in range(max_iter):
+            s = vi * wendland_w_2d(0.0, h)
+            ds = vi * dw_dh(0.0, h)
+            for q in range(start[i], start[i + 1]):
+                j = nbr[q]
+                dx = pos[i, 0] - pos[j, 0]
+                dy = pos[i, 1] - pos[j, 1]
+                r = math.sqrt(dx * dx + dy * dy)
+                if r < h:
+                    s += vol[j] * wendland_w_2d(r, h)
+                    ds += vol[j] * dw_dh(r, h)
+            res = s - k2 * vi / (h * h)
+            der = ds + 2.0 * k2 * vi / (h * h * h)
+            if der <= 0.0:
+                hn = h * 1.2 if res < 0.0 else h * 0.8
+            else:
+                hn = h - res / der
+            hn = min(max(hn, 0.8 * h), 1.25 * h)  # damped Newton: at most 25 % a step
+            hn = min(max(hn, h_min), h_max)
+            done = abs(hn - h) <= tol * h
+            h = hn
+            if done:
+                break
+        iters[i] = it + 1
+        # depth and Ω at the final H
+        s = vi * wendland_w_2d(0.0, h)
+        ds = vi * dw_dh(0.0, h)
+        for q in range(start[i], start[i + 1]):
+            j = nbr[q]
+            dx = pos[i, 0] - pos[j, 0]
+            dy = pos[i, 1] - pos[j, 1]
+            r = math.sqrt(dx * dx + dy * dy)
+            if r < h:
+                s += vol[j] * wendland_w_2d(r, h)
+                ds += vol[j] * dw_dh(r, h)
+        hsup[i] = h
+        depth[i] = s
+        if h >= h_max * (1.0 - 1e-12) or h <= h_min * (1.0 + 1e-12):
+            omega[i] = 1.0
+        else:
+            om = 1.0 + h / (2.0 * s) * ds
+            omega[i] = min(max(om, 0.25), 4.0)
+    return iters.max()
+
+
+# ---------------------------------------------------------------- accelerations
+
+
+@njit(parallel=True, cache=True)
+def accelerations(
+    pos, vel, vol, hsup, depth, omega, n, start, nbr, bed, inv_cell, g, alpha, acc
+):
+    """a_i = −(g/2) Σ_j V_j [∇W_ij(H_i)/Ω_i + ∇W_ij(H_j)/Ω_j] − g ∇b(x_i) − Σ_j V_j Π_ij ∇W̄_ij.
+
+    The first two terms are the variational shallow-water momentum equation (Rodriguez-Paz & Bonet
+    2005; Vacondio et al. 2012): the gradient of the potential energy Σ V_j g(d_j/2 + b_j), so the
+    scheme conserves energy and water comes to rest where that discrete energy is least — on
+    uneven ground too. ∇b is the gradient of the DEM's bilinear (Q4) surface at the particle.
+    Π_ij = −α c̄ μ_ij / d̄_ij for approaching pairs, μ_ij = h̄ v_ij·r_ij/(r² + 0.01h̄²), c = √(g d),
+    h̄ = H̄/2 (Monaghan 1992 in depth form) captures bores.
+    """
+    for i in prange(n):
+        xi = pos[i, 0]
+        yi = pos[i, 1]
+        hi = hsup[i]
+        ci = math.sqrt(g * depth[i])
+        ax = 0.0
+        ay = 0.0
+        for q in range(start[i], start[i + 1]):
+            j = nbr[q]
+            dx = xi - pos[j, 0]
+            dy = yi - pos[j, 1]
+            r2 = dx * dx + dy * dy
+            r = math.sqrt(r2)
+            hj = hsup[j]
+            fi = wendland_f_2d(r, hi)
+            fj = wendland_f_2d(r, hj)
+            fp = 0.5 * g * vol[j] * (fi / omega[i] + fj / omega[j])
+            ax -= fp * dx
+            ay -= fp * dy
+            vdr = (vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy
+            if alpha > 0.0 and vdr < 0.0:
+                hb = 0.25 * (hi + hj)
+                mu = hb * vdr / (r2 + 0.01 * hb * hb)
+                cb = 0.5 * (ci + math.sqrt(g * depth[j]))
+                db = 0.5 * (depth[i] + depth[j])
+                pi_ij = -alpha * cb * mu / db
+                fv = vol[j] * pi_ij * 0.5 * (fi + fj)
+                ax -= fv * dx
+                ay -= fv * dy
+        gx, gy = gradient(bed, xi * inv_cell, yi * inv_cell)
+        acc[i, 0] = ax - g * gx * inv_cell
+        acc[i, 1] = ay - g * gy * inv_cell
+
+
+@njit(parallel=True, cache=True)
+def kick(vel, acc, depth, manning, inv_cell, pos, n, dt, g, d_floor):
+    """u ← (u + Δt a) / (1 + Δt g n² |u + Δt a| / d^{4/3}) — Manning friction, semi-implicit.
+
+    The friction factor only divides, so it can stop a particle but never reverse it, however thin
+    the water (d is floored at ``d_floor`` only to avoid 0/0). ``manning`` is a map of n on the DEM
+    grid (nearest cell).
+    """
+    ny, nx = manning.shape
+    for i in prange(n):
+        ux = vel[i, 0] + dt * acc[i, 0]
+        uy = vel[i, 1] + dt * acc[i, 1]
+        col = min(max(int(pos[i, 0] * inv_cell + 0.5), 0), nx - 1)
+        row = min(max(int(pos[i, 1] * inv_cell + 0.5), 0), ny - 1)
+        nn = manning[row, col]
+        d = max(depth[i], d_floor)
+        speed = math.sqrt(ux * ux + uy * uy)
+        den = 1.0 + dt * g * nn * nn * speed / d ** (4.0 / 3.0)
+        vel[i, 0] = ux / den
+        vel[i, 1] = uy / den
+
+
+@njit(parallel=True, cache=True)
+def drift(pos, vel, n, dt, inv_cell, wall, open_w, open_e, open_n, open_s, out):
+    """x ← x + Δt u, with walls and open edges on the DEM's cells.
+
+    A particle whose new cell is a wall (nodata, a dam line) or beyond a closed map edge stays where
+    it was and the velocity component across the face it met is reversed (a free-slip mirror).
+    One beyond an open edge is flagged in ``out`` (removed by the caller, its water counted).
+    Edges: west x < −Δ/2, east x > (nx−½)Δ, north y < −Δ/2 (row 0), south y > (ny−½)Δ.
+    """
+    ny, nx = wall.shape
+    for i in prange(n):
+        ox = pos[i, 0]
+        oy = pos[i, 1]
+        x = ox + dt * vel[i, 0]
+        y = oy + dt * vel[i, 1]
+        c0 = int(math.floor(ox * inv_cell + 0.5))
+        r0 = int(math.floor(oy * inv_cell + 0.5))
+        c1 = int(math.floor(x * inv_cell + 0.5))
+        r1 = int(math.floor(y * inv_cell + 0.5))
+        leaving = (c1 < 0 and open_w) or (c1 >= nx and open_e) or (r1 < 0 and open_n) or (r1 >= ny and open_s)
+        if leaving:
+            pos[i, 0] = x
+            pos[i, 1] = y
+            out[i] = True
+            continue
+        blocked_x = c1 < 0 or c1 >= nx or wall[min(max(r0, 0), ny - 1), c1]
+        blocked_y = r1 < 0 or r1 >= ny or wall[r1, min(max(c0, 0), nx - 1)]
+        blocked = (
+            blocked_x
+            or blocked_y
+            or wall[min(max(r1, 0), ny - 1), min(max(c1, 0), nx - 1)]
+        )
+        if not blocked:
+            pos[i, 0] = x
+            pos[i, 1] = y
+            continue
+        if blocked_x:
+            vel[i, 0] = -vel[i, 0]
+        if blocked_y:
+            vel[i, 1] = -vel[i, 1]
+        if not blocked_x and not blocked_y:  # a corner met diagonally
+            vel[i, 0] = -vel[i, 0]
+            vel[i, 1] = -vel[i, 1]
+
+
+@njit(parallel=True, cache=True)
+def step_limit(vel, depth, hsup, n, g):
+    """min_i H_i / (√(g d_i) + |u_i|) — the CFL time-step scale (times the Courant number)."""
+    best = np.full(n, np.inf)
+    for i in prange(n):
+        c = math.sqrt(g * depth[i]) + math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2)
+        if c > 0.0:
+            best[i] = hsup[i] / c
+    return best.min() if n > 0 else np.inf
+
+
+@njit(cache=True)
+def bed_at(bed, pos, n, inv_cell, out):
+    """Bed elevation b(x_i) from the DEM's Q4 surface."""
+    for i in range(n):
+        out[i] = bilinear(bed, pos[i, 0] * inv_cell, pos[i, 1] * inv_cell)
+
+
+# ---------------------------------------------------------------- hazard maxima on the DEM grid
+
+
+@njit(cache=True)
+def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, max_dv, arrival):
+    """Running maxima of depth, speed and depth·speed on the DEM's cells, and first wetting times.
+
+    Each particle stands for the square of side s_i = √(V_i/d_i) centred on it (the area whose water
+    it carries); every cell whose centre lies in that square records the particle's depth, speed
+    and their product if they exceed the cell's maxima. Particles drier than ``wet`` mark nothing.
+    """
+    ny, nx = max_d.shape
+    for i in range(n):
+        d = depth[i]
+        if d < wet:
+            continue
+        u = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2)
+        half = 0.5 * math.sqrt(vol[i] / d) * inv_cell
+        cx = pos[i, 0] * inv_cell
+        cy = pos[i, 1] * inv_cell
+        c_lo = max(int(math.ceil(cx - half)), 0)
+        c_hi = min(int(math.floor(cx + half)), nx - 1)
+        r_lo = max(int(math.ceil(cy - half)), 0)
+        r_hi = min(int(math.floor(cy + half)), ny - 1)
+        if c_lo > c_hi or r_lo > r_hi:  # a footprint smaller than a cell marks the cell it is in
+            c_lo = c_hi = min(max(int(math.floor(cx + 0.5)), 0), nx - 1)
+            r_lo = r_hi = min(max(int(math.floor(cy + 0.5)), 0), ny - 1)
+        for r in range(r_lo, r_hi + 1):
+            for c in range(c_lo, c_hi + 1):
+                if d > max_d[r, c]:
+                    max_d[r, c] = d
+                if u > max_v[r, c]:
+                    max_v[r, c] = u
+                if d * u > max_dv[r, c]:
+                    max_dv[r, c] = d * u
+                if t < arrival[r, c]:
+                    arrival[r, c] = t
+
+
+@njit(cache=True)
+def splat_depth(pos, vol, hsup, n, inv_cell, cell_size, out):
+    """SPH depth on the DEM's nodes: d(x) = Σ_j V_j W(|x − x_j|, H_j) (the scatter form)."""
+    ny, nx = out.shape
+    for j in range(n):
+        h = hsup[j]
+        cx = pos[j, 0] * inv_cell
+        cy = pos[j, 1] * inv_cell
+        rad = h * inv_cell
+        for r in range(max(int(math.ceil(cy - rad)), 0), min(int(math.floor(cy + rad)), ny - 1) + 1):
+            for c in range(max(int(math.ceil(cx - rad)), 0), min(int(math.floor(cx + rad)), nx - 1) + 1):
+                dx = c * cell_size - pos[j, 0]
+                dy = r * cell_size - pos[j, 1]
+                rr = math.sqrt(dx * dx + dy * dy)
+                if rr < h:
+                    out[r, c] += vol[j] * wendland_w_2d(rr, h)
