@@ -5,6 +5,11 @@
 x = a·col + b·row + c, y = d·col + e·row + f (pixel corners); ``crs`` is WKT text. Both are
 ``None`` for generated terrains. ``nodata`` is a boolean mask (True = no data) or ``None``; masked
 cells hold a filled value (nearest valid height) so kernels never meet NaN.
+
+Map coordinates ↔ cells (:func:`cell_of`, :func:`xy_of`) go through the transform, or for a map
+without one through :func:`default_transform` (west edge x = 0, south edge y = 0): with
+(x, y) = (a·col + b·row + c, d·col + e·row + f), the cell of a point is the floor of the inverse
+affine map's (row, col), and a cell's centre is the forward map at (row + ½, col + ½).
 """
 
 from __future__ import annotations
@@ -29,6 +34,57 @@ def fill_nodata(z: np.ndarray, mask: np.ndarray) -> np.ndarray:
         return z.copy()
     _, (iy, ix) = ndimage.distance_transform_edt(mask, return_indices=True)
     return z[iy, ix]
+
+
+def default_transform(ny: int, nx: int, cell_size: float) -> tuple:
+    """Affine (a, b, c, d, e, f) of an ungeoreferenced map: west edge x = 0, south edge y = 0."""
+    return (cell_size, 0.0, 0.0, 0.0, -cell_size, ny * cell_size)
+
+
+def transform_of(hm: Heightmap) -> tuple:
+    """The map's affine transform, or :func:`default_transform` for a map without one."""
+    return tuple(hm.transform) if hm.transform is not None else default_transform(*hm.shape, hm.cell_size)
+
+
+def fractional_cell(hm: Heightmap, x, y) -> tuple[np.ndarray, np.ndarray]:
+    """(row, col) as real numbers of map point(s) (x, y): cell (i, j) spans [i, i+1) × [j, j+1)."""
+    a, b, c, d, e, f = transform_of(hm)
+    det = a * e - b * d
+    dx = np.asarray(x, dtype=np.float64) - c
+    dy = np.asarray(y, dtype=np.float64) - f
+    return (a * dy - d * dx) / det, (e * dx - b * dy) / det
+
+
+def cell_of(hm: Heightmap, x, y):
+    """(row, col) of the cell holding map point (x, y) in the map's own units (arrays for arrays).
+
+    The indices may lie off the grid (negative or ≥ the shape) for points off the map; check them
+    with :func:`on_grid`. A point on a cell boundary belongs to the cell on its larger-index side.
+    """
+    r, c = fractional_cell(hm, x, y)
+    r, c = np.floor(r).astype(np.int64), np.floor(c).astype(np.int64)
+    if r.ndim == 0:
+        return int(r), int(c)
+    return r, c
+
+
+def on_grid(hm: Heightmap, row, col):
+    """True where (row, col) is a cell of the map."""
+    ny, nx = hm.shape
+    row, col = np.asarray(row), np.asarray(col)
+    inside = (row >= 0) & (row < ny) & (col >= 0) & (col < nx)
+    return bool(inside) if inside.ndim == 0 else inside
+
+
+def xy_of(hm: Heightmap, row, col):
+    """Map coordinates (x, y) of the centre of cell (row, col) (arrays for arrays)."""
+    a, b, c, d, e, f = transform_of(hm)
+    rr = np.asarray(row, dtype=np.float64) + 0.5
+    cc = np.asarray(col, dtype=np.float64) + 0.5
+    x, y = a * cc + b * rr + c, d * cc + e * rr + f
+    if x.ndim == 0:
+        return float(x), float(y)
+    return x, y
 
 
 @dataclasses.dataclass

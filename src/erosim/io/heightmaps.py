@@ -40,7 +40,7 @@ import numpy as np
 
 from erosim.core.atomic import atomic_path, write_text
 from erosim.core.errors import InputError
-from erosim.core.heightmap import Heightmap
+from erosim.core.heightmap import Heightmap, default_transform
 
 Q16 = 65535
 FORMATS = {
@@ -130,11 +130,6 @@ def _as_heightmap(hm_or_array, like: Heightmap | None) -> Heightmap:
         nodata = like.nodata if like.nodata is not None and like.nodata.any() else None
         return Heightmap(z=z, cell_size=like.cell_size, crs=like.crs, transform=like.transform, nodata=nodata)
     return Heightmap(z=z, cell_size=1.0)
-
-
-def default_transform(ny: int, nx: int, cell_size: float) -> tuple:
-    """Affine (a, b, c, d, e, f) of an ungeoreferenced map: west edge x = 0, south edge y = 0."""
-    return (cell_size, 0.0, 0.0, 0.0, -cell_size, ny * cell_size)
 
 
 def _metres_per_degree(lat_deg: float) -> tuple[float, float]:
