@@ -25,8 +25,9 @@ upper-left pixel. A map without CRS or transform writes no sidecar.
 
 ``sample:jacksboro`` is the 3-arc-second DEM of the Jacksboro fault (Tennessee) shipped with
 matplotlib. Its cells are 74.5 m (E–W) × 92.4 m (N–S); erosim uses the square cell of equal area,
-83 m, and keeps the geographic CRS and transform. All writes are atomic
-(:func:`erosim.core.atomic.atomic_path`).
+83 m, and keeps the geographic CRS and transform. :func:`write_raster` writes a map of values that
+are not heights (flood depths, hazard classes: float32 or integer) as a GeoTIFF on a DEM's grid with
+a chosen nodata value. All writes are atomic (:func:`erosim.core.atomic.atomic_path`).
 """
 
 from __future__ import annotations
@@ -528,32 +529,91 @@ def _with_nan(hm: Heightmap) -> np.ndarray:
 
 
 def _write_geotiff(tmp: Path, hm: Heightmap) -> None:
-    import rasterio
-    from rasterio.transform import Affine
-
-    ny, nx = hm.shape
-    t = hm.transform or default_transform(ny, nx, hm.cell_size)
     z = hm.z.astype(np.float32)
     if hm.nodata is not None:
         z = np.where(hm.nodata, np.float32(_NODATA), z)
+    _geotiff(tmp, z, hm, _NODATA if hm.nodata is not None else None)
+
+
+def _geotiff(tmp: Path, band: np.ndarray, like: Heightmap, nodata) -> None:
+    """One band (float32 or an integer type) on ``like``'s grid, CRS and transform, deflate-compressed."""
+    import rasterio
+    from rasterio.transform import Affine
+
+    ny, nx = like.shape
+    t = like.transform or default_transform(ny, nx, like.cell_size)
+    floating = np.issubdtype(band.dtype, np.floating)
     profile = dict(
         driver="GTiff",
         height=ny,
         width=nx,
         count=1,
-        dtype="float32",
+        dtype=band.dtype.name,
         transform=Affine(*t),
-        crs=hm.crs,
-        nodata=_NODATA if hm.nodata is not None else None,
+        crs=like.crs,
+        nodata=nodata,
         compress="deflate",
-        predictor=3,
+        predictor=3 if floating else 2,
         tiled=nx >= 256 and ny >= 256,
     )
     if profile["tiled"]:
         profile.update(blockxsize=256, blockysize=256)
     with rasterio.open(tmp, "w", **profile) as ds:
-        ds.write(z, 1)
-        ds.update_tags(cell_size_m=repr(hm.cell_size))
+        ds.write(band, 1)
+        ds.update_tags(cell_size_m=repr(like.cell_size))
+
+
+def write_raster(
+    path: str | os.PathLike, array: np.ndarray, like: Heightmap, *, nodata=None, mask: np.ndarray | None = None
+) -> dict:
+    """Write a map of values (not heights) as a GeoTIFF on ``like``'s grid, CRS and transform, atomically.
+
+    Floating arrays are written as float32, integer and boolean ones keep an integer type (bool →
+    uint8). Cells in ``mask``, nodata cells of ``like`` and non-finite values hold ``nodata`` (default
+    −9999 for float32, the type's largest value for integers: 255 for uint8), which the file declares.
+    Returns ``{"path", "format", "shape", "dtype", "nodata", "nodata_cells"}``.
+    """
+    p = Path(path)
+    if _format(p, "write") != "geotiff":
+        raise InputError(f"Cannot write the map '{p}' as {p.suffix}: maps of values are GeoTIFF; name it .tif.")
+    a = np.asarray(array)
+    if a.shape != like.shape:
+        raise InputError(f"The map for '{p}' has shape {a.shape} but the DEM {like.shape}; they must match.")
+    if a.dtype == bool:
+        a = a.astype(np.uint8)
+    if np.issubdtype(a.dtype, np.floating):
+        band = a.astype(np.float32)
+        value = _NODATA if nodata is None else float(nodata)
+        out = ~np.isfinite(band)
+    elif np.issubdtype(a.dtype, np.integer):
+        band = a.copy()
+        value = int(np.iinfo(a.dtype).max if nodata is None else nodata)
+        if not np.iinfo(a.dtype).min <= value <= np.iinfo(a.dtype).max:
+            raise InputError(
+                f"The nodata value {value} does not fit the map's type {a.dtype} for '{p}'; choose one that does."
+            )
+        out = np.zeros(a.shape, bool)
+    else:
+        raise InputError(f"The map for '{p}' holds {a.dtype} values; give numbers (float or integer).")
+    if like.nodata is not None:
+        out |= like.nodata
+    if mask is not None:
+        out |= np.asarray(mask, dtype=bool)
+    if np.any(band[~out] == band.dtype.type(value)):
+        raise InputError(
+            f"The map for '{p}' holds the nodata value {value!r} in cells with data; choose another nodata."
+        )
+    band[out] = value
+    with atomic_path(p) as tmp:
+        _geotiff(tmp, band, like, value)
+    return {
+        "path": str(p),
+        "format": "geotiff",
+        "shape": list(a.shape),
+        "dtype": band.dtype.name,
+        "nodata": value,
+        "nodata_cells": int(out.sum()),
+    }
 
 
 def _write_png(tmp: Path, hm: Heightmap, height_range) -> tuple[float, float]:
