@@ -173,7 +173,8 @@ def test_breach_diagonal_line_measures_perpendicular_distance():
     [
         ({"bottom_width": 0.0, "floor": 1.0, "line": [[0, 0], [1, 1]]}, "breach.bottom_width"),
         ({"bottom_width": 5.0, "floor": 1.0, "side_slope": -1, "line": [[0, 0], [1, 1]]}, "breach.side_slope"),
-        ({"bottom_width": 5.0, "floor": 1.0, "line": [[0, 0], [0, 0]]}, "two ends must differ"),
+        ({"bottom_width": 5.0, "floor": 1.0, "line": [[0, 0], [0, 0]]}, "'breach.line' .* two ends must differ"),
+        ({"bottom_width": 5.0, "floor": float("inf"), "line": [[0, 0], [1, 1]]}, "'breach.floor' .* finite number"),
         ({"bottom_width": 5.0, "floor": 1.0, "line": [[0, 0]]}, "breach.line"),
     ],
 )

@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydantic import model_validator
+from pydantic import field_validator
 from scipy import ndimage
 
 from erosim.core.config import Section, param
@@ -121,14 +121,21 @@ class Breach(Section):
         ..., unit="map units", doc="the window's centre line across the dam, [[x0, y0], [x1, y1]]"
     )
 
-    @model_validator(mode="after")
-    def _check(self) -> Breach:
-        values = [self.bottom_width, self.floor, self.side_slope, *self.line[0], *self.line[1]]
-        if not all(math.isfinite(v) for v in values):
-            raise ValueError("the breach needs finite numbers")
-        if self.line[0] == self.line[1]:
+    @field_validator("bottom_width", "floor", "side_slope")
+    @classmethod
+    def _finite(cls, v: float) -> float:
+        if not math.isfinite(v):
+            raise ValueError("it must be a finite number")
+        return v
+
+    @field_validator("line")
+    @classmethod
+    def _two_ends(cls, v: tuple) -> tuple:
+        if not all(math.isfinite(c) for p in v for c in p):
+            raise ValueError("the centre line's ends must be finite numbers")
+        if v[0] == v[1]:
             raise ValueError("the centre line's two ends must differ")
-        return self
+        return v
 
 
 def cut_breach(hm: Heightmap, breach: Breach) -> Heightmap:
