@@ -269,6 +269,7 @@ VALIDATION_CASES = {
     "hydrostatic": "erosim.validation.hydrostatic:run",
     "basin-at-rest": "erosim.validation.basin_at_rest:run",
     "spheric2": "erosim.validation.spheric2:run",
+    "swe-dam-break": "erosim.validation.swe_dam_break:run",
 }
 
 

@@ -31,6 +31,7 @@ KINDS: dict[str, Kind] = {
     "sph-terrain": Kind(
         "erosim.scenarios.schema_sph_terrain:SPHTerrainScenario", "erosim.scenarios.builders_sph_terrain:setup"
     ),
+    "flood": Kind("erosim.scenarios.schema_flood:FloodScenario", "erosim.scenarios.builders_flood:setup"),
 }
 
 

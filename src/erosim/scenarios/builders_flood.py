@@ -1,0 +1,338 @@
+"""The ``flood`` kind: a dam-break flood over a DEM, mapped as hazard (seed 000 §3.3; SPEC FL-1…FL-4).
+
+Set-up (shared by every flood solver, :mod:`erosim.terrain.reservoir`): the reservoir is filled to
+``reservoir.level`` from ``reservoir.seed`` on the DEM as it stands (with ``reservoir.barrier`` as the
+dam's line when the DEM has none); the breach window is then cut into the DEM and the barrier opens
+where the window is below the reservoir level (without a breach the whole barrier goes at t = 0: a
+total failure). Nodata cells, and the barrier outside its window, are walls; ``outflow.edges`` are
+open. Water is laid on a square lattice of ``flood.spacing`` over the reservoir, each particle holding
+the water column it stands on.
+
+The solver is shallow-water SPH (:mod:`erosim.sph.shallow_water_vacondio2012`). Every step raises the
+hazard maxima (:mod:`erosim.analysis.hazard`) on the DEM's grid. A run leaves
+
+* ``maps/``: max_depth.tif, max_speed.tif, max_dv.tif, arrival_time.tif (s; nodata where never
+  wet), hazard.tif (uint8: 0 dry, 1–6, 255 on nodata), depth_final.tif, terrain.tif (with the breach)
+  — the DEM's grid, CRS and transform;
+* ``figures/``: flood_maps.png (the three maxima), hazard.png (six-colour legend and area table),
+  depth_NNN frames in flood.gif;
+* ``gauges.csv`` (t, eta_<name>, depth_<name>, speed_<name>) when ``gauges.file`` is given;
+* ``report.json``: flooded_area_m2, hazard_share (H1…H6, fractions of the flooded area),
+  hazard_area_m2, volume_initial_m3, volume_out_m3, water_budget (closure_rel), gauges_summary.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from erosim.analysis.hazard import HazardMaps, polygon_mask
+from erosim.core.errors import InputError
+from erosim.core.heightmap import default_transform, fractional_cell
+from erosim.scenarios.schema_common import build_terrain, terrain_facts
+from erosim.scenarios.schema_flood import FloodScenario
+from erosim.scenarios.setup import Setup
+from erosim.simulation import callbacks as cb
+from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
+from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, lattice_volume, raised_walls
+from erosim.terrain.reservoir import barrier_mask, cut_breach, fill_reservoir
+
+#: particles beyond this many would not fit a workstation (about 200 B each, times the splitting)
+MAX_PARTICLES = 20_000_000
+
+
+class FloodSetUp:
+    """The DEM with the breach cut in, the walls, and the reservoir's water (map order, row 0 north)."""
+
+    def __init__(self, cfg: FloodScenario):
+        hm = build_terrain(cfg.terrain, cfg.seed)
+        if hm.transform is None:
+            hm = hm.copy()
+            hm.transform = default_transform(*hm.shape, hm.cell_size)
+        self.dem = hm
+        res = cfg.reservoir
+        barrier = barrier_mask(hm, res.barrier) if res.barrier is not None else None
+        self.depth0 = fill_reservoir(hm, res.level, res.seed, barrier=barrier, open_edges=cfg.outflow.edges)
+        self.terrain = cut_breach(hm, cfg.breach) if cfg.breach is not None else hm
+        nodata = hm.nodata if hm.nodata is not None else np.zeros(hm.shape, bool)
+        wall = nodata.copy()
+        if barrier is not None and cfg.breach is not None:
+            # the window: where the breach, cut into ground higher than anything, lies below the level
+            probe = cut_breach(hm.copy(z=np.full(hm.shape, res.level + 1e6)), cfg.breach).z < res.level
+            wall |= barrier & ~probe
+        self.wall = wall
+        self.level = float(res.level)
+
+    def particles(self, spacing: float, support: float, bed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Lattice points over the reservoir in the solver's cell frame, and their volumes.
+
+        A point stands in the cell holding it; its column is the level minus the cell's bed there
+        (the Q4 surface of ``bed``, the breached DEM with its walls raised as the solver feels it), so
+        the particles hold the reservoir's volume to the
+        lattice's resolution; V = d·s²/κ with κ the lattice's own SPH sum (so d_SPH = d inside).
+        """
+        cs = self.dem.cell_size
+        ny, nx = self.dem.shape
+        xs = np.arange(-0.5 * cs + 0.5 * spacing, (nx - 0.5) * cs, spacing)
+        ys = np.arange(-0.5 * cs + 0.5 * spacing, (ny - 0.5) * cs, spacing)
+        x, y = (a.ravel() for a in np.meshgrid(xs, ys))
+        col = np.clip(np.floor(x / cs + 0.5).astype(np.int64), 0, nx - 1)
+        row = np.clip(np.floor(y / cs + 0.5).astype(np.int64), 0, ny - 1)
+        keep = (self.depth0[row, col] > 0) & ~self.wall[row, col]
+        x, y = x[keep], y[keep]
+        from erosim.kernels.raster import bilinear_points
+
+        d = np.maximum(self.level - bilinear_points(bed, x / cs, y / cs), 0.0)
+        wet = d > 0
+        vol = lattice_volume(d[wet], spacing, support)
+        return np.column_stack([x[wet], y[wet]]), vol
+
+    def to_frame(self, xy) -> np.ndarray:
+        """Map coordinates → the solver's cell frame (x = col·Δ, y = row·Δ, cell centres on nodes)."""
+        xy = np.asarray(xy, np.float64).reshape(-1, 2)
+        r, c = fractional_cell(self.dem, xy[:, 0], xy[:, 1])
+        cs = self.dem.cell_size
+        return np.column_stack([(np.asarray(c) - 0.5) * cs, (np.asarray(r) - 0.5) * cs])
+
+
+def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
+    """The set-up and the solver of a flood scenario (no files written)."""
+    site = FloodSetUp(cfg)
+    hm = site.terrain
+    fl = cfg.flood
+    spacing = fl.spacing if fl.spacing is not None else 2.0 * hm.cell_size
+    if spacing > 4.0 * hm.cell_size or spacing < 0.25 * hm.cell_size:
+        raise InputError(
+            f"flood.spacing = {spacing:g} m against {hm.cell_size:g} m DEM cells: give a spacing between a quarter "
+            "of a cell and four cells, or resample the DEM."
+        )
+    estimate = float((site.depth0 > 0).sum()) * hm.cell_size**2 / spacing**2
+    if estimate > MAX_PARTICLES:
+        raise InputError(
+            f"The reservoir would need about {estimate:,.0f} particles at flood.spacing = {spacing:g} m; "
+            "give a larger flood.spacing."
+        )
+    open_edges = tuple(e in cfg.outflow.edges for e in ("west", "east", "north", "south"))
+    pos, vol = site.particles(spacing, fl.support, raised_walls(hm.z, site.wall, open_edges, site.level))
+    if len(pos) == 0:
+        raise InputError(
+            f"No particle fits the reservoir at flood.spacing = {spacing:g} m; give a smaller spacing or raise "
+            "reservoir.level."
+        )
+    manning: np.ndarray | float = fl.manning
+    if fl.manning_file:
+        from erosim.io.heightmaps import read
+
+        m = read(fl.manning_file).z
+        if m.shape != hm.shape:
+            raise InputError(
+                f"flood.manning_file '{fl.manning_file}' has shape {m.shape} but the DEM {hm.shape}; "
+                "give a map on the DEM's grid."
+            )
+        if not np.all(np.isfinite(m)) or m.min() < 0:
+            raise InputError(f"flood.manning_file '{fl.manning_file}' holds negative or missing values; fix the map.")
+        manning = m
+    params = fl.model_dump(include=set(ShallowWaterParams.model_fields))
+    solver = ShallowWaterSPH(
+        hm.z, hm.cell_size, pos, vol, spacing, ShallowWaterParams(**params), manning=manning, wall=site.wall,
+        open_edges=tuple(cfg.outflow.edges), surface=site.level,
+    )  # fmt: skip
+    return site, solver
+
+
+class HazardTracker(cb.Callback):
+    """Raises the hazard maxima and arrival times every step (their arrays travel in the checkpoint)."""
+
+    def __init__(self, solver: ShallowWaterSPH, maps: HazardMaps):
+        super().__init__(IterationInterval(1), name="hazard")
+        self.solver, self.maps = solver, maps
+        solver.update_maxima(maps, maps.wet_depth)  # the reservoir itself at t = 0
+
+    def __call__(self, sim) -> None:
+        self.solver.update_maxima(self.maps, self.maps.wet_depth)
+
+    def state_dict(self) -> dict[str, Any]:
+        return self.maps.state_dict()
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        if state:
+            self.maps.load_state_dict(state)
+
+
+class FloodGauges(cb.Callback):
+    """Free-surface elevation, depth and speed at the gauges every ``run.sample_interval``."""
+
+    def __init__(self, schedule, solver: ShallowWaterSPH, names: list[str], points: np.ndarray, path: Path):
+        super().__init__(schedule, name="gauges")
+        self.solver, self.names, self.points, self.path = solver, names, points, path
+        self.rows: list[list[float]] = []
+
+    def __call__(self, sim) -> None:
+        eta, depth, speed = self.solver.sample(self.points)
+        self.rows.append([self.solver.t, *eta, *depth, *speed])
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"rows": np.asarray(self.rows, np.float64)} if self.rows else {}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.rows = [list(r) for r in state["rows"]] if "rows" in state else []
+
+    def flush(self, sim) -> None:
+        from erosim.core.atomic import write_text
+
+        header = ["t", *(f"eta_{n}" for n in self.names), *(f"depth_{n}" for n in self.names)]
+        header += [f"speed_{n}" for n in self.names]
+        write_text(self.path, cb.csv_text(header, self.rows))
+
+    def summary(self, wet: float) -> dict[str, Any]:
+        rows = np.asarray(self.rows, np.float64).reshape(-1, 1 + 3 * len(self.names))
+        out = {}
+        k = len(self.names)
+        for i, name in enumerate(self.names):
+            eta, depth = rows[:, 1 + i], rows[:, 1 + k + i]
+            wet_at = np.flatnonzero(depth >= wet)
+            out[name] = {
+                "max_eta": float(eta.max()) if len(rows) else None,
+                "max_depth": float(depth.max()) if len(rows) else None,
+                "arrival_s": float(rows[wet_at[0], 0]) if len(wet_at) else None,
+            }
+        return out
+
+
+class FloodOutputs(cb.Callback):
+    """Maps and figures of the run on the DEM's grid (at the end)."""
+
+    def __init__(self, site: FloodSetUp, solver: ShallowWaterSPH, maps: HazardMaps, inside):
+        super().__init__(Schedule(), name="outputs")
+        self.site, self.solver, self.maps, self.inside = site, solver, maps, inside
+
+    def finalize(self, sim) -> dict[str, Any]:
+        write_flood_maps(sim.out.path, self.site, self.solver, self.maps, self.inside)
+        return {}
+
+
+def write_flood_maps(out: Path, site: FloodSetUp, solver: ShallowWaterSPH, maps: HazardMaps, inside) -> None:
+    """The hazard maps as GeoTIFFs on the DEM's grid, and their figures."""
+    from erosim.io.heightmaps import write_raster
+
+    hm = site.terrain
+    nodata = hm.nodata if hm.nodata is not None else np.zeros(hm.shape, bool)
+    wet = maps.max_depth >= maps.wet_depth
+    folder = Path(out) / "maps"
+    for name, arr in (("max_depth", maps.max_depth), ("max_speed", maps.max_speed), ("max_dv", maps.max_dv)):
+        write_raster(folder / f"{name}.tif", np.where(nodata, np.nan, arr).astype(np.float32), hm, nodata=np.nan)
+    arrival = np.where(wet & ~nodata & np.isfinite(maps.arrival), maps.arrival, np.nan)
+    write_raster(folder / "arrival_time.tif", arrival.astype(np.float32), hm, nodata=np.nan)
+    classes = np.where(nodata, 255, maps.classes()).astype(np.uint8)
+    write_raster(folder / "hazard.tif", classes, hm, nodata=255)
+    depth = solver.depth_grid()
+    write_raster(folder / "depth_final.tif", np.where(nodata, np.nan, depth).astype(np.float32), hm, nodata=np.nan)
+    write_raster(folder / "terrain.tif", np.where(nodata, np.nan, hm.z).astype(np.float32), hm, nodata=np.nan)
+    from erosim.viz.flood import plot_flood_maps, plot_hazard
+
+    figs = Path(out) / "figures"
+    plot_flood_maps(figs / "flood_maps.png", hm, maps)
+    plot_hazard(figs / "hazard.png", hm, maps.classes(), maps.summary(hm.cell_size**2, inside))
+
+
+def _depth_picture(site: FloodSetUp, solver: ShallowWaterSPH):
+    from erosim.viz.maps import colormap, hillshade
+
+    hm = site.terrain
+    shade = hillshade(hm.z, hm.cell_size)
+    vmax = max(float(site.depth0.max()), 1e-3)
+    step = max(1, int(math.ceil(max(hm.shape) / 400)))  # thumbnails of at most ~400 px
+
+    def picture(sim) -> np.ndarray:
+        d = solver.depth_grid()[::step, ::step]
+        rgb = colormap(np.minimum(d, vmax), "Blues", vmin=0.0, vmax=vmax).astype(np.float64)
+        base = np.repeat(shade[::step, ::step, None], 3, axis=2).astype(np.float64)
+        if base.max() <= 1.0:
+            base = base * 255.0
+        a = np.clip(d / (0.2 * vmax), 0.0, 1.0)[..., None] * (d >= 0.01)[..., None]
+        return (base * (1 - a) + rgb[..., :3] * a).astype(np.uint8)
+
+    return picture
+
+
+def setup(scenario, out) -> Setup:
+    """The solver, the hazard maxima, gauges and outputs of a ``flood`` run (module docstring)."""
+    cfg: FloodScenario = scenario.config
+    site, solver = build(cfg)
+    hm = site.terrain
+    facts, assumed = terrain_facts(site.dem, cfg.terrain)
+    warnings = list(site.dem.notes)
+    if facts["nodata_cells"]:
+        warnings.append(f"{facts['nodata_cells']} cells of the DEM are nodata: walls the water cannot enter.")
+    spacing = solver.spacing
+    assumed.append(
+        f"reservoir: {solver.volume_initial:,.0f} m³ over {(site.depth0 > 0).sum() * hm.cell_size**2:,.0f} m² at "
+        f"level {site.level:g} m; {solver.n:,} particles at {spacing:g} m spacing"
+    )
+    assumed.append(f"open edges: {', '.join(cfg.outflow.edges) or 'none (every map edge is a wall)'}")
+    maps = HazardMaps(hm.shape, cfg.flood.wet_depth)
+    inside = polygon_mask(hm, cfg.hazard.inside) if cfg.hazard.inside is not None else None
+    callbacks: list = [HazardTracker(solver, maps)]
+    gauges = None
+    if cfg.gauges.file:
+        from erosim.io.gauge_points import read_gauge_points
+
+        pts = read_gauge_points(cfg.gauges.file, hm)
+        names = [p[0] for p in pts]
+        gauges = FloodGauges(
+            TimeInterval(cfg.run.sample_interval), solver, names, site.to_frame([p[1:] for p in pts]),
+            out.path / "gauges.csv",
+        )  # fmt: skip
+        callbacks.append(gauges)
+    if cfg.run.map_frames > 0:
+        callbacks.append(
+            cb.Animation(TimeInterval(cfg.run.t_end / cfg.run.map_frames), _depth_picture(site, solver),
+                         out.figures / "flood.gif")
+        )  # fmt: skip
+    callbacks.append(FloodOutputs(site, solver, maps, inside))
+
+    def report(sim) -> dict[str, Any]:
+        summary = maps.summary(hm.cell_size**2, inside)
+        budget = solver.budget()
+        rep = {
+            "method": "shallow-water SPH (Vacondio et al. 2012) over the DEM; hazard classes of FL-3",
+            "solver": cfg.flood.solver,
+            "flooded_area_m2": summary["flooded_area_m2"],
+            "hazard_share": summary["hazard_share"],
+            "hazard_area_m2": summary["hazard_area_m2"],
+            "volume_initial_m3": budget["volume_initial_m3"],
+            "volume_out_m3": budget["volume_out_m3"],
+            "water_budget": budget,
+            "max_depth_m": float(maps.max_depth.max()),
+            "max_speed_m_s": float(maps.max_speed.max()),
+            "wet_depth_m": maps.wet_depth,
+            "spacing_m": spacing,
+            "terrain": facts,
+            **solver.stats(),
+        }
+        if "inside" in summary:
+            rep["inside"] = summary["inside"]
+        if gauges is not None:
+            rep["gauges_summary"] = gauges.summary(maps.wet_depth)
+        wall = sim.wall_time_total
+        if wall > 0:
+            rep["simulated_s_per_wall_s"] = solver.t / wall
+        return rep
+
+    def summary(sim, rep: dict) -> dict[str, Any]:
+        return {
+            "flooded_area_m2": rep["flooded_area_m2"],
+            "hazard_share": {k: round(v, 3) for k, v in rep["hazard_share"].items()},
+            "volume_out_m3": rep["volume_out_m3"],
+            "particles": rep["particles"],
+            "steps": rep["steps"],
+        }
+
+    return Setup(
+        models=[solver], callbacks=callbacks, stop_time=cfg.run.t_end, unit="s", report=report, summary=summary,
+        checkpoint_wall_s=cfg.run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings, assumed=assumed,
+    )  # fmt: skip
+
