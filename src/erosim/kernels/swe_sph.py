@@ -175,8 +175,8 @@ def accelerations(
 
     The first two terms are the variational shallow-water momentum equation (Rodriguez-Paz & Bonet
     2005; Vacondio et al. 2012): the gradient of the potential energy Σ V_j g(d_j/2 + b_j), so the
-    scheme conserves energy and water comes to rest where that discrete energy is least — on
-    uneven ground too. ∇b is the gradient of the DEM's bilinear (Q4) surface at the particle.
+    scheme conserves energy and water comes to rest where that discrete energy is least. ∇b is the
+    gradient of the DEM smoothed with the particle's own kernel (:func:`smoothed_bed_gradient`).
     Π_ij = −α c̄ μ_ij / d̄_ij for approaching pairs, μ_ij = h̄ v_ij·r_ij/(r² + 0.01h̄²), c = √(g d),
     h̄ = H̄/2 (Monaghan 1992 in depth form) captures bores.
     """
@@ -209,9 +209,56 @@ def accelerations(
                 fv = vol[j] * pi_ij * 0.5 * (fi + fj)
                 ax -= fv * dx
                 ay -= fv * dy
-        gx, gy = gradient(bed, xi * inv_cell, yi * inv_cell)
-        acc[i, 0] = ax - g * gx * inv_cell
-        acc[i, 1] = ay - g * gy * inv_cell
+        gx, gy = smoothed_bed_gradient(bed, xi, yi, hi, inv_cell)
+        acc[i, 0] = ax - g * gx
+        acc[i, 1] = ay - g * gy
+
+
+@njit(cache=True)
+def smoothed_bed_gradient(bed, x, y, h, inv_cell):
+    """∇b̃ at (x, y) (m/m) of the bed smoothed with the particle's own kernel, b̃ = Σ_c b_c W_c / Σ_c W_c.
+
+    The depth d_i is an SPH average over the support H_i, so the bed it balances against must be seen
+    at the same scale: with the point gradient of a rough DEM, roughness finer than H pushes particles
+    into every pit and a lake never comes to rest. The Shepard form makes b̃ exact for a plane; its
+    gradient is (Σ b_c ∇W_c − b̃ Σ ∇W_c)/Σ W_c over the DEM's nodes within H. A support smaller than
+    two cells falls back on the Q4 gradient (the DEM is then the finer description).
+    """
+    ny, nx = bed.shape
+    rad = h * inv_cell
+    if rad < 2.0:
+        gx, gy = gradient(bed, x * inv_cell, y * inv_cell)
+        return gx * inv_cell, gy * inv_cell
+    cx = x * inv_cell
+    cy = y * inv_cell
+    sw = 0.0
+    swb = 0.0
+    sgx = 0.0
+    sgy = 0.0
+    sgbx = 0.0
+    sgby = 0.0
+    cell = 1.0 / inv_cell
+    for r in range(max(int(math.ceil(cy - rad)), 0), min(int(math.floor(cy + rad)), ny - 1) + 1):
+        for c in range(max(int(math.ceil(cx - rad)), 0), min(int(math.floor(cx + rad)), nx - 1) + 1):
+            dx = x - c * cell
+            dy = y - r * cell
+            rr = math.sqrt(dx * dx + dy * dy)
+            if rr >= h:
+                continue
+            w = wendland_w_2d(rr, h)
+            f = wendland_f_2d(rr, h)
+            b = bed[r, c]
+            sw += w
+            swb += w * b
+            sgx += f * dx
+            sgy += f * dy
+            sgbx += f * dx * b
+            sgby += f * dy * b
+    if sw <= 0.0:
+        gx, gy = gradient(bed, x * inv_cell, y * inv_cell)
+        return gx * inv_cell, gy * inv_cell
+    bt = swb / sw
+    return (sgbx - bt * sgx) / sw, (sgby - bt * sgy) / sw
 
 
 @njit(parallel=True, cache=True)
