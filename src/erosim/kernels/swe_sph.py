@@ -18,7 +18,6 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from erosim.kernels.raster import bilinear, gradient
 from erosim.kernels.sph_kernels import wendland_f_2d, wendland_w_2d
 
 
@@ -26,6 +25,54 @@ from erosim.kernels.sph_kernels import wendland_f_2d, wendland_w_2d
 def dw_dh(r, h):
     """∂W/∂H of the 2-D Wendland C2 kernel: −(2W + f r²)/H."""
     return -(2.0 * wendland_w_2d(r, h) + wendland_f_2d(r, h) * r * r) / h
+
+
+# ---------------------------------------------------------------- the bed, C¹
+
+
+@njit(inline="always", cache=True)
+def _cr_weights(t):
+    """Catmull-Rom weights of nodes −1, 0, 1, 2 at t ∈ [0, 1] and their derivatives."""
+    t2 = t * t
+    t3 = t2 * t
+    w = (0.5 * (-t3 + 2 * t2 - t), 0.5 * (3 * t3 - 5 * t2 + 2), 0.5 * (-3 * t3 + 4 * t2 + t), 0.5 * (t3 - t2))
+    dw = (0.5 * (-3 * t2 + 4 * t - 1), 0.5 * (9 * t2 - 10 * t), 0.5 * (-9 * t2 + 8 * t + 1), 0.5 * (3 * t2 - 2 * t))
+    return w, dw
+
+
+@njit(cache=True)
+def bed_c1(z, x, y):
+    """(b, ∂b/∂x, ∂b/∂y) at (x, y) in cell units: Catmull-Rom bicubic interpolation of the DEM's nodes.
+
+    The water comes to rest where the bed force −g∇b balances the depth gradient; with the Q4
+    surface ∇b jumps at every cell edge, so a particle resting on an edge chatters across it and a
+    lake never settles below a speed of about g·Δslope·Δt. The Catmull-Rom surface passes through
+    the nodes like Q4 and reproduces planes, but its gradient is continuous (C¹). Positions are
+    clamped to the map; nodes beyond an edge repeat the edge's.
+    """
+    ny, nx = z.shape
+    x = min(max(x, 0.0), nx - 1.0)
+    y = min(max(y, 0.0), ny - 1.0)
+    i = min(int(math.floor(x)), max(nx - 2, 0))
+    j = min(int(math.floor(y)), max(ny - 2, 0))
+    wx, dwx = _cr_weights(x - i)
+    wy, dwy = _cr_weights(y - j)
+    b = 0.0
+    gx = 0.0
+    gy = 0.0
+    for a in range(4):
+        jj = min(max(j - 1 + a, 0), ny - 1)
+        rowv = 0.0
+        rowd = 0.0
+        for c in range(4):
+            ii = min(max(i - 1 + c, 0), nx - 1)
+            v = z[jj, ii]
+            rowv += wx[c] * v
+            rowd += dwx[c] * v
+        b += wy[a] * rowv
+        gx += wy[a] * rowd
+        gy += dwy[a] * rowv
+    return b, gx, gy
 
 
 # ---------------------------------------------------------------- neighbour search
@@ -119,7 +166,7 @@ def depth_and_support(pos, vol, hsup, n, start, nbr, k2, h_min, h_max, tol, max_
         h = min(max(hsup[i], h_min), h_max)
         vi = vol[i]
         it = 0
-        for it in range(max_iter):
+        for it in range(max_iter):  # noqa: B007 (the count is kept)
             s = vi * wendland_w_2d(0.0, h)
             ds = vi * dw_dh(0.0, h)
             for q in range(start[i], start[i + 1]):
@@ -176,7 +223,7 @@ def accelerations(
     The first two terms are the variational shallow-water momentum equation (Rodriguez-Paz & Bonet
     2005; Vacondio et al. 2012): the gradient of the potential energy Σ V_j g(d_j/2 + b_j), so the
     scheme conserves energy and water comes to rest where that discrete energy is least. ∇b is the
-    gradient of the DEM smoothed with the particle's own kernel (:func:`smoothed_bed_gradient`).
+    exact gradient of the bed's C¹ surface (:func:`bed_c1`), so the bed term is conservative too.
     Π_ij = −α c̄ μ_ij / d̄_ij for approaching pairs, μ_ij = h̄ v_ij·r_ij/(r² + 0.01h̄²), c = √(g d),
     h̄ = H̄/2 (Monaghan 1992 in depth form) captures bores.
     """
@@ -209,56 +256,9 @@ def accelerations(
                 fv = vol[j] * pi_ij * 0.5 * (fi + fj)
                 ax -= fv * dx
                 ay -= fv * dy
-        gx, gy = smoothed_bed_gradient(bed, xi, yi, hi, inv_cell)
-        acc[i, 0] = ax - g * gx
-        acc[i, 1] = ay - g * gy
-
-
-@njit(cache=True)
-def smoothed_bed_gradient(bed, x, y, h, inv_cell):
-    """∇b̃ at (x, y) (m/m) of the bed smoothed with the particle's own kernel, b̃ = Σ_c b_c W_c / Σ_c W_c.
-
-    The depth d_i is an SPH average over the support H_i, so the bed it balances against must be seen
-    at the same scale: with the point gradient of a rough DEM, roughness finer than H pushes particles
-    into every pit and a lake never comes to rest. The Shepard form makes b̃ exact for a plane; its
-    gradient is (Σ b_c ∇W_c − b̃ Σ ∇W_c)/Σ W_c over the DEM's nodes within H. A support smaller than
-    two cells falls back on the Q4 gradient (the DEM is then the finer description).
-    """
-    ny, nx = bed.shape
-    rad = h * inv_cell
-    if rad < 2.0:
-        gx, gy = gradient(bed, x * inv_cell, y * inv_cell)
-        return gx * inv_cell, gy * inv_cell
-    cx = x * inv_cell
-    cy = y * inv_cell
-    sw = 0.0
-    swb = 0.0
-    sgx = 0.0
-    sgy = 0.0
-    sgbx = 0.0
-    sgby = 0.0
-    cell = 1.0 / inv_cell
-    for r in range(max(int(math.ceil(cy - rad)), 0), min(int(math.floor(cy + rad)), ny - 1) + 1):
-        for c in range(max(int(math.ceil(cx - rad)), 0), min(int(math.floor(cx + rad)), nx - 1) + 1):
-            dx = x - c * cell
-            dy = y - r * cell
-            rr = math.sqrt(dx * dx + dy * dy)
-            if rr >= h:
-                continue
-            w = wendland_w_2d(rr, h)
-            f = wendland_f_2d(rr, h)
-            b = bed[r, c]
-            sw += w
-            swb += w * b
-            sgx += f * dx
-            sgy += f * dy
-            sgbx += f * dx * b
-            sgby += f * dy * b
-    if sw <= 0.0:
-        gx, gy = gradient(bed, x * inv_cell, y * inv_cell)
-        return gx * inv_cell, gy * inv_cell
-    bt = swb / sw
-    return (sgbx - bt * sgx) / sw, (sgby - bt * sgy) / sw
+        _, gx, gy = bed_c1(bed, xi * inv_cell, yi * inv_cell)
+        acc[i, 0] = ax - g * gx * inv_cell
+        acc[i, 1] = ay - g * gy * inv_cell
 
 
 @njit(parallel=True, cache=True)
@@ -284,16 +284,20 @@ def kick(vel, acc, depth, manning, inv_cell, pos, n, dt, g, d_floor):
 
 
 @njit(parallel=True, cache=True)
-def drift(pos, vel, n, dt, inv_cell, wall, open_w, open_e, open_n, open_s, out):
+def drift(pos, vel, n, dt, inv_cell, wall, open_w, open_e, open_n, open_s, out, blocked):
     """x ← x + Δt u, with walls and open edges on the DEM's cells.
 
     A particle whose new cell is a wall (nodata, a dam line) or beyond a closed map edge stays where
-    it was and the velocity component across the face it met is reversed (a free-slip mirror).
-    One beyond an open edge is flagged in ``out`` (removed by the caller, its water counted).
-    Edges: west x < −Δ/2, east x > (nx−½)Δ, north y < −Δ/2 (row 0), south y > (ny−½)Δ.
+    it was and stops (an inelastic, no-slip contact); ``blocked[i]`` is set and :func:`hold_contacts`
+    stops it again after the closing half-kick, so water pressed against a wall rests there instead
+    of bouncing or sliding to and fro along it (a free-slip contact let particles pinned in a row
+    against a dam slide at a metre a second for ever). One beyond an open edge is
+    flagged in ``out`` (removed by the caller, its water counted). Edges: west x < −Δ/2,
+    east x > (nx−½)Δ, north y < −Δ/2 (row 0), south y > (ny−½)Δ.
     """
     ny, nx = wall.shape
     for i in prange(n):
+        blocked[i] = 0
         ox = pos[i, 0]
         oy = pos[i, 1]
         x = ox + dt * vel[i, 0]
@@ -310,22 +314,22 @@ def drift(pos, vel, n, dt, inv_cell, wall, open_w, open_e, open_n, open_s, out):
             continue
         blocked_x = c1 < 0 or c1 >= nx or wall[min(max(r0, 0), ny - 1), c1]
         blocked_y = r1 < 0 or r1 >= ny or wall[r1, min(max(c0, 0), nx - 1)]
-        blocked = (
-            blocked_x
-            or blocked_y
-            or wall[min(max(r1, 0), ny - 1), min(max(c1, 0), nx - 1)]
-        )
-        if not blocked:
+        if not (blocked_x or blocked_y or wall[min(max(r1, 0), ny - 1), min(max(c1, 0), nx - 1)]):
             pos[i, 0] = x
             pos[i, 1] = y
             continue
-        if blocked_x:
-            vel[i, 0] = -vel[i, 0]
-        if blocked_y:
-            vel[i, 1] = -vel[i, 1]
-        if not blocked_x and not blocked_y:  # a corner met diagonally
-            vel[i, 0] = -vel[i, 0]
-            vel[i, 1] = -vel[i, 1]
+        vel[i, 0] = 0.0
+        vel[i, 1] = 0.0
+        blocked[i] = 1
+
+
+@njit(parallel=True, cache=True)
+def hold_contacts(vel, n, blocked):
+    """Stop the particles that met a wall in this step's drift (after the closing half-kick)."""
+    for i in prange(n):
+        if blocked[i]:
+            vel[i, 0] = 0.0
+            vel[i, 1] = 0.0
 
 
 @njit(parallel=True, cache=True)
@@ -341,9 +345,9 @@ def step_limit(vel, depth, hsup, n, g):
 
 @njit(cache=True)
 def bed_at(bed, pos, n, inv_cell, out):
-    """Bed elevation b(x_i) from the DEM's Q4 surface."""
+    """Bed elevation b(x_i) from the C¹ surface the water feels (:func:`bed_c1`)."""
     for i in range(n):
-        out[i] = bilinear(bed, pos[i, 0] * inv_cell, pos[i, 1] * inv_cell)
+        out[i] = bed_c1(bed, pos[i, 0] * inv_cell, pos[i, 1] * inv_cell)[0]
 
 
 # ---------------------------------------------------------------- hazard maxima on the DEM grid

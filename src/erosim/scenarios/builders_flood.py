@@ -37,7 +37,7 @@ from erosim.scenarios.schema_flood import FloodScenario
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
 from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
-from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, lattice_volume, raised_walls
+from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH
 from erosim.terrain.reservoir import barrier_mask, cut_breach, fill_reservoir
 
 #: particles beyond this many would not fit a workstation (about 200 B each, times the splitting)
@@ -64,31 +64,44 @@ class FloodSetUp:
             probe = cut_breach(hm.copy(z=np.full(hm.shape, res.level + 1e6)), cfg.breach).z < res.level
             wall |= barrier & ~probe
         self.wall = wall
+        self.barrier = barrier
         self.level = float(res.level)
 
-    def particles(self, spacing: float, support: float, bed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Lattice points over the reservoir in the solver's cell frame, and their volumes.
+    def particles(self, spacing: float, bed: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
+        """Particles of equal volume over the reservoir (solver's cell frame) and their volumes.
 
-        A point stands in the cell holding it; its column is the level minus the cell's bed there
-        (the Q4 surface of ``bed``, the breached DEM with its walls raised as the solver feels it), so
-        the particles hold the reservoir's volume to the
-        lattice's resolution; V = d·s²/κ with κ the lattice's own SPH sum (so d_SPH = d inside).
+        Equal volumes, so that no arrangement of particles holds potential energy the water does not
+        (with volumes ∝ depth the discrete system lowers its energy by sorting heavy particles into
+        the deep water, and a lake never comes to rest). Their number density follows the depth: the
+        points of a fine lattice (spacing s·√(d̄/d_max)) are kept with chance d/d_max (a generator
+        seeded by the scenario's seed), so the spacing is ``spacing`` where the depth is the mean
+        depth d̄. The column d is the level minus ``bed`` (the C¹ surface the solver feels, walls
+        raised); the particles share the water of the kept lattice's columns exactly.
         """
+        from erosim.kernels.swe_sph import bed_at
+
         cs = self.dem.cell_size
         ny, nx = self.dem.shape
-        xs = np.arange(-0.5 * cs + 0.5 * spacing, (nx - 0.5) * cs, spacing)
-        ys = np.arange(-0.5 * cs + 0.5 * spacing, (ny - 0.5) * cs, spacing)
+        d_mean = float(self.depth0[self.depth0 > 0].mean())
+        d_max = float(self.depth0.max())
+        fine = spacing * max(math.sqrt(d_mean / d_max), 0.25)
+        xs = np.arange(-0.5 * cs + 0.5 * fine, (nx - 0.5) * cs, fine)
+        ys = np.arange(-0.5 * cs + 0.5 * fine, (ny - 0.5) * cs, fine)
         x, y = (a.ravel() for a in np.meshgrid(xs, ys))
         col = np.clip(np.floor(x / cs + 0.5).astype(np.int64), 0, nx - 1)
         row = np.clip(np.floor(y / cs + 0.5).astype(np.int64), 0, ny - 1)
         keep = (self.depth0[row, col] > 0) & ~self.wall[row, col]
-        x, y = x[keep], y[keep]
-        from erosim.kernels.raster import bilinear_points
-
-        d = np.maximum(self.level - bilinear_points(bed, x / cs, y / cs), 0.0)
-        wet = d > 0
-        vol = lattice_volume(d[wet], spacing, support)
-        return np.column_stack([x[wet], y[wet]]), vol
+        pts = np.ascontiguousarray(np.column_stack([x[keep], y[keep]]))
+        b = np.empty(len(pts))
+        bed_at(np.ascontiguousarray(bed), pts, len(pts), 1.0 / cs, b)
+        d = np.maximum(self.level - b, 0.0)
+        chance = d / max(float(d.max(initial=0.0)), 1e-300)
+        rng = np.random.default_rng(seed)
+        kept = rng.random(len(pts)) < chance
+        if not kept.any():
+            return np.zeros((0, 2)), np.zeros(0)
+        volume = float(d.sum()) * fine * fine
+        return pts[kept], np.full(int(kept.sum()), volume / int(kept.sum()))
 
     def to_frame(self, xy) -> np.ndarray:
         """Map coordinates → the solver's cell frame (x = col·Δ, y = row·Δ, cell centres on nodes)."""
@@ -115,8 +128,15 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
             f"The reservoir would need about {estimate:,.0f} particles at flood.spacing = {spacing:g} m; "
             "give a larger flood.spacing."
         )
-    open_edges = tuple(e in cfg.outflow.edges for e in ("west", "east", "north", "south"))
-    pos, vol = site.particles(spacing, fl.support, raised_walls(hm.z, site.wall, open_edges, site.level))
+    params = fl.model_dump(include=set(ShallowWaterParams.model_fields))
+    # the reservoir settles on the DEM as it stands, the dam whole (the barrier all wall), then the
+    # breach opens at t = 0
+    closed = site.wall | (site.barrier if site.barrier is not None else False)
+    probe = ShallowWaterSPH(
+        site.dem.z, hm.cell_size, np.zeros((1, 2)) + hm.cell_size, np.ones(1), spacing,
+        ShallowWaterParams(**params), wall=closed, open_edges=tuple(cfg.outflow.edges), surface=site.level,
+    )  # fmt: skip
+    pos, vol = site.particles(spacing, probe.bed, cfg.seed)
     if len(pos) == 0:
         raise InputError(
             f"No particle fits the reservoir at flood.spacing = {spacing:g} m; give a smaller spacing or raise "
@@ -135,11 +155,13 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
         if not np.all(np.isfinite(m)) or m.min() < 0:
             raise InputError(f"flood.manning_file '{fl.manning_file}' holds negative or missing values; fix the map.")
         manning = m
-    params = fl.model_dump(include=set(ShallowWaterParams.model_fields))
     solver = ShallowWaterSPH(
-        hm.z, hm.cell_size, pos, vol, spacing, ShallowWaterParams(**params), manning=manning, wall=site.wall,
+        site.dem.z, hm.cell_size, pos, vol, spacing, ShallowWaterParams(**params), manning=manning, wall=closed,
         open_edges=tuple(cfg.outflow.edges), surface=site.level,
     )  # fmt: skip
+    if fl.settle_steps > 0:
+        solver.settle(fl.settle_steps, fl.settle_speed)
+    solver.set_terrain(hm.z, site.wall)
     return site, solver
 
 

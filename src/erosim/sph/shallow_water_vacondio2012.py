@@ -25,8 +25,9 @@ with 0.178 V and six on a hexagon of radius 0.4·√(V/d) with the rest in equal
 parent's velocity — mass, momentum and the first moment of mass are kept exactly. A particle
 lighter than ``split_min_volume`` × the reservoir particle is not split, which bounds the count.
 
-Walls are cells of the DEM (nodata, a dam line): a particle that would enter one stays and has the
-velocity component across that face reversed. Open map edges remove the particles that cross them;
+Walls are cells of the DEM (nodata, a dam line) and closed map edges: their bed is raised above the
+water (:func:`raised_walls`), and a particle that would still enter one stays where it is and stops
+(an inelastic, no-slip contact). Open map edges remove the particles that cross them;
 their water is counted (``budget()``).
 """
 
@@ -35,6 +36,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import ndimage
 
 from erosim.core.config import Section, param
 from erosim.core.errors import InputError, InstabilityError
@@ -74,6 +76,12 @@ class ShallowWaterParams(Section):
     )
     max_support: float = param(
         3.0, ge=1.2, unit="1", doc="largest support, × the initial support (a particle alone on dry ground)"
+    )
+    bed_smoothing: float = param(
+        1.0,
+        ge=0,
+        unit="1",
+        doc="the bed the water feels is the DEM smoothed by a Gaussian of σ = this × the spacing (0: none)",
     )
     tolerance: float = param(1e-4, gt=0, lt=0.1, unit="1", doc="relative tolerance of the H–d Newton iteration")
     max_particles: int = param(5_000_000, ge=1, unit="1", doc="refuse to split beyond this many particles")
@@ -117,12 +125,12 @@ class ShallowWaterSPH:
             raise InputError(f"Unknown map edge {bad[0]!r} in outflow.edges; use any of {', '.join(_EDGES)}.")
         self.open = tuple(e in open_edges for e in _EDGES)
         self.surface0 = float(surface) if surface is not None else float(bed.max())
-        self.bed = raised_walls(bed, self.wall, self.open, self.surface0)
+        self.spacing = float(spacing)
+        self.bed = self._felt_bed(bed)
         pos = np.ascontiguousarray(pos, dtype=np.float64).reshape(-1, 2)
         n = len(pos)
         if n == 0:
             raise InputError("The flood has no water: the reservoir holds no particle; raise its level or spacing.")
-        self.spacing = float(spacing)
         self.v0 = float(np.max(vol))
         self.h0 = self.params.support * self.spacing
         self.h_cap = self.params.max_support * self.h0
@@ -138,6 +146,7 @@ class ShallowWaterSPH:
         self.t = 0.0
         self.steps = 0
         self.splits = 0
+        self.settle_steps = 0
         self.last_dt = 0.0
         self.volume_initial = float(self.vol.sum())
         self.volume_out = 0.0
@@ -162,24 +171,64 @@ class ShallowWaterSPH:
         if dt is None:
             dt = prm.courant * K.step_limit(self.vel, self.depth, self.hsup, self.n, prm.g)
         if not math.isfinite(dt) or dt <= 0:
-            raise InstabilityError(f"The shallow-water step became {dt!r} s at t = {self.t:.3f} s; lower flood.courant.")
+            raise InstabilityError(
+                f"The shallow-water step became {dt!r} s at t = {self.t:.3f} s; lower flood.courant."
+            )
         self._kick(0.5 * dt)
         out = np.zeros(self.n, np.bool_)
-        K.drift(self.pos, self.vel, self.n, dt, self.inv_cell, self.wall, *self.open, out)
+        blocked = np.zeros(self.n, np.int64)
+        K.drift(self.pos, self.vel, self.n, dt, self.inv_cell, self.wall, *self.open, out, blocked)
         if out.any():
             self.volume_out += float(self.vol[out].sum())
             self._keep(~out)
+            blocked = blocked[~out]
         if prm.split:
-            self._split()
+            blocked = np.concatenate([blocked, np.zeros(self._split() * 6, np.int64)])
         if self.n:
             self._evaluate()
             self._kick(0.5 * dt)
+            K.hold_contacts(self.vel, self.n, blocked)
         self.t += dt
         self.steps += 1
         self.last_dt = dt
         if self.n and not np.isfinite(self.vel).all():
             raise InstabilityError(f"Speeds became infinite at t = {self.t:.3f} s; lower flood.courant.")
         return dt
+
+    def settle(self, max_steps: int = 3000, speed: float = 1e-3, damping_steps: float = 10.0) -> int:
+        """Let the water come to rest before the run starts: steps whose velocities are damped by
+        exp(−1/``damping_steps``) each, until the fastest particle is slower than ``speed`` (m/s) or
+        ``max_steps`` have run. The clock stays at 0 (the run starts from the settled state).
+
+        A lattice of particles is not the discrete equilibrium (the SPH depth of a random or uneven
+        arrangement is not exactly level): undamped, a reservoir would slosh at t = 0. Returns the
+        steps taken.
+        """
+        factor = math.exp(-1.0 / damping_steps)
+        k = 0
+        for k in range(1, max_steps + 1):  # noqa: B007 (the count is returned)
+            self.step()
+            self.vel *= factor
+            if float(np.hypot(self.vel[:, 0], self.vel[:, 1]).max(initial=0.0)) < speed:
+                break
+        self.settle_steps += k
+        self.t, self.steps, self.last_dt = 0.0, 0, 0.0
+        self.volume_out = 0.0
+        self.volume_initial = float(self.vol.sum())
+        self._evaluate()
+        return k
+
+    def set_terrain(self, bed: np.ndarray, wall: np.ndarray) -> None:
+        """A new bed and walls (e.g. the breach opening after the reservoir has settled)."""
+        self.wall = np.ascontiguousarray(wall, dtype=np.bool_)
+        self.bed = self._felt_bed(np.asarray(bed, np.float64))
+        self._evaluate()
+
+    def _felt_bed(self, bed: np.ndarray) -> np.ndarray:
+        """The DEM smoothed at the particles' scale (``bed_smoothing``), then its walls raised."""
+        sigma = self.params.bed_smoothing * self.spacing / self.cell
+        smooth = ndimage.gaussian_filter(bed, sigma, mode="nearest") if sigma > 0 else bed
+        return raised_walls(smooth, self.wall, self.open, self.surface0)
 
     # ------------------------------------------------------------------ passes
 
@@ -230,21 +279,23 @@ class ShallowWaterSPH:
         for k in ("pos", "vel", "vol", "hsup", "depth", "omega", "acc"):
             setattr(self, k, np.ascontiguousarray(getattr(self, k)[keep]))
 
-    def _split(self) -> None:
+    def _split(self) -> int:
+        """Split the thinned particles (module docstring); returns how many were split."""
         prm = self.params
         spacing = np.sqrt(self.vol / np.maximum(self.depth, 1e-300))
         parent = (spacing > prm.split_spacing * self.spacing) & (self.vol >= 7 * prm.split_min_volume * self.v0)
         m = int(parent.sum())
         if m == 0:
-            return
+            return 0
         if self.n + 6 * m > prm.max_particles:
-            return  # resolution stays where it is: the count is bounded by the user
+            return 0  # resolution stays where it is: the count is bounded by the user
         idx = np.flatnonzero(parent)
         v = self.vol[idx]
         rad = _SPLIT_RADIUS * spacing[idx]
         ang = np.arange(6) * (np.pi / 3.0)
         ring = (v - _SPLIT_CENTRE * v) / 6.0
-        new_pos = (self.pos[idx, None, :] + rad[:, None, None] * np.stack([np.cos(ang), np.sin(ang)], -1)).reshape(-1, 2)
+        hexagon = np.stack([np.cos(ang), np.sin(ang)], -1)
+        new_pos = (self.pos[idx, None, :] + rad[:, None, None] * hexagon).reshape(-1, 2)
         # a parent whose hexagon would reach into a wall or off the map is not split (no daughter may
         # sit on another: coincident particles have no consistent smoothing length)
         ny, nx = self.wall.shape
@@ -260,7 +311,7 @@ class ShallowWaterSPH:
             new_pos = new_pos.reshape(-1, 6, 2)[fine].reshape(-1, 2)
             m = len(idx)
             if m == 0:
-                return
+                return 0
         self.vol[idx] = v - 6.0 * ring  # the centre keeps exactly what the ring does not take
         self.hsup[idx] = self.hsup[idx] / math.sqrt(7.0)
         self.pos = np.concatenate([self.pos, new_pos])
@@ -271,6 +322,7 @@ class ShallowWaterSPH:
             setattr(self, k, np.concatenate([getattr(self, k), np.repeat(getattr(self, k)[idx], 6)]))
         self.acc = np.concatenate([self.acc, np.repeat(self.acc[idx], 6, axis=0)])
         self.splits += m
+        return m
 
     # ------------------------------------------------------------------ outputs
 
@@ -327,12 +379,18 @@ class ShallowWaterSPH:
         )  # fmt: skip
 
     def stats(self) -> dict:
-        return {"particles": self.n, "steps": self.steps, "splits": self.splits, "last_dt_s": self.last_dt}
+        return {
+            "particles": self.n,
+            "steps": self.steps,
+            "splits": self.splits,
+            "settle_steps": self.settle_steps,
+            "last_dt_s": self.last_dt,
+        }
 
     # ------------------------------------------------------------------ checkpoints
 
     _ARRAYS = ("pos", "vel", "vol", "hsup", "depth", "omega", "acc")
-    _SCALARS = ("t", "steps", "splits", "last_dt", "volume_initial", "volume_out")
+    _SCALARS = ("t", "steps", "splits", "settle_steps", "last_dt", "volume_initial", "volume_out")
 
     def state_dict(self) -> dict:
         out = {k: getattr(self, k).copy() for k in self._ARRAYS}
@@ -344,7 +402,7 @@ class ShallowWaterSPH:
             setattr(self, k, np.ascontiguousarray(state[k]))
         for k in ("t", "last_dt", "volume_initial", "volume_out"):
             setattr(self, k, float(np.asarray(state[k])))
-        for k in ("steps", "splits"):
+        for k in ("steps", "splits", "settle_steps"):
             setattr(self, k, int(np.asarray(state[k])))
 
 
