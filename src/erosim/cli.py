@@ -340,6 +340,19 @@ def bench_sph_terrain(particles, steps, every, as_json):
     _print_result(_guard(fn, particles, steps, every=every), as_json)
 
 
+@bench.command(name="flood")
+@click.option("--t-end", type=click.FloatRange(min=1), default=4000.0, show_default=True, help="Simulated seconds.")
+@click.option("--spacing", type=click.FloatRange(min=5), default=20.0, show_default=True, help="Particle spacing (m).")
+@click.option("--split/--no-split", default=False, show_default=True, help="Particle splitting where the flow thins.")
+@click.option("--json", "as_json", is_flag=True)
+def bench_flood(t_end, spacing, split, as_json):
+    """A dam break down a 10 km valley (shallow-water SPH, hazard maxima every step)."""
+    from erosim.scenarios.kinds import resolve
+
+    fn = _guard(resolve, "erosim.bench.flood:run")
+    _print_result(_guard(fn, t_end, spacing, split=split), as_json)
+
+
 @bench.command(name="hydrology")
 @click.option("--size", type=click.IntRange(min=16), default=256, show_default=True, help="Map size in cells (square).")
 @click.option(

@@ -152,19 +152,24 @@ def fill_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, start, n
 
 @njit(parallel=True, cache=True)
 def depth_and_support(pos, vol, hsup, n, start, nbr, k2, h_min, h_max, tol, max_iter, depth, omega):
-    """Depth d_i = Σ_j V_j W(r_ij, H_i) (self included) with H_i = k·√(V_i/d_i), by Newton's method.
+    """Depth d_i = Σ_j V_j W(r_ij, H_i) (self included) with H_i = k·√(V_i/(d_i + δ_i)), by Newton.
 
-    Residual R(H) = Σ_j V_j W(r_ij, H) − k²V_i/H², R'(H) = Σ_j V_j ∂W/∂H + 2k²V_i/H³ (Vacondio et al.
-    2012, Rodriguez-Paz & Bonet 2005). H is kept in [h_min, h_max] (a particle alone on dry ground
-    has no consistent H: it gets h_max). Ω_i = 1 + (H_i/(2d_i)) Σ_j V_j ∂W_ij/∂H (from dH/dd = −H/(2d)),
-    1 where H sits on a bound. Returns the largest number of iterations any particle needed.
-    ``hsup`` holds the previous H on entry (the first guess) and the new one on exit; neighbours
-    are those found with the previous supports, so a support may grow by the lists' margin only.
+    δ_i = k²V_i/h_max² bounds H smoothly by h_max as the water thins (a particle alone on dry ground
+    gets H → h_max) and leaves deep water untouched; a hard clamp would make H(d) kink where it binds,
+    and particles on a lake's shore chatter across the kink for ever. Residual
+    R(H) = Σ_j V_j W(r_ij, H) + δ_i − k²V_i/H², R'(H) = Σ_j V_j ∂W/∂H + 2k²V_i/H³ (Vacondio et al.
+    2012, Rodriguez-Paz & Bonet 2005). Ω_i = 1 + (H_i/(2(d_i + δ_i))) Σ_j V_j ∂W_ij/∂H (from
+    dH/dd = −H/(2(d + δ))); [h_min, h_max] only guard the iteration. Returns the largest number of
+    iterations any particle needed. ``hsup`` holds the previous H on entry (the first guess) and the
+    new one on exit.
     """
     iters = np.zeros(n, np.int64)
     for i in prange(n):
         h = min(max(hsup[i], h_min), h_max)
         vi = vol[i]
+        delta = k2 * vi / (h_max * h_max)
+        s = 0.0
+        ds = 0.0
         it = 0
         for it in range(max_iter):  # noqa: B007 (the count is kept)
             s = vi * wendland_w_2d(0.0, h)
@@ -177,7 +182,7 @@ def depth_and_support(pos, vol, hsup, n, start, nbr, k2, h_min, h_max, tol, max_
                 if r < h:
                     s += vol[j] * wendland_w_2d(r, h)
                     ds += vol[j] * dw_dh(r, h)
-            res = s - k2 * vi / (h * h)
+            res = s + delta - k2 * vi / (h * h)
             der = ds + 2.0 * k2 * vi / (h * h * h)
             if der <= 0.0:
                 hn = h * 1.2 if res < 0.0 else h * 0.8
@@ -185,29 +190,14 @@ def depth_and_support(pos, vol, hsup, n, start, nbr, k2, h_min, h_max, tol, max_
                 hn = h - res / der
             hn = min(max(hn, 0.8 * h), 1.25 * h)  # damped Newton: at most 25 % a step
             hn = min(max(hn, h_min), h_max)
-            done = abs(hn - h) <= tol * h
+            if abs(hn - h) <= tol * h:
+                break  # converged: keep H and the sums evaluated at it
             h = hn
-            if done:
-                break
         iters[i] = it + 1
-        # depth and Ω at the final H
-        s = vi * wendland_w_2d(0.0, h)
-        ds = vi * dw_dh(0.0, h)
-        for q in range(start[i], start[i + 1]):
-            j = nbr[q]
-            dx = pos[i, 0] - pos[j, 0]
-            dy = pos[i, 1] - pos[j, 1]
-            r = math.sqrt(dx * dx + dy * dy)
-            if r < h:
-                s += vol[j] * wendland_w_2d(r, h)
-                ds += vol[j] * dw_dh(r, h)
         hsup[i] = h
         depth[i] = s
-        if h >= h_max * (1.0 - 1e-12) or h <= h_min * (1.0 + 1e-12):
-            omega[i] = 1.0
-        else:
-            om = 1.0 + h / (2.0 * s) * ds
-            omega[i] = min(max(om, 0.25), 4.0)
+        om = 1.0 + h / (2.0 * (s + delta)) * ds
+        omega[i] = min(max(om, 0.25), 4.0)
     return iters.max()
 
 

@@ -76,7 +76,7 @@ class FloodSetUp:
         points of a fine lattice (spacing s·√(d̄/d_max)) are kept with chance d/d_max (a generator
         seeded by the scenario's seed), so the spacing is ``spacing`` where the depth is the mean
         depth d̄. The column d is the level minus ``bed`` (the C¹ surface the solver feels, walls
-        raised); the particles share the water of the kept lattice's columns exactly.
+        raised); the particles share the reservoir's volume on the DEM, Σ (level − z)·Δ², exactly.
         """
         from erosim.kernels.swe_sph import bed_at
 
@@ -100,7 +100,7 @@ class FloodSetUp:
         kept = rng.random(len(pts)) < chance
         if not kept.any():
             return np.zeros((0, 2)), np.zeros(0)
-        volume = float(d.sum()) * fine * fine
+        volume = float(self.depth0.sum()) * cs * cs  # the reservoir's own volume on the DEM
         return pts[kept], np.full(int(kept.sum()), volume / int(kept.sum()))
 
     def to_frame(self, xy) -> np.ndarray:
