@@ -29,6 +29,7 @@ KINDS = {
     "particle-stream": ["particle-stream", "terrain.size=64", "emitters.main.particles=150", "emitters.main.steps=50"],
     "sph-terrain": ["rain-erosion", "terrain.size=12", "terrain.cell_size=2.0", "sph.spacing=1.0", "rain.every=5",
                     "rain.rate=4e5", "run.t_end=0.3", "run.map_frames=2"],
+    "flood": ["flood", "run.t_end=40.0", "run.map_frames=2", "flood.settle_steps=40", "flood.spacing=40.0"],
 }  # fmt: skip
 
 

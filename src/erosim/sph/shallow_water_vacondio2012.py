@@ -82,6 +82,12 @@ class ShallowWaterParams(Section):
         doc="H approaches this × the initial support as the water thins (H = k√(V/(d + δ)), δ = k²V/H_max²: a "
         "smooth bound, so a shore comes to rest); 1.5 keeps the neighbour search 1.8× cheaper than 3.0",
     )
+    bed_smoothing: float = param(
+        1.0,
+        ge=0,
+        unit="1",
+        doc="the bed the water feels is the DEM smoothed by a Gaussian of σ = this × the spacing (0: none)",
+    )
     tolerance: float = param(1e-4, gt=0, lt=0.1, unit="1", doc="relative tolerance of the H–d Newton iteration")
     max_particles: int = param(5_000_000, ge=1, unit="1", doc="refuse to split beyond this many particles")
 
@@ -490,23 +496,24 @@ def raised_walls(
     return np.ascontiguousarray(out)
 
 
-def lattice_volume(depth, spacing: float, support: float) -> np.ndarray:
+def lattice_volume(depth, spacing: float, support: float, max_support: float = 1.5) -> np.ndarray:
     """Volumes V = κ·d·s² that give SPH depth d on a square lattice of spacing s.
 
-    κ = 1/(s² Σ_lattice W(r, H)) with H = support·√(V/d): the inverse of the lattice's own kernel sum
-    (a few per cent from 1), found by fixed-point iteration on the unit lattice (scale-free: κ depends
-    on the support factor only), so a reservoir laid on the lattice starts at its true depth.
+    κ = 1/(s² Σ_lattice W(r, H)) with H = k√(V/(d + δ)), δ = V/(max_support·s)² (the solver's smooth
+    bound, with s the solver's spacing): the inverse of the lattice's own kernel sum (a few per cent
+    from 1), found by fixed-point iteration on the unit lattice (scale-free: κ depends on the two
+    factors only), so water laid on the lattice starts at its true depth.
     """
     reach = int(math.ceil(2 * support)) + 1
     g = np.arange(-reach, reach + 1, dtype=np.float64)
     r = np.hypot(*np.meshgrid(g, g)).ravel()
     kappa = 1.0
-    for _ in range(100):
-        h = support * math.sqrt(kappa)  # V = κ on the unit lattice with d = 1
+    for _ in range(200):
+        h = support * math.sqrt(kappa / (1.0 + kappa / max_support**2))  # V = κ, d = 1 on the unit lattice
         s = np.clip(r / h, 0.0, 1.0)
         total = float((7.0 / (math.pi * h * h) * (1 - s) ** 4 * (1 + 4 * s)).sum())
         new = 1.0 / total
-        if abs(new - kappa) < 1e-14:
+        if abs(new - kappa) < 1e-15:
             break
         kappa = new
     return np.asarray(depth, np.float64) * spacing * spacing * kappa

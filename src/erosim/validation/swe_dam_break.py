@@ -83,7 +83,7 @@ def channel(spacing: float, h1: float, params: ShallowWaterParams | None = None)
     depth = np.where(X < dam, H0, h1)
     keep = depth > 0
     p = params or ShallowWaterParams()
-    vol = lattice_volume(depth[keep], spacing, p.support)
+    vol = lattice_volume(depth[keep], spacing, p.support, p.max_support)
     solver = ShallowWaterSPH(bed, cs, np.column_stack([X[keep], Y[keep]]), vol, spacing, p, surface=H0)
     return solver, dam
 
