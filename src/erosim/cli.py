@@ -270,6 +270,7 @@ VALIDATION_CASES = {
     "basin-at-rest": "erosim.validation.basin_at_rest:run",
     "spheric2": "erosim.validation.spheric2:run",
     "swe-dam-break": "erosim.validation.swe_dam_break:run",
+    "thacker": "erosim.validation.thacker:run",
 }
 
 

@@ -37,7 +37,7 @@ from erosim.scenarios.schema_flood import FloodScenario
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
 from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
-from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH
+from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, equal_volumes
 from erosim.terrain.reservoir import barrier_mask, cut_breach, fill_reservoir
 
 #: particles beyond this many would not fit a workstation (about 200 B each, times the splitting)
@@ -67,15 +67,15 @@ class FloodSetUp:
         self.barrier = barrier
         self.level = float(res.level)
 
-    def particles(self, spacing: float, bed: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    def particles(self, spacing: float, bed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Particles of equal volume over the reservoir (solver's cell frame) and their volumes.
 
         Equal volumes, so that no arrangement of particles holds potential energy the water does not
         (with volumes ∝ depth the discrete system lowers its energy by sorting heavy particles into
         the deep water, and a lake never comes to rest). Their number density follows the depth: the
-        points of a fine lattice (spacing s·√(d̄/d_max)) are kept with chance d/d_max (a generator
-        seeded by the scenario's seed), so the spacing is ``spacing`` where the depth is the mean
-        depth d̄. The column d is the level minus ``bed`` (the C¹ surface the solver feels, walls
+        points of a fine lattice (spacing s·√(d̄/d_max)) are kept with chance d/d_max
+        (:func:`~erosim.sph.shallow_water_vacondio2012.equal_volumes`), so the spacing is ``spacing``
+        where the depth is the mean depth d̄. The column d is the level minus ``bed`` (the C¹ surface the solver feels, walls
         raised); the particles share the reservoir's volume on the DEM, Σ (level − z)·Δ², exactly.
         """
         from erosim.kernels.swe_sph import bed_at
@@ -95,13 +95,8 @@ class FloodSetUp:
         b = np.empty(len(pts))
         bed_at(np.ascontiguousarray(bed), pts, len(pts), 1.0 / cs, b)
         d = np.maximum(self.level - b, 0.0)
-        chance = d / max(float(d.max(initial=0.0)), 1e-300)
-        rng = np.random.default_rng(seed)
-        kept = rng.random(len(pts)) < chance
-        if not kept.any():
-            return np.zeros((0, 2)), np.zeros(0)
         volume = float(self.depth0.sum()) * cs * cs  # the reservoir's own volume on the DEM
-        return pts[kept], np.full(int(kept.sum()), volume / int(kept.sum()))
+        return equal_volumes(pts, d, volume)
 
     def to_frame(self, xy) -> np.ndarray:
         """Map coordinates → the solver's cell frame (x = col·Δ, y = row·Δ, cell centres on nodes)."""
@@ -136,7 +131,7 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
         site.dem.z, hm.cell_size, np.zeros((1, 2)) + hm.cell_size, np.ones(1), spacing,
         ShallowWaterParams(**params), wall=closed, open_edges=tuple(cfg.outflow.edges), surface=site.level,
     )  # fmt: skip
-    pos, vol = site.particles(spacing, probe.bed, cfg.seed)
+    pos, vol = site.particles(spacing, probe.bed)
     if len(pos) == 0:
         raise InputError(
             f"No particle fits the reservoir at flood.spacing = {spacing:g} m; give a smaller spacing or raise "

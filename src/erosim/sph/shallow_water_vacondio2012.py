@@ -496,6 +496,26 @@ def raised_walls(
     return np.ascontiguousarray(out)
 
 
+def equal_volumes(points: np.ndarray, depth: np.ndarray, total: float) -> tuple[np.ndarray, np.ndarray]:
+    """Particles of equal volume from lattice ``points`` with water columns ``depth``: the points kept
+    with chance d/d_max by error diffusion along their order (row by row: a point is kept when the
+    running sum of chances passes the next whole number), which thins a fine lattice to a number
+    density ∝ depth without random clumps; the kept particles share ``total`` (m³) equally.
+
+    Equal volumes, so that no arrangement of particles holds potential energy the water does not:
+    with volumes ∝ depth the discrete system lowers its energy by sorting heavy particles into the
+    deep water, and a lake never comes to rest.
+    """
+    depth = np.asarray(depth, np.float64)
+    chance = depth / max(float(depth.max(initial=0.0)), 1e-300)
+    running = np.cumsum(chance)
+    kept = np.diff(np.floor(np.concatenate([[0.0], running])).astype(np.int64)) > 0
+    count = int(kept.sum())
+    if count == 0:
+        return np.zeros((0, 2)), np.zeros(0)
+    return np.ascontiguousarray(points[kept]), np.full(count, float(total) / count)
+
+
 def lattice_volume(depth, spacing: float, support: float, max_support: float = 1.5) -> np.ndarray:
     """Volumes V = κ·d·s² that give SPH depth d on a square lattice of spacing s.
 
