@@ -14,10 +14,12 @@ Every constructor here writes a **linear ramp of a signed distance** s (positive
 
     d = d_air + (d_solid − d_air) · clamp(½ + s/(2b), 0, 1),
 
-with b the ramp's half-width (``band``, default 3 cells). Inside the ramp d is linear in the
+with b the ramp's half-width (``band``, default 4 cells). Inside the ramp d is linear in the
 distance to the surface, so the distance l = (ISO − d)/|∇d| of SPEC VX-3
 (:mod:`erosim.kernels.voxel`) is exact on planes and accurate to O(Δ²κ) on curved surfaces, out to
-b from the surface on either side: b must cover the SPH kernel's support for the wall weights.
+b − √3Δ from the surface on either side (the 8 nodes around the point must lie in the ramp): that
+must cover the SPH kernel's support h for the wall weights, b ≥ h + √3Δ (the default 4Δ does for
+voxels no coarser than the particle spacing at h = 2Δx).
 
 * from a **heightmap** (:meth:`VoxelTerrain.from_heightmap`, any :class:`~erosim.core.heightmap.Heightmap`):
   s = (z_g(x, y) − z)·n_z, the distance to the tangent plane of the bilinearly resampled ground
@@ -65,7 +67,7 @@ from erosim.kernels.raster import bilinear_points
 #: bytes per node of the density field (float32)
 BYTES_PER_NODE = 4
 #: default half-width of the density ramp, in cells
-BAND_CELLS = 3.0
+BAND_CELLS = 4.0
 #: default largest field a heightmap may be turned into (bytes)
 MAX_BYTES = 4 * 2**30
 _SLAB = 1 << 21  # nodes per evaluation block of a constructor
