@@ -74,7 +74,7 @@ def test_water_at_rest_in_a_voxel_tank():
 
 
 def test_no_particle_ends_inside_after_an_impact():
-    """A block of water thrown at 3 m/s down onto the 45° wall and the bowl: after every step no particle
+    """A block of water thrown at 2.8 m/s, (2, 0, −2), onto the 45° wall and the bowl: after every step no particle
     is inside the solid, and none has left through it (all stay above the bowl's bottom)."""
     dx = 0.01
     vt = tank(dx)
