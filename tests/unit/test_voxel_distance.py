@@ -69,3 +69,13 @@ def test_far_from_any_surface_and_outside_the_grid():
     l, n = _query(vt, np.array([[0.5, 0.5, 0.95], [0.5, 0.5, 0.05], [-3.0, 0.5, 0.55]]))
     assert l[0] == FAR and l[1] == -FAR and n[0].tolist() == [0.0, 0.0, 1.0]
     assert l[2] == pytest.approx(0.05, abs=1e-6)  # beyond the grid the edge continues: same plane
+
+
+def test_terrain_distance_and_fluid_points():
+    """The terrain's own helpers: l and n of points, and a lattice filling its hollow at Δx/2 from the walls."""
+    floor = VoxelTerrain.from_shapes(HalfSpace((0, 0, 0.3), (0, 0, 1)), (0, 0, 0), (1, 1, 1), 0.05)
+    l, n = floor.distance([[0.5, 0.5, 0.35], [0.5, 0.5, 0.28]])
+    assert l == pytest.approx([0.05, -0.02], abs=1e-6) and n[:, 2] == pytest.approx([1.0, 1.0])
+    pts = floor.fluid_points(0.1, below=0.6)
+    assert pts[:, 2].min() == pytest.approx(0.35) and pts[:, 2].max() == pytest.approx(0.55)
+    assert len(pts) == 10 * 10 * 3

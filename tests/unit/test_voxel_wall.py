@@ -1,14 +1,12 @@
 """The voxel terrain as a particle-free wall (VX-3, VX-4): water at rest in a voxel tank with a 45° wall
 and a spherical bowl, an impact, and the checks made when the wall is bound."""
 
-import math
 import time
 
 import numpy as np
 import pytest
 
 from erosim.core.errors import ConfigError
-from erosim.kernels.voxel import wall_distance
 from erosim.sph.boundaries.voxel_wall import VoxelWall
 from erosim.sph.params import SPHParams
 from erosim.sph.solver import SPHSolver
@@ -28,12 +26,7 @@ def tank(cell: float) -> VoxelTerrain:
 
 def fill(vt: VoxelTerrain, dx: float, top: float) -> np.ndarray:
     """Lattice points (k + ½)Δx below ``top`` at least Δx/2 from the solid."""
-    axes = [(np.arange(math.floor(a / dx), math.ceil(b / dx)) + 0.5) * dx for a, b in zip(vt.lo, vt.hi, strict=True)]
-    pts = np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)
-    pts = np.ascontiguousarray(pts[pts[:, 2] < top])
-    l, n = np.empty(len(pts)), np.empty((len(pts), 3))
-    wall_distance(vt.density, *vt.origin, 1.0 / vt.cell_size, vt.iso, pts, len(pts), l, n)
-    return pts[l >= 0.5 * dx]
+    return vt.fluid_points(dx, below=top)
 
 
 def test_water_at_rest_in_a_voxel_tank():

@@ -289,6 +289,33 @@ class VoxelTerrain:
         """A terrain on this grid (origin, cell size, iso, range, band) with another field."""
         return VoxelTerrain(density, self.cell_size, self.origin, self.iso, self.value_range, self.band)
 
+    def distance(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """(l, n) at ``points`` (m, 3): the distance to the surface (m, positive outside the solid) and the
+        unit normal pointing out of it (SPEC VX-3, :mod:`erosim.kernels.voxel`)."""
+        from erosim.kernels.voxel import wall_distance
+
+        pts = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
+        l, n = np.empty(len(pts)), np.empty((len(pts), 3))
+        ox, oy, oz = self.origin
+        wall_distance(self.density, ox, oy, oz, 1.0 / self.cell_size, self.iso, pts, len(pts), l, n)
+        return l, n
+
+    def fluid_points(self, spacing: float, lo=None, hi=None, *, below: float | None = None,
+                     clearance: float = 0.5) -> np.ndarray:  # fmt: skip
+        """Lattice points ((k + ½)·Δx on each axis) in the box ``lo``–``hi`` (default: the grid), under the
+        height ``below`` if given, at least ``clearance``·Δx outside the solid: a fluid filling the terrain's
+        hollows, as the SPH solver's initial positions."""
+        dx = float(spacing)
+        lo = self.lo if lo is None else np.asarray(lo, np.float64)
+        hi = self.hi if hi is None else np.asarray(hi, np.float64)
+        axes = [(np.arange(math.ceil(a / dx - 0.5), math.floor(b / dx - 0.5) + 1) + 0.5) * dx
+                for a, b in zip(lo, hi, strict=True)]  # fmt: skip
+        pts = np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)
+        if below is not None:
+            pts = pts[pts[:, 2] < below]
+        l, _ = self.distance(pts)
+        return np.ascontiguousarray(pts[l >= clearance * dx])
+
     # ---------------------------------------------------------------- constructors
 
     @classmethod
