@@ -54,6 +54,9 @@ def test_bad_inputs_give_one_sentence():
         VoxelTerrain.from_heightmap(hm, 0.05, max_bytes=2**30)
     msg = str(err.value)
     assert "more than the 1 GiB allowed" in msg and "use voxels of at least" in msg and msg.count(". ") == 0
+    too_big = r"0\.0303 GiB, more than the 0\.000977 GiB allowed; use voxels of at least 0\.0314 m"
+    with pytest.raises(ConfigError, match=too_big):
+        VoxelTerrain.from_shapes(Sphere((0, 0, 0), 1.0), (-1, -1, -1), (1, 1, 1), 0.01, max_bytes=2**20)
 
 
 def test_heightmap_surface_is_the_dem_on_a_plane():

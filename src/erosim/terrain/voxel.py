@@ -320,9 +320,11 @@ class VoxelTerrain:
 
     @classmethod
     def from_sdf(cls, sdf, lo, hi, cell_size: float, *, band: float | None = None, iso: float | None = None,
-                 value_range: tuple[float, float] = (0.0, 1.0)) -> VoxelTerrain:  # fmt: skip
+                 value_range: tuple[float, float] = (0.0, 1.0),
+                 max_bytes: int = MAX_BYTES) -> VoxelTerrain:  # fmt: skip
         """The ramp of ``sdf(x, y, z)`` (signed distance in m, **negative inside** the solid; a shape's
-        ``.sdf`` or any function on broadcast arrays) on the nodes from ``lo`` to ``hi`` (m)."""
+        ``.sdf`` or any function on broadcast arrays) on the nodes from ``lo`` to ``hi`` (m); refused when
+        the field would need more than ``max_bytes``."""
         cs = float(cell_size)
         if not (math.isfinite(cs) and cs > 0):
             raise ConfigError(f"Voxel cell size {cell_size!r} is not valid; give a positive number of metres.")
@@ -332,6 +334,14 @@ class VoxelTerrain:
         if np.any(n < 2):
             raise ConfigError(f"The voxel box {lo.tolist()}–{hi.tolist()} holds fewer than 2 nodes per axis at "
                               f"{cs:g} m cells; enlarge it or use smaller cells.")  # fmt: skip
+        need = memory_bytes(int(np.prod(n)))
+        if need > max_bytes:
+            fit = cs * (need / max_bytes) ** (1 / 3)
+            raise ConfigError(
+                f"A voxel box of {n[0]}x{n[1]}x{n[2]} nodes at {cs:g} m needs {need / 2**30:.3g} GiB, more than the "
+                f"{max_bytes / 2**30:.3g} GiB allowed; use voxels of at least {fit:.3g} m "
+                "or a smaller box."
+            )
         band = BAND_CELLS * cs if band is None else float(band)
         vr = (float(value_range[0]), float(value_range[1]))
         _ranges(np.zeros(1), iso, vr)
