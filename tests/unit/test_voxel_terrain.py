@@ -72,7 +72,8 @@ def test_heightmap_surface_is_the_dem_on_a_plane():
     vt = VoxelTerrain.from_heightmap(hm, 0.25)
     assert vt.band == pytest.approx(1.0)
     xs, ys, _ = vt.axes()
-    want = 0.3 * (xs[None, :] - cs / 2) + 0.1 * (ys[:, None] - cs / 2) + 2.0
+    assert vt.origin[:2] == (0.0, 0.0)  # the south-west cell's centre, as the SPH frame of sph-terrain
+    want = 0.3 * xs[None, :] + 0.1 * ys[:, None] + 2.0
     assert np.abs(_surface_heights(vt) - want).max() < 1e-6
 
 

@@ -377,8 +377,8 @@ class VoxelTerrain:
                        top: float | None = None, band: float | None = None, iso: float | None = None,
                        value_range: tuple[float, float] = (0.0, 1.0),
                        max_bytes: int = MAX_BYTES) -> VoxelTerrain:  # fmt: skip
-        """The ground of a DEM as voxels: nodes over the DEM's cell centres (x east from the first
-        column's centre, y north from the last row's centre, as the SPH frame), from ``bottom``
+        """The ground of a DEM as voxels: nodes over the DEM's cell centres, x east and y north from the
+        south-west cell's centre at (0, 0) (the SPH frame of the sph-terrain kind's raster), from ``bottom``
         (default: the lowest ground − b − 2Δ) to ``top`` (default: the highest ground + b + 2Δ); the
         signed distance to the tangent plane of the bilinearly resampled ground (module docstring).
         Refused (one sentence) when the field would need more than ``max_bytes``."""
@@ -418,8 +418,7 @@ class VoxelTerrain:
         dens = np.empty((nz, ny, nx), np.float32)
         for k, zk in enumerate(zs):
             dens[k] = ramp((zg - zk) * nzc, band, vr)
-        x0 = hm.cell_size / 2
-        return cls(dens, cs, (x0, x0, bottom), iso, vr, band)
+        return cls(dens, cs, (0.0, 0.0, bottom), iso, vr, band)
 
     @classmethod
     def from_noise(cls, lo, hi, cell_size: float, *, wavelength: float, threshold: float = 0.0, seed: int = 0,
