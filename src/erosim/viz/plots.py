@@ -298,3 +298,24 @@ def change_figure(path, change: np.ndarray, cell_size: float, title: str, extent
     top = float(np.percentile(finite, 99)) if finite.size and finite.max() > 0 else 1.0
     bar = {"cmap": "RdBu", "vmin": -top, "vmax": top, "label": "deposition (+) / erosion (−) (m)"}
     return map_figure(path, np.asarray(change, dtype=np.float64), cell_size, title, colorbar=bar, extent=extent)
+
+
+def voxel_section(path, field: np.ndarray, extent, iso: float, *, labels=("x (m)", "z (m)"), title: str = "",
+                  reference: np.ndarray | None = None, value_range=(0.0, 1.0)) -> Path:  # fmt: skip
+    """A cross-section of a voxel density field: ``field`` (rows along the vertical axis, from ``extent``'s
+    v0 to v1) shaded from air to solid, its iso-line solid, ``reference``'s (an earlier field) dashed."""
+    h0, h1, v0, v1 = (float(e) for e in extent)
+    fig, ax = plt.subplots(figsize=(8.0, max(2.5, 8.0 * (v1 - v0) / max(h1 - h0, 1e-12) + 1.0)))
+    ax.imshow(field, origin="lower", extent=(h0, h1, v0, v1), cmap="copper_r", vmin=value_range[0],
+              vmax=value_range[1], interpolation="bilinear", aspect="equal")  # fmt: skip
+    hs = np.linspace(h0, h1, field.shape[1])
+    vs = np.linspace(v0, v1, field.shape[0])
+    if field.min() < iso < field.max():
+        ax.contour(hs, vs, field, levels=[iso], colors="k", linewidths=1.2)
+    if reference is not None and reference.min() < iso < reference.max():
+        ax.contour(hs, vs, reference, levels=[iso], colors="tab:blue", linewidths=1.0, linestyles="--")
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    ax.set_title(title or "voxel terrain section (solid shaded; surface line, earlier surface dashed)")
+    fig.tight_layout()
+    return _save(fig, path)

@@ -6,7 +6,8 @@ A subclass gives three Numba passes over the fluid particles — ``_density_pass
 density: ρ += Z(l)), ``_forces_pass`` (pressure, viscosity and continuity terms) and
 ``_constrain_pass`` (a particle found inside the solid is put back on its surface and loses the
 velocity that points into it) — and the arguments that locate its wall (``_geometry()``). This
-class bakes the curves for the solver's kernel, spacing and viscosity when it is bound, and
+class bakes the curves for the solver's kernel, spacing and viscosity when it is bound (or reads
+them from the on-disk cache, :func:`~erosim.sph.boundaries.wall_weight_harada2007.bake_cached`), and
 wires the passes to the solver's hooks.
 """
 
@@ -15,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from erosim.sph.boundaries.base import Boundary
-from erosim.sph.boundaries.wall_weight_harada2007 import bake
+from erosim.sph.boundaries.wall_weight_harada2007 import bake_cached
 
 #: a particle put back on a wall sits this fraction of Δx above it
 GAP = 1e-3
@@ -28,7 +29,7 @@ class DistanceWall(Boundary):
 
     def bind(self, solver) -> None:
         prm = solver.params
-        self.curves = bake(prm.kernel, solver.dim, prm.spacing, solver.h, prm.rho0, prm.viscosity)
+        self.curves = bake_cached(prm.kernel, solver.dim, prm.spacing, solver.h, prm.rho0, prm.viscosity)
         self.m = solver.m
         self.gvec = np.asarray(solver.g, np.float64)
         self.wcsph = prm.pressure_form == "wcsph"

@@ -30,6 +30,15 @@ with ∇_i W_iw = f(r) r_iw (f < 0, so G, H < 0 and the pressure pushes out of t
 are averaged over the particle's position across one lattice cell of the wall, which makes the
 curves smooth and the tangential sums exact halves of the full ones.
 
+The curves depend on the wall only through l, so any distance source uses them: the heightfield
+ground (l and n in closed form), plane walls, an analytic shape, or a voxel density field
+(:mod:`erosim.sph.boundaries.voxel_wall`, l = (ISO − d)/|∇d|). Baking takes about a second in 3-D;
+:func:`bake_cached` keeps the curves on disk, ``~/.cache/erosim/wall_weights/<key>.npz``
+(``$XDG_CACHE_HOME`` honoured), keyed by the kernel, dimension, spacing, support, ρ₀, viscosity
+form, the table's resolution and a hash of the sources that compute them (this module and
+:mod:`erosim.kernels.sph_kernels`), so a changed kernel is baked again; a cache that cannot be read
+or written is ignored (the curves are baked).
+
 Why not SPlisHSPlasH's volume/density maps: those sample a signed-distance field of a mesh on a
 3-D grid; a heightfield or a voxel density field already is such a field (the heightfield gives l
 and n in closed form), so the flat-wall curves are all that is needed here.
@@ -37,12 +46,17 @@ and n in closed form), so the flat-wall curves are all that is needed here.
 
 from __future__ import annotations
 
+import hashlib
 import math
+import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numba import njit
 
+from erosim.core.atomic import save_npz
+from erosim.kernels import sph_kernels
 from erosim.kernels.sph_kernels import kernel_f, kernel_lap, kernel_w
 
 # rows of WallCurves.table
@@ -110,6 +124,46 @@ def bake(kernel: str, dim: int, spacing: float, support: float, rho0: float, vis
                 acc[VTN] += (fr * x * nz / den)[ahead].sum()
         table[:, k] = acc / len(lateral_pts)
     return WallCurves(table=table, dl=ls[1] - ls[0], support=support, approach_only=viscosity != "laminar")
+
+
+def _sources_hash() -> str:
+    digest = hashlib.sha256()
+    for mod in (__file__, sph_kernels.__file__):
+        digest.update(Path(mod).read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def cache_dir() -> Path:
+    """Where :func:`bake_cached` keeps curves: ``$XDG_CACHE_HOME/erosim/wall_weights`` (default ``~/.cache``)."""
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "erosim" / "wall_weights"
+
+
+def cache_key(kernel: str, dim: int, spacing: float, support: float, rho0: float, viscosity: str, n: int = 256,
+              lateral: int = 4) -> str:  # fmt: skip
+    """The file stem of these curves in the cache (readable parameters, then a hash of them and the sources)."""
+    spec = f"{kernel}|{dim}|{float(spacing)!r}|{float(support)!r}|{float(rho0)!r}|{viscosity}|{n}|{lateral}"
+    digest = hashlib.sha256((spec + "|" + _sources_hash()).encode()).hexdigest()[:20]
+    return f"{kernel}-{dim}d-{viscosity}-{digest}"
+
+
+def bake_cached(kernel: str, dim: int, spacing: float, support: float, rho0: float, viscosity: str, *,
+                n: int = 256, lateral: int = 4, folder: str | os.PathLike | None = None) -> WallCurves:  # fmt: skip
+    """:func:`bake`'s curves, read from the cache ``folder`` (default :func:`cache_dir`) when baked before
+    with the same key (:func:`cache_key`), else baked and stored there; identical to :func:`bake`."""
+    key = cache_key(kernel, dim, spacing, support, rho0, viscosity, n, lateral)
+    path = Path(folder or cache_dir()) / f"{key}.npz"
+    try:
+        with np.load(path) as f:
+            return WallCurves(table=f["table"].copy(), dl=float(f["dl"]), support=float(f["support"]),
+                              approach_only=bool(f["approach_only"]))  # fmt: skip
+    except (OSError, KeyError, ValueError):
+        pass
+    curves = bake(kernel, dim, spacing, support, rho0, viscosity, n=n, lateral=lateral)
+    try:
+        save_npz(path, table=curves.table, dl=curves.dl, support=curves.support, approach_only=curves.approach_only)
+    except OSError:  # a read-only or full disk: the curves are baked each time
+        pass
+    return curves
 
 
 @njit(inline="always", cache=True)

@@ -1,0 +1,159 @@
+"""Shear-stress erosion of a voxel terrain (VX-6, Krištof et al. 2009) on scripted particles."""
+
+import math
+
+import numpy as np
+import pytest
+
+from erosim.core.increments import check_budget
+from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
+from erosim.terrain.voxel import VoxelTerrain
+
+H_SUPPORT = 0.02  # kernel support h (m) of the scripted fluid
+
+
+def _block(value=0.8, n=(9, 9, 9), cell=0.01):
+    """A field of uniform density ``value`` on n nodes (z, y, x) of ``cell`` metres from the origin."""
+    return VoxelTerrain(np.full(n, value, np.float32), cell)
+
+
+def _one(terrain, params, pos, vel, wall_l):
+    e = ShearStressErosion(terrain, params, support=H_SUPPORT)
+    return e, e.rates(np.array([pos], float), np.array([vel], float), np.array([wall_l], float))
+
+
+def test_theta_power_law_at_one_grid_point():
+    """One particle 1.5 cm from the node at the grid's centre, moving across r̂ (all of its speed is
+    shear) with l = 0.3 cm from the wall: θ = |v|/(r − min(l, 0.4h)) and the rate K θⁿ − τ_c exactly;
+    doubling the speed multiplies θⁿ by 2ⁿ; a particle moving along r̂ shears nothing."""
+    vt = _block()
+    node = np.array([0.04, 0.04, 0.04])
+    pos = node + [0.0, 0.0, 0.015]
+    p = ShearStressParams(tau_c=0.0, radius=0.02)
+    for speed in (0.5, 1.0, 2.0):
+        e, r = _one(vt, p, pos, [speed, 0.0, 0.0], 0.003)
+        theta = speed / (0.015 - 0.003)
+        assert r[4, 4, 4] == pytest.approx(theta**0.5, rel=1e-12)
+    e, r2 = _one(vt, p, pos, [0.0, 0.0, 2.0], 0.003)
+    assert r2[4, 4, 4] == 0.0
+    # the correction is capped at 0.4 h and θ's distance floored at l_min = 0.4 h
+    e, r3 = _one(vt, p, node + [0.0, 0.0, 0.01], [1.0, 0.0, 0.0], 0.05)
+    assert r3[4, 4, 4] == pytest.approx((1.0 / max(0.01 - 0.4 * H_SUPPORT, 0.4 * H_SUPPORT)) ** 0.5)
+    # n = 1: linear in θ
+    e, r4 = _one(vt, ShearStressParams(tau_c=0.0, n=1.0, radius=0.02), pos, [1.0, 0.0, 0.0], 0.003)
+    assert r4[4, 4, 4] == pytest.approx(1.0 / 0.012)
+
+
+def test_nothing_below_the_critical_stress():
+    """A particle at 1 m/s across the nodes half a cell (5 mm) below it: their distance is floored at
+    l_min = 0.4h = 8 mm, θⁿ = √(1/0.008) = 11.18 s^-½ at most: τ_c = 11.2 erodes nothing, τ_c = 11.1 erodes."""
+    vt = _block()
+    pos = np.array([[0.04, 0.04, 0.055]])
+    vel = np.array([[1.0, 0.0, 0.0]])
+    none = ShearStressErosion(vt, ShearStressParams(tau_c=11.2, radius=0.02), support=H_SUPPORT)
+    assert not none.rates(pos, vel, np.array([0.003])).any()
+    inc = none.increments(pos, vel, 10.0, np.array([0.003]))
+    assert not inc.dz.any() and inc.carried_off == 0.0 and not none.pending.any()
+    some = ShearStressErosion(vt, ShearStressParams(tau_c=11.1, radius=0.02), support=H_SUPPORT)
+    assert some.rates(pos, vel, np.array([0.003])).max() == pytest.approx(math.sqrt(1 / 0.008) - 11.1)
+    still = ShearStressErosion(vt, ShearStressParams(tau_c=0.0), support=H_SUPPORT)
+    assert not still.rates(pos, np.zeros((1, 3)), np.array([0.003])).any()  # water at rest
+
+
+def test_quantised_transfer_keeps_the_total():
+    """Many calls each eroding less than one quantum: nothing moves at first, then whole quanta; after
+    every call Σ accumulated = removed + pending (+ unmet, 0 here) to float64 rounding (1e-12 relative),
+    each node's change is a whole number of quanta but for float32 rounding (6e-8 on a quantum of 3.9e-3:
+    1.5e-5 of a quantum; asserted 1e-4), and the increments close the eroder contract's budget."""
+    vt = _block(value=0.9)
+    rng = np.random.default_rng(5)
+    pos = np.column_stack([rng.uniform(0.01, 0.07, 40), rng.uniform(0.01, 0.07, 40), rng.uniform(0.01, 0.07, 40)])
+    vel = rng.normal(size=(40, 3))
+    wl = rng.uniform(0.0, 0.01, 40)
+    p = ShearStressParams(k_eps=0.02, tau_c=1.0)
+    e = ShearStressErosion(vt, p, support=H_SUPPORT)
+    per_call = e.rates(pos, vel, wl) * p.k_eps * 1e-3  # solid fraction per call of dt = 1 ms
+    assert 0 < per_call.max() < p.quantum  # less than a quantum a call
+    asked = 0.0
+    first = None
+    for call in range(400):
+        inc = e.increments(pos, vel, 1e-3, wl)
+        check_budget(inc, vt.shape, vt.volume_per_unit, "shear stress")
+        vt.density[...] = vt.density + inc.dz  # the caller's step (float64 sum, exact back in float32)
+        asked += per_call.sum() * vt.cell_size**3
+        if first is None and inc.carried_off > 0:
+            first = call
+        steps = -inc.dz / e.quantum
+        assert np.abs(steps - np.round(steps)).max() < 1e-4
+        assert e.removed_total + e.pending_volume() + e.unmet_total == pytest.approx(asked, rel=1e-12)
+    assert first is not None and first > 0
+    assert e.unmet_total == 0.0
+    assert 0.9 * vt.cell_size**3 * vt.density.size - vt.solid_volume() == pytest.approx(e.removed_total, rel=1e-6)
+
+
+def test_non_erodible_base_and_empty_nodes():
+    """Nodes below ``non_erodible_below`` keep their density; an eroded node stops at d_air and the
+    erosion it could not take is counted as unmet."""
+    vt = _block(value=0.05)
+    pos = np.array([[0.04, 0.04, 0.04]])
+    vel = np.array([[3.0, 0.0, 0.0]])
+    p = ShearStressParams(k_eps=100.0, tau_c=0.0, radius=0.03, non_erodible_below=0.035)
+    e = ShearStressErosion(vt, p, support=H_SUPPORT)
+    inc = e.increments(pos, vel, 1.0, np.array([0.0]))
+    z = vt.axes()[2]
+    below = z < 0.035
+    assert not inc.dz[below].any() and inc.dz[~below].min() < 0
+    new = vt.density + inc.dz
+    assert new.min() >= 0.0 and np.isclose(new[~below].min(), 0.0)
+    assert e.unmet_total > 0 and e.pending_volume() == 0.0
+    assert e.removed_total == pytest.approx(-inc.dz.sum() * vt.volume_per_unit)
+
+
+def test_state_dict_resumes_identically():
+    vt1, vt2 = _block(), _block()
+    rng = np.random.default_rng(7)
+    pos = rng.uniform(0.01, 0.07, (30, 3))
+    vel = rng.normal(size=(30, 3))
+    p = ShearStressParams(k_eps=0.05, tau_c=2.0)
+    a = ShearStressErosion(vt1, p, support=H_SUPPORT)
+    for _ in range(3):
+        vt1.density += a.increments(pos, vel, 0.01).dz.astype(np.float32)
+    b = ShearStressErosion(vt2, p, support=H_SUPPORT)
+    vt2.density[...] = vt1.density
+    b.load_state_dict(a.state_dict())
+    assert np.array_equal(a.increments(pos, vel, 0.01).dz, b.increments(pos, vel, 0.01).dz)
+
+
+def test_water_scours_a_voxel_floor_through_the_wall_and_the_contract():
+    """A sheet of water sliding at 1 m/s over a voxel floor (1 cm voxels, Δx = 1 cm): eroded every 50
+    steps, the increments close the budget, the field loses exactly the removed volume, nothing below
+    the non-erodible level changes, and after each refresh no particle is inside the solid."""
+    from erosim.sph.boundaries.voxel_wall import VoxelWall
+    from erosim.sph.params import SPHParams
+    from erosim.sph.solver import SPHSolver
+    from erosim.terrain.voxel import HalfSpace
+
+    dx = 0.01
+    vt = VoxelTerrain.from_shapes(HalfSpace((0, 0, 0.05), (0, 0, 1)), (0, 0, 0), (0.3, 0.1, 0.12), dx)
+    g = np.meshgrid((np.arange(20) + 0.5) * dx, (np.arange(10) + 0.5) * dx, 0.05 + (np.arange(3) + 0.5) * dx,
+                    indexing="ij")  # fmt: skip
+    fluid = np.stack([a.ravel() for a in g], axis=1)
+    wall = VoxelWall(vt)
+    s = SPHSolver(SPHParams(dim=3, spacing=dx, walls="reflect"), fluid, fluid_vel=np.tile([1.0, 0, 0], (len(fluid), 1)),
+                  domain_lo=vt.lo, domain_hi=vt.hi, boundaries=[wall])  # fmt: skip
+    e = ShearStressErosion(vt, ShearStressParams(k_eps=0.05, tau_c=2.0, non_erodible_below=0.03), support=s.h)
+    v0 = vt.solid_volume()
+    base = vt.density[vt.axes()[2] < 0.03].copy()
+    t_last = 0.0
+    while s.t < 0.1:
+        s.step()
+        if s.steps % e.params.every == 0:
+            inc = e.step(s, s.t - t_last)
+            t_last = s.t
+            check_budget(inc, vt.shape, vt.volume_per_unit, "shear stress")
+            vt.density[...] = vt.density + inc.dz
+            wall.refresh(s, terrain=vt.density)
+            assert wall.inside(s) == 0
+    assert e.removed_total > 0
+    assert v0 - vt.solid_volume() == pytest.approx(e.removed_total, rel=1e-9)  # float64 sums of 4e4 nodes
+    assert np.array_equal(vt.density[vt.axes()[2] < 0.03], base)
