@@ -271,6 +271,7 @@ VALIDATION_CASES = {
     "spheric2": "erosim.validation.spheric2:run",
     "swe-dam-break": "erosim.validation.swe_dam_break:run",
     "thacker": "erosim.validation.thacker:run",
+    "lake-at-rest": "erosim.validation.lake_at_rest:run",
 }
 
 

@@ -75,8 +75,9 @@ class FloodSetUp:
         the deep water, and a lake never comes to rest). Their number density follows the depth: the
         points of a fine lattice (spacing s·√(d̄/d_max)) are kept with chance d/d_max
         (:func:`~erosim.sph.shallow_water_vacondio2012.equal_volumes`), so the spacing is ``spacing``
-        where the depth is the mean depth d̄. The column d is the level minus ``bed`` (the C¹ surface the solver feels, walls
-        raised); the particles share the reservoir's volume on the DEM, Σ (level − z)·Δ², exactly.
+        where the depth is the mean depth d̄. The column d is the level minus ``bed`` (the C¹ surface
+        the solver feels, walls raised); the particles share the reservoir's volume on the DEM,
+        Σ (level − z)·Δ², exactly.
         """
         from erosim.kernels.swe_sph import bed_at
 
