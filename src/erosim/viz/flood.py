@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from erosim.core.heightmap import Heightmap  # noqa: E402
-from erosim.viz.plots import _save, _scale_bar, extent_of  # noqa: E402
+from erosim.viz.plots import _save, _scale_bar, axis_labels, extent_of, map_units  # noqa: E402
 
 #: (class, colour, meaning) of FL-3, H1 … H6 (the meanings are erosim.analysis.hazard.HAZARD_MEANING's)
 HAZARD_LEGEND: tuple[tuple[str, str, str], ...] = (
@@ -39,30 +39,30 @@ HAZARD_LEGEND: tuple[tuple[str, str, str], ...] = (
 )
 
 
-def _frame(hm: Heightmap) -> tuple[tuple, bool, np.ndarray]:
-    """(extent shown, in km?, hillshade RGBA with nodata white) of the DEM."""
+def _frame(hm: Heightmap) -> tuple[tuple, tuple, np.ndarray]:
+    """(extent shown, (km?, geographic?, map units per metre), hillshade RGBA with nodata white) of the DEM."""
     from erosim.viz.maps import hillshade
 
     x0, x1, y0, y1 = extent_of(hm.transform, hm.shape, hm.cell_size)
-    km = (x1 - x0) > 5000.0
+    per_metre, geographic = map_units((x0, x1, y0, y1), hm.shape[1], hm.cell_size)
+    km = (x1 - x0) > 5000.0 and not geographic
     f = 1e-3 if km else 1.0
     shade = 0.35 + 0.65 * hillshade(hm.z, hm.cell_size)
     rgba = np.dstack([shade, shade, shade, np.ones_like(shade)])
     if hm.nodata is not None:
         rgba[hm.nodata] = 1.0
-    return (x0 * f, x1 * f, y0 * f, y1 * f), km, rgba
+    return (x0 * f, x1 * f, y0 * f, y1 * f), (km, geographic, per_metre), rgba
 
 
-def _axes_labels(ax, shown: tuple, km: bool, title: str) -> None:
+def _axes_labels(ax, shown: tuple, units: tuple, title: str) -> None:
     from matplotlib.ticker import MaxNLocator
 
-    _scale_bar(ax, shown, km)
+    km, geographic, per_metre = units
+    _scale_bar(ax, shown, km, per_metre)
     ax.ticklabel_format(useOffset=False, style="plain")  # whole map coordinates, not an offset
     ax.xaxis.set_major_locator(MaxNLocator(4))
     ax.yaxis.set_major_locator(MaxNLocator(5))
-    unit = "km" if km else "m"
-    ax.set_xlabel(f"x ({unit})")
-    ax.set_ylabel(f"y ({unit})")
+    axis_labels(ax, geographic, km)
     ax.set_title(title)
 
 
@@ -72,7 +72,7 @@ def plot_flood_maps(out_png: str | os.PathLike, hm: Heightmap, hazard_maps, titl
     arrays ``max_depth``, ``max_speed``, ``max_dv`` on the DEM's grid); never-wet cells show the terrain."""
     from matplotlib.ticker import MaxNLocator
 
-    shown, km, base = _frame(hm)
+    shown, units, base = _frame(hm)
     wet = np.asarray(hazard_maps.max_depth) > 0
     if hm.nodata is not None:
         wet &= ~hm.nodata
@@ -92,7 +92,7 @@ def plot_flood_maps(out_png: str | os.PathLike, hm: Heightmap, hazard_maps, titl
         im = ax.imshow(shown_v, extent=shown, cmap=cmap, vmin=0.0, vmax=top, alpha=0.9, interpolation="nearest")
         more = wet.any() and float(v[wet].max()) > top
         fig.colorbar(im, ax=ax, label=label, shrink=0.8, pad=0.07, extend="max" if more else "neither")
-        _axes_labels(ax, shown, km, name)
+        _axes_labels(ax, shown, units, name)
         ax.xaxis.set_major_locator(MaxNLocator(3))  # three panels side by side: room for long coordinates
     if title:
         fig.suptitle(title)
@@ -107,7 +107,7 @@ def plot_hazard(out_png: str | os.PathLike, hm: Heightmap, classes: np.ndarray, 
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
 
-    shown, km, base = _frame(hm)
+    shown, units, base = _frame(hm)
     c = np.asarray(classes)
     cmap = ListedColormap([colour for _, colour, _ in HAZARD_LEGEND])
     ny, nx = hm.shape
@@ -118,7 +118,7 @@ def plot_hazard(out_png: str | os.PathLike, hm: Heightmap, classes: np.ndarray, 
     ax.imshow(base, extent=shown, interpolation="nearest")
     ax.imshow(np.ma.masked_where(c == 0, c), extent=shown, cmap=cmap, vmin=0.5, vmax=6.5, alpha=0.9,
               interpolation="nearest")  # fmt: skip
-    _axes_labels(ax, shown, km, title or "Flood hazard (AIDR 2017 / FB03)")
+    _axes_labels(ax, shown, units, title or "Flood hazard (AIDR 2017 / FB03)")
     side = fig.add_subplot(grid[1])
     side.axis("off")
     handles = [

@@ -218,16 +218,41 @@ def _nice_length(span: float) -> float:
     return float(min((1.0, 2.0, 5.0, 10.0), key=lambda f: abs(f * k - target)) * k)
 
 
-def _scale_bar(ax, extent: tuple, km: bool) -> None:
+def _scale_bar(ax, extent: tuple, km: bool, per_metre: float = 1.0) -> None:
+    """A black-and-white bar of a round length in metres; ``per_metre`` map units per metre (1 for a
+    projected map, about 1e-5 for degrees), so a geographic map's bar is still in metres."""
     x0, x1, y0, y1 = extent
-    length = _nice_length(x1 - x0)
-    label = f"{length:g} km" if km else (f"{length / 1000:g} km" if length >= 1000 else f"{length:g} m")
+    if per_metre != 1.0:
+        metres = _nice_length((x1 - x0) / per_metre)
+        length = metres * per_metre
+        label = f"{metres / 1000:g} km" if metres >= 1000 else f"{metres:g} m"
+    else:
+        length = _nice_length(x1 - x0)
+        label = f"{length:g} km" if km else (f"{length / 1000:g} km" if length >= 1000 else f"{length:g} m")
     px, py = x0 + 0.05 * (x1 - x0), y0 + 0.05 * (y1 - y0)
     height = 0.012 * (y1 - y0)
     ax.add_patch(plt.Rectangle((px, py), length, height, color="black", zorder=5))
     ax.add_patch(plt.Rectangle((px + length / 2, py), length / 2, height, color="white", ec="black", lw=0.5, zorder=6))
     ax.text(px + length / 2, py + 2.5 * height, label, ha="center", va="bottom", fontsize=9, zorder=6,
             bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "none", "alpha": 0.8})  # fmt: skip
+
+
+def map_units(extent: tuple, nx: int, cell_size: float) -> tuple[float, bool]:
+    """(map units per metre, geographic?) of a map ``nx`` cells of ``cell_size`` m wide over ``extent``:
+    a DEM in degrees spans about 1e-5 units per metre; its axes are then longitude and latitude."""
+    per_metre = (extent[1] - extent[0]) / (nx * cell_size)
+    geographic = not 0.5 < per_metre < 2.0
+    return (per_metre if geographic else 1.0), geographic
+
+
+def axis_labels(ax, geographic: bool, km: bool) -> None:
+    if geographic:
+        ax.set_xlabel("longitude (°)")
+        ax.set_ylabel("latitude (°)")
+    else:
+        unit = "km" if km else "m"
+        ax.set_xlabel(f"x ({unit})")
+        ax.set_ylabel(f"y ({unit})")
 
 
 def extent_of(transform: tuple | None, shape: tuple[int, int], cell_size: float) -> tuple:
@@ -257,7 +282,8 @@ def map_figure(
 
     ny, nx = picture.shape[:2]
     x0, x1, y0, y1 = extent or extent_of(None, (ny, nx), cell_size)
-    km = (x1 - x0) > 5000.0
+    per_metre, geographic = map_units((x0, x1, y0, y1), nx, cell_size)
+    km = (x1 - x0) > 5000.0 and not geographic
     f = 1e-3 if km else 1.0
     fig, ax = plt.subplots(figsize=(7.2, 6.4 * ny / nx + 0.6 if nx >= ny else 7.2))
     shown = (x0 * f, x1 * f, y0 * f, y1 * f)
@@ -271,13 +297,11 @@ def map_figure(
             norm = matplotlib.colors.Normalize(colorbar.get("vmin", 0.0), colorbar.get("vmax", 1.0))
             sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=colorbar["cmap"])
             fig.colorbar(sm, ax=ax, label=colorbar["label"], shrink=0.85)
-    _scale_bar(ax, shown, km)
+    _scale_bar(ax, shown, km, per_metre)
     if legend:
         handles = [Patch(facecolor=tuple(np.clip(c, 0, 1)), edgecolor="black", lw=0.5, label=t) for t, c in legend]
         ax.legend(handles=handles, loc="upper right", fontsize=9, framealpha=0.85)
-    unit = "km" if km else "m"
-    ax.set_xlabel(f"x ({unit})")
-    ax.set_ylabel(f"y ({unit})")
+    axis_labels(ax, geographic, km)
     ax.set_title(title)
     fig.tight_layout()
     return _save(fig, path)
