@@ -427,6 +427,35 @@ def convert(src, dst, cell_size, raw_shape, height_range):
     click.echo(f"Wrote {dst}")
 
 
+# ----------------------------------------------------------------------------------- view, export
+@cli.command()
+@click.argument("run", type=click.Path())
+@click.option("--to", "to", type=click.Path(), required=True, help="Folder for the exported files.")
+@click.option(
+    "--format",
+    "formats",
+    multiple=True,
+    type=click.Choice(["gltf", "glb", "obj", "exr", "raw32", "png16", "raw16", "splat"]),
+    help="Format (repeatable; default all but gltf): mesh glb/gltf/obj, heightmap exr/raw32/png16/raw16, splat map.",
+)
+@click.option("--tile", type=click.IntRange(min=2), default=None, help="Tiles of N cells a side (default: one piece).")
+@click.option(
+    "--overlap", type=click.IntRange(min=0), default=1, show_default=True, help="Cells that neighbouring tiles share."
+)
+@click.option(
+    "--texture", type=click.Choice(["relief", "hillshade", "none"]), default="relief", show_default=True,
+    help="Mesh texture: shaded relief (with water where the run has it), grey hillshade, or none.",
+)  # fmt: skip
+def export(run, to, formats, tile, overlap, texture):
+    """Export RUN's terrain: glTF/GLB and OBJ meshes, EXR/RAW32/PNG16/RAW16 heightmaps, an RGBA splat map."""
+    from erosim.view.export import DEFAULT_FORMATS, export_run
+
+    fmts = tuple(formats) or DEFAULT_FORMATS
+    summary = _guard(export_run, run, to, fmts, tile=tile, overlap=overlap, texture=texture)
+    n = sum(len(t["files"]) for t in summary.get("tiles", [])) or len(summary.get("files", []))
+    click.echo(f"Wrote {n} files and export.json to {to}")
+
+
 # ------------------------------------------------------------------------------------------- info
 @cli.command()
 def info():
