@@ -1,4 +1,4 @@
-"""Command line: ``erosim run | sweep | demo | list | describe | validate | bench | convert | info``.
+"""Command line: ``erosim run | sweep | demo | list | describe | validate | bench | convert | view | export | info``.
 
 Thin by design: parse, load the scenario, call a runner / benchmark / validation, print. Errors meant
 for the user (:class:`~erosim.core.errors.ErosimError`) are printed as one sentence with a non-zero
@@ -454,6 +454,24 @@ def export(run, to, formats, tile, overlap, texture):
     summary = _guard(export_run, run, to, fmts, tile=tile, overlap=overlap, texture=texture)
     n = sum(len(t["files"]) for t in summary.get("tiles", [])) or len(summary.get("files", []))
     click.echo(f"Wrote {n} files and export.json to {to}")
+
+
+@cli.command()
+@click.argument("run", type=click.Path())
+@click.option(
+    "--port", type=click.IntRange(min=0, max=65535), default=0, help="Port on 127.0.0.1 (default: a free one)."
+)
+@click.option("--no-browser", is_flag=True, help="Do not open a browser; print the address only.")
+@click.option("--html", "html_out", type=click.Path(), default=None, help="Write one self-contained HTML file instead.")
+def view(run, port, no_browser, html_out):
+    """Show RUN in the browser: the terrain in 3-D, its layers, particles over time, values under the cursor."""
+    from erosim.view import app
+
+    if html_out:
+        info = _guard(app.write_html, run, html_out)
+        click.echo(f"Wrote {info['path']} ({info['bytes'] / 1e6:.1f} MB; opens offline in any browser)")
+        return
+    _guard(app.serve, run, port, browser=not no_browser, echo=click.echo)
 
 
 # ------------------------------------------------------------------------------------------- info
