@@ -16,31 +16,8 @@ from erosim.view.export import export_run
 trimesh = pytest.importorskip("trimesh")
 
 
-def make_run(folder, kind="hydrology", ny=24, nx=31, cell=2.5, seed=0, extra=None):
-    """A small run folder as `erosim run` leaves it: report.json with the kind, maps/*.tif."""
-    rng = np.random.default_rng(seed)
-    yy, xx = np.mgrid[0:ny, 0:nx]
-    z = 50 + 10 * np.sin(xx / 5.0) + 8 * np.cos(yy / 4.0) + rng.random((ny, nx))
-    transform = (cell, 0.0, 1000.0, 0.0, -cell, 5000.0)
-    hm = heightmaps.Heightmap(z=z, cell_size=cell, transform=transform)
-    (folder / "maps").mkdir(parents=True)
-    heightmaps.write(folder / "maps" / "height.tif", hm)
-    maps = {
-        "lake_depth": np.where(z < 45, 45 - z, 0.0),
-        "stream": np.clip(rng.random((ny, nx)) - 0.6, 0, 1),
-        "erosion": rng.random((ny, nx)) * 0.2,
-        "deposition": rng.random((ny, nx)) * 0.3,
-        "vegetation": (rng.random((ny, nx)) > 0.7) * 0.5,
-        **(extra or {}),
-    }
-    for name, a in maps.items():
-        heightmaps.write(folder / "maps" / f"{name}.tif", a, like=hm)
-    (folder / "report.json").write_text(json.dumps({"kind": kind, "status": "completed"}))
-    return np.asarray(heightmaps.read(folder / "maps" / "height.tif").z), maps
-
-
 @pytest.fixture
-def run(tmp_path):
+def run(tmp_path, make_run):
     z, maps = make_run(tmp_path / "run")
     return tmp_path / "run", z, maps
 
@@ -134,7 +111,7 @@ def test_tiled_export_joins(run, tmp_path):
     assert json.loads((tmp_path / "out" / "export.json").read_text())["overlap"] == 1
 
 
-def test_flood_run_opens_with_its_layers(tmp_path):
+def test_flood_run_opens_with_its_layers(tmp_path, make_run):
     hazard = np.zeros((24, 31), np.uint8)
     hazard[5:9, 3:20] = 4
     make_run(tmp_path / "flood", kind="flood", extra={"max_speed": np.full((24, 31), 2.0), "hazard": hazard})
@@ -155,7 +132,7 @@ def test_flood_run_opens_with_its_layers(tmp_path):
         (["export", "{tmp}/run", "--to", "{tmp}/o", "--tile", "4", "--overlap", "4"], "--overlap 4"),
     ],
 )
-def test_bad_input_is_one_sentence(tmp_path, args, words):
+def test_bad_input_is_one_sentence(tmp_path, make_run, args, words):
     make_run(tmp_path / "run")
     (tmp_path / "odd").mkdir()
     (tmp_path / "odd" / "report.json").write_text('{"kind": "weather"}')
@@ -168,7 +145,7 @@ def test_bad_input_is_one_sentence(tmp_path, args, words):
     assert "Traceback" not in res.output
 
 
-def test_unknown_format_is_refused(tmp_path):
+def test_unknown_format_is_refused(tmp_path, make_run):
     make_run(tmp_path / "run")
     with pytest.raises(InputError, match="Unknown export format 'fbx'"):
         export_run(tmp_path / "run", tmp_path / "o", ["fbx"])

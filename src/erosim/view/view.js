@@ -142,6 +142,10 @@
   }
 
   function layout() {
+    const box = { height: gd.clientHeight || 600, width: gd.clientWidth || 800 };
+    return Object.assign(baseLayout(), box);
+  }
+  function baseLayout() {
     if (!G) {
       if (META.particles_dim === 2)
         return { margin: { l: 50, r: 10, t: 10, b: 40 }, uirevision: "keep", showlegend: false,
@@ -283,5 +287,11 @@
     document.body.setAttribute("data-first-paint-ms", ms.toFixed(0));
     document.getElementById("status").textContent = "drawn in " + (ms / 1000).toFixed(2) + " s";
     gd.on("plotly_hover", hover);
+    window.addEventListener("resize", () => redraw());
+    if (hash.has("probe") && G) {  // #probe=row,col: show the values of that cell (for tests and links)
+      const [i, j] = hash.get("probe").split(",").map(Number);
+      hover({ points: [{ x: j * G.cell, y: G.y_top - i * G.cell, data: { name: "terrain" } }] }).then(() =>
+        document.body.setAttribute("data-probe", "done"));
+    }
   });
 })();

@@ -1,0 +1,233 @@
+"""erosim view: what the page holds, the self-contained HTML (no network), the server (127.0.0.1 only,
+no path traversal), runs without frames or terrain, bad input in one sentence — and the page as a
+person sees it, in headless Chromium (skipped with a message where no browser is installed)."""
+
+import http.client
+import json
+import os
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from erosim.cli import cli
+from erosim.io.particles import pvd_text, write_vtp
+from erosim.io.results import open_run
+from erosim.view import app, page
+
+
+def make_sph_run(folder, frames=4, n=300, dim=2):
+    folder.mkdir(parents=True)
+    (folder / "particles").mkdir()
+    rng = np.random.default_rng(1)
+    rows = []
+    for i in range(frames):
+        pos = rng.random((n, dim))
+        write_vtp(
+            folder / "particles" / f"frame_{i:05d}.vtp", pos,
+            {"velocity": rng.normal(size=(n, dim)), "pressure": rng.random(n) * 1e3, "density": 1000 + rng.random(n)},
+            time=0.1 * i,
+        )  # fmt: skip
+        rows.append((0.1 * i, f"frame_{i:05d}.vtp"))
+    (folder / "particles" / "particles.pvd").write_text(pvd_text(rows))
+    (folder / "report.json").write_text(json.dumps({"kind": "sph", "dim": dim, "progress": {"unit": "s"}}))
+
+
+def flood_extra(ny=24, nx=31):
+    hazard = np.zeros((ny, nx), np.uint8)
+    hazard[4:14, 2:25] = np.arange(1, 7).repeat(4)[:23]
+    return {"max_depth": np.where(hazard > 0, 1.5, 0.0), "max_speed": hazard * 0.4, "hazard": hazard}
+
+
+def test_payload_of_a_hydrology_run(tmp_path, make_run):
+    z, _ = make_run(tmp_path / "run")
+    p = page.payload(open_run(tmp_path / "run"))
+    keys = [layer["key"] for layer in p.meta["layers"]]
+    assert keys == ["water", "stream", "change", "vegetation"]
+    assert np.array_equal(p.arrays["height"].reshape(z.shape), z.astype(np.float32))
+    assert p.meta["frames"] == [] and p.meta["grid"]["transform"][2] == 1000.0
+    assert {v["label"] for v in p.meta["values"]} >= {"height", "Erosion", "Deposition", "Water depth / lakes"}
+
+
+def test_payload_of_a_flood_run_has_hazard_classes(tmp_path, make_run):
+    make_run(tmp_path / "flood", kind="flood", extra=flood_extra())
+    p = page.payload(open_run(tmp_path / "flood"))
+    hz = next(layer for layer in p.meta["layers"] if layer["key"] == "hazard")
+    assert hz["cmin"] == 0.5 and hz["cmax"] == 6.5 and len(hz["classes"]) == 6
+    assert p.arrays[hz["array"]].dtype == np.uint8 and p.arrays[hz["array"]].max() == 6
+    assert "speed" in [layer["key"] for layer in p.meta["layers"]]
+
+
+def test_large_maps_are_read_at_a_stride(tmp_path, make_run):
+    make_run(tmp_path / "run", ny=70, nx=50)
+    p = page.payload(open_run(tmp_path / "run"), max_side=32)
+    g = p.meta["grid"]
+    assert g["step"] == 3 and (g["ny"], g["nx"]) == (24, 17) and g["cell"] == 7.5
+
+
+def test_particles_are_thinned(tmp_path):
+    make_sph_run(tmp_path / "sph", frames=3, n=500)
+    p = page.payload(open_run(tmp_path / "sph"), max_particles=100)
+    assert [f["n"] for f in p.meta["frames"]] == [100, 100, 100]
+    assert p.meta["particles_dim"] == 2 and p.meta["grid"] is None
+    assert p.meta["frame_fields"] == ["speed", "pressure", "density"]
+    assert [f["t"] for f in p.meta["frames"]] == pytest.approx([0.0, 0.1, 0.2])
+
+
+def test_html_is_self_contained(tmp_path, make_run):
+    make_run(tmp_path / "run")
+    info = app.write_html(tmp_path / "run", tmp_path / "v.html")
+    text = (tmp_path / "v.html").read_text(encoding="utf-8")
+    assert info["bytes"] > 3e6  # plotly.js is inside
+    assert not re.search(r"<script[^>]+src=", text)  # no script from anywhere else
+    assert "cdn." not in text.split("<script>", 1)[0]
+    meta = json.loads(re.search(r'id="erosim-meta">(.*?)</script>', text, re.S).group(1))
+    for name in meta["arrays"]:
+        assert f'id="a-{name}"' in text
+
+
+@pytest.fixture
+def served(tmp_path, make_run):
+    make_run(tmp_path / "run")
+    srv, url = app.start(tmp_path / "run", 0)
+    yield srv, url
+    srv.shutdown()
+    srv.server_close()
+
+
+def _get(srv, path):
+    c = http.client.HTTPConnection(*srv.server_address[:2], timeout=10)
+    c.putrequest("GET", path, skip_host=False, skip_accept_encoding=True)  # the path exactly as given
+    c.endheaders()
+    r = c.getresponse()
+    body = r.read()
+    c.close()
+    return r.status, body
+
+
+def test_server_binds_loopback_only(served):
+    srv, url = served
+    assert srv.server_address[0] == "127.0.0.1" and url.startswith("http://127.0.0.1:")
+    assert _get(srv, "/")[0] == 200
+    status, js = _get(srv, "/plotly.min.js")
+    assert status == 200 and len(js) > 1e6
+    status, body = _get(srv, "/data/height")
+    assert status == 200 and len(body) == 24 * 31 * 4
+
+
+@pytest.mark.parametrize(
+    "path", ["/../etc/passwd", "/data/../../etc/passwd", "/%2e%2e/etc/passwd", "/data/%252e%252e/x", "/..%2fx"]
+)
+def test_server_refuses_path_traversal(served, path):
+    srv, _ = served
+    status, body = _get(srv, path)
+    assert status == 403 and b"Refused" in body and b"root:" not in body
+
+
+def test_server_serves_nothing_else(served):
+    srv, _ = served
+    assert _get(srv, "/etc/passwd")[0] == 404
+    assert _get(srv, "/data/nothing")[0] == 404
+
+
+def test_run_without_frames_or_terrain_opens(tmp_path, make_run):
+    make_run(tmp_path / "hyd")
+    assert page.payload(open_run(tmp_path / "hyd")).meta["frames"] == []
+    make_sph_run(tmp_path / "sph", frames=0)
+    p = page.payload(open_run(tmp_path / "sph"))
+    assert p.meta["frames"] == [] and p.meta["grid"] is None
+    res = CliRunner().invoke(cli, ["view", str(tmp_path / "sph"), "--html", str(tmp_path / "v.html")])
+    assert res.exit_code == 0, res.output
+
+
+@pytest.mark.parametrize(
+    "target, words",
+    [("nothing", "does not exist"), ("empty", "not a run folder"), ("odd", "unknown kind 'weather'")],
+)
+def test_bad_input_is_one_sentence(tmp_path, target, words):
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "odd").mkdir()
+    (tmp_path / "odd" / "report.json").write_text('{"kind": "weather"}')
+    for args in (["view", str(tmp_path / target), "--html", str(tmp_path / "v.html")],
+                 ["view", str(tmp_path / target), "--no-browser"]):  # fmt: skip
+        res = CliRunner().invoke(cli, args)
+        lines = res.output.strip().splitlines()
+        assert res.exit_code != 0 and len(lines) == 1 and words in lines[0], res.output
+    assert not (tmp_path / "v.html").exists()
+
+
+def test_html_into_a_folder_is_refused(tmp_path, make_run):
+    make_run(tmp_path / "run")
+    res = CliRunner().invoke(cli, ["view", str(tmp_path / "run"), "--html", str(tmp_path)])
+    assert res.exit_code != 0 and "is a folder" in res.output
+
+
+# ------------------------------------------------------------------------------ in a real browser
+def _browser():
+    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def _shoot(browser, html, png, fragment="", tmp=None):
+    cmd = [
+        browser, "--headless", "--no-sandbox", "--disable-dev-shm-usage", "--enable-unsafe-swiftshader",
+        "--use-angle=swiftshader", "--hide-scrollbars", "--window-size=1200,800", "--virtual-time-budget=20000",
+        f"--user-data-dir={tmp}", f"--screenshot={png}", f"file://{html}#{fragment}",
+    ]  # fmt: skip
+    subprocess.run(cmd, capture_output=True, timeout=120, env={**os.environ, "HOME": str(tmp)})
+    from PIL import Image
+
+    return np.asarray(Image.open(png).convert("RGB")).astype(int)
+
+
+def _waterish(img):
+    r, g, b = img[..., 0], img[..., 1], img[..., 2]
+    return int(((b > r + 40) & (b > g + 10)).sum())
+
+
+def test_page_in_headless_chromium(tmp_path, make_run):
+    browser = _browser()
+    if browser is None:
+        pytest.skip("no Chromium here: install Debian's chromium package (apt-get install chromium) to run this test")
+    make_run(tmp_path / "flood", kind="flood", extra=flood_extra(60, 80), ny=60, nx=80)
+    html = tmp_path / "v.html"
+    app.write_html(tmp_path / "flood", html)
+    off = _shoot(browser, html, tmp_path / "off.png", "layers=", tmp_path)
+    on = _shoot(browser, html, tmp_path / "on.png", "layers=water,hazard", tmp_path)
+    plot = (slice(50, 750), slice(320, 1150))  # the 3-D view, right of the side panel
+    for img in (off, on):
+        assert img.shape[:2] == (800, 1200)
+        assert img[plot].std() > 10, "the view is blank"
+        assert len(np.unique(img[plot].reshape(-1, 3) // 16, axis=0)) > 30, "the view has hardly any colours"
+    # switching the layers on changes the picture, and the water is blue
+    diff = np.abs(on[plot] - off[plot]).sum(axis=-1) > 30
+    assert diff.mean() > 0.01, "the layers did not toggle"
+    assert _waterish(on[plot]) > _waterish(off[plot]) + 500
+
+
+def test_values_under_the_cursor_in_headless_chromium(tmp_path, make_run):
+    browser = _browser()
+    if browser is None:
+        pytest.skip("no Chromium here: install Debian's chromium package (apt-get install chromium) to run this test")
+    extra = flood_extra()
+    z, _ = make_run(tmp_path / "flood", kind="flood", extra=extra)
+    html = tmp_path / "v.html"
+    app.write_html(tmp_path / "flood", html)
+    cmd = [
+        browser, "--headless", "--no-sandbox", "--disable-dev-shm-usage", "--enable-unsafe-swiftshader",
+        "--use-angle=swiftshader", "--window-size=1200,800", "--virtual-time-budget=20000",
+        f"--user-data-dir={tmp_path}", "--dump-dom", f"file://{html}#probe=5,3",
+    ]  # fmt: skip
+    dom = subprocess.run(cmd, capture_output=True, timeout=120, text=True, env={**os.environ, "HOME": str(tmp_path)})
+    assert 'data-probe="done"' in dom.stdout, dom.stderr[-2000:]
+    cursor = re.search(r'<div id="cursor">(.*?)</div>', dom.stdout, re.S).group(1)
+    assert "1008.75, 4986.25" in cursor  # the cell centre in the DEM's coordinates
+    assert f"height: {float(np.float32(z[5, 3])):.4g} m" in cursor
+    assert f"Hazard class: class {extra['hazard'][5, 3]}<" in cursor
+    assert f"Largest speed: {extra['max_speed'][5, 3]:.4f} m/s" in cursor
