@@ -252,9 +252,13 @@ def html(p: Payload, *, inline: bool) -> str:
         plotly_tag = '<script src="plotly.min.js"></script>'
         data = ""
     title = htmllib.escape(p.meta["title"])
+    figures = "".join(
+        f"<tr><td>{htmllib.escape(k)}</td><td>{htmllib.escape(v)}</td></tr>" for k, v in p.meta["figures"]
+    )
+    # plotly.js comes last: the side panel (report, controls) shows while the browser reads it
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>erosim view: {title}</title><style>{CSS}</style>
-{plotly_tag}</head>
+</head>
 <body><div id="side"><h1>{title}</h1>
 <h2>Layers</h2><div id="layers"></div><div id="legends"></div>
 <div id="view-box"><h2>View</h2>detail <select id="detail"><option value="128">128</option>
@@ -263,11 +267,11 @@ vertical <select id="exag-select"><option value="0">auto</option><option value="
 <option value="2">×2</option><option value="5">×5</option><option value="10">×10</option></select>
 <span id="exag"></span></div>
 <h2>Under the cursor</h2><div id="cursor">point at the terrain</div>
-<h2>Report</h2><table id="figures"></table><div id="status"></div></div>
+<h2>Report</h2><table id="figures">{figures}</table><div id="status"></div></div>
 <div id="main"><div id="plot"></div>
 <div id="time">frame <input type="range" id="frame" min="0" max="0" value="0"> <span id="frame-label"></span>
 colour <select id="colour"></select></div></div>
 <script type="application/json" id="erosim-meta">{meta}</script>
-{data}<script>{view_js()}</script>
+{data}{plotly_tag}<script>{view_js()}</script>
 </body></html>
 """

@@ -30,7 +30,8 @@ def _handler(routes: dict[str, tuple[str, bytes]]):
             self.send_response(code)
             self.send_header("Content-Type", ctype)
             self.send_header("Content-Length", str(len(body)))
-            self.send_header("Cache-Control", "no-store")
+            # plotly.js is the same for every run: the browser may keep it (and its compiled code)
+            self.send_header("Cache-Control", "max-age=86400" if self.path == "/plotly.min.js" else "no-store")
             self.end_headers()
             if self.command != "HEAD":
                 self.wfile.write(body)

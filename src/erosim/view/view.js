@@ -167,21 +167,33 @@
 
   const gd = document.getElementById("plot");
   let drawing = Promise.resolve();
-  async function draw() {
-    const s = stride();
+  const times = (window.erosimTimes = { script: t0 });
+  // first: the terrain alone at a coarse stride (the first picture comes fast), then what is chosen
+  async function draw(first) {
+    const s = first ? Math.max(stride(), Math.ceil(Math.max(G.ny, G.nx) / 128)) : stride();
     const data = [];
     if (G) {
       data.push(await terrainTrace(s));
-      for (const L of META.layers) if (state.layers.has(L.key)) data.push(await layerTrace(L, s));
+      if (!first) for (const L of META.layers) if (state.layers.has(L.key)) data.push(await layerTrace(L, s));
     }
     const p = await particleTrace();
     if (p) data.push(p);
+    times.traces = times.traces || performance.now();
     await Plotly.react(gd, data, layout(), { responsive: true, displaylogo: false });
+    times.plot = times.plot || performance.now();
+    document.body.dataset.draws = (+(document.body.dataset.draws || 0) + 1).toString();
     legends();
     document.getElementById("exag").textContent = G ? "×" + exaggeration() : "";
   }
-  function redraw() {
-    drawing = drawing.then(draw).catch((e) => { document.getElementById("status").textContent = String(e); });
+  // requests made while a draw waits merge into it (it reads the state when it starts), so sliding
+  // through frames faster than they draw shows the latest frame instead of a backlog
+  let queued = false;
+  function redraw(first) {
+    if (!first && queued) return drawing;
+    if (!first) queued = true;
+    drawing = drawing
+      .then(() => { if (!first) queued = false; return draw(first); })
+      .catch((e) => { document.getElementById("status").textContent = String(e); });
     return drawing;
   }
 
@@ -243,12 +255,6 @@
     } else {
       document.getElementById("time").innerHTML = "<i>No frames saved: the final state.</i>";
     }
-    const tb = document.getElementById("figures");
-    for (const [k, v] of META.figures) {
-      const tr = tb.insertRow();
-      tr.insertCell().textContent = k;
-      tr.insertCell().textContent = v;
-    }
   }
 
   // values under the cursor: read every map at the cell under the pointer
@@ -282,10 +288,17 @@
   }
 
   controls();
-  redraw().then(() => {
-    const ms = performance.now() - t0;
+  if (G) redraw(true).then(() => {
+    const ms = performance.now(); // since the page was requested (navigation start)
     document.body.setAttribute("data-first-paint-ms", ms.toFixed(0));
-    document.getElementById("status").textContent = "drawn in " + (ms / 1000).toFixed(2) + " s";
+  });
+  redraw().then(() => {
+    const ms = performance.now();
+    if (!G) document.body.setAttribute("data-first-paint-ms", ms.toFixed(0));
+    document.body.setAttribute("data-ready-ms", ms.toFixed(0));
+    document.getElementById("status").textContent = "first picture " +
+      (+document.body.getAttribute("data-first-paint-ms") / 1000).toFixed(2) + " s, all drawn " +
+      (ms / 1000).toFixed(2) + " s after opening";
     gd.on("plotly_hover", hover);
     window.addEventListener("resize", () => redraw());
     if (hash.has("probe") && G) {  // #probe=row,col: show the values of that cell (for tests and links)
