@@ -143,11 +143,34 @@ def payload(run: Run, max_side: int = MAX_SIDE, max_particles: int = MAX_PARTICL
                 _change_layer(meta, present)
         if "stream" not in present:
             _change_layer(meta, present)
+        meta["preview"] = _preview(z, hm.cell_size * step, present)
     _frames(p, run, max_particles, ground)
     meta["arrays"] = {
         k: {"dtype": "u1" if a.dtype == np.uint8 else "f4", "n": int(a.size)} for k, a in p.arrays.items()
     }
     return p
+
+
+def _preview(z: np.ndarray, cell: float, present: dict) -> str:
+    """A plan-view picture (data URL, ≤ 512 px) shown until the 3-D surface is drawn."""
+    import io
+
+    from PIL import Image
+
+    from erosim.viz import maps
+
+    s = max(1, int(np.ceil(max(z.shape) / 512)))
+    zs = np.asarray(z[::s, ::s], dtype=np.float64)
+    pick = {k: np.asarray(v[2][::s, ::s], dtype=np.float64) for k, v in present.items()}
+    if "water" in pick or "stream" in pick:
+        zero = np.zeros_like(zs)
+        rgb = maps.hydrology_map(zs, cell * s, pick.get("stream", zero), pick.get("water", zero),
+                                 vegetation=pick.get("vegetation"))  # fmt: skip
+    else:
+        rgb = maps.shaded_relief(zs, cell * s)
+    buf = io.BytesIO()
+    Image.fromarray(np.clip(np.rint(rgb * 255), 0, 255).astype(np.uint8)).save(buf, format="PNG")
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
 def _change_layer(meta: dict, present: dict) -> None:
@@ -229,6 +252,7 @@ body{margin:0;font:13px system-ui,sans-serif;display:flex;height:100vh;color:#22
 #side{width:300px;padding:10px;overflow-y:auto;border-right:1px solid #ddd;background:#fff}
 #main{flex:1;display:flex;flex-direction:column;min-width:0}
 #plot{flex:1;min-height:0;height:calc(100vh - 40px)}
+#preview{display:block;width:100%;height:100%;object-fit:contain}
 h1{font-size:15px;margin:0 0 8px} h2{font-size:13px;margin:12px 0 4px;color:#555}
 #layers label{display:block;margin:2px 0} .legend{margin:6px 0} .bar{height:10px;border:1px solid #ccc}
 .sw{display:inline-block;width:12px;height:12px;margin:0 2px 0 6px;vertical-align:middle;border:1px solid #999}
@@ -240,7 +264,9 @@ table{border-collapse:collapse;width:100%} td{padding:1px 4px;border-bottom:1px 
 
 def html(p: Payload, *, inline: bool) -> str:
     """The page; ``inline``: plotly.js and every array inside it (one file that works offline)."""
-    meta = json.dumps(p.meta, allow_nan=False, default=float).replace("</", "<\\/")
+    preview = p.meta.get("preview")
+    meta = json.dumps({k: v for k, v in p.meta.items() if k != "preview"}, allow_nan=False, default=float)
+    meta = meta.replace("</", "<\\/")
     if inline:
         plotly_tag = "<script>" + plotly_js().decode("utf-8") + "</script>"
         data = "".join(
@@ -268,7 +294,7 @@ vertical <select id="exag-select"><option value="0">auto</option><option value="
 <span id="exag"></span></div>
 <h2>Under the cursor</h2><div id="cursor">point at the terrain</div>
 <h2>Report</h2><table id="figures">{figures}</table><div id="status"></div></div>
-<div id="main"><div id="plot"></div>
+<div id="main"><div id="plot">{f'<img id="preview" alt="plan view" src="{preview}">' if preview else ""}</div>
 <div id="time">frame <input type="range" id="frame" min="0" max="0" value="0"> <span id="frame-label"></span>
 colour <select id="colour"></select></div></div>
 <script type="application/json" id="erosim-meta">{meta}</script>

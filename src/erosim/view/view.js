@@ -180,6 +180,8 @@
     if (p) data.push(p);
     times.traces = times.traces || performance.now();
     await Plotly.react(gd, data, layout(), { responsive: true, displaylogo: false });
+    const preview = document.getElementById("preview");
+    if (preview) preview.remove(); // the plan-view picture shown while plotly.js loaded
     times.plot = times.plot || performance.now();
     document.body.dataset.draws = (+(document.body.dataset.draws || 0) + 1).toString();
     legends();
