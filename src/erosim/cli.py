@@ -90,6 +90,8 @@ def cli(threads: int | None, quiet: bool, debug: bool) -> None:
       erosim run dam-break-2d              run a scenario (results in runs/<name>/)
       erosim sweep hydrology --seeds 8     an ensemble on Dask: probability maps (sweep.nc)
       erosim validate martin-moyce         compare with the Martin & Moyce (1952) experiment
+      erosim view runs/demo                see a run in the browser (offline; --html FILE for one file)
+      erosim export runs/demo --to out/    the terrain as GLB/OBJ mesh, EXR/RAW32 heights, a splat map
     """
     STATE.debug = debug
     STATE.quiet = quiet

@@ -231,3 +231,9 @@ def test_values_under_the_cursor_in_headless_chromium(tmp_path, make_run):
     assert f"height: {float(np.float32(z[5, 3])):.4g} m" in cursor
     assert f"Hazard class: class {extra['hazard'][5, 3]}<" in cursor
     assert f"Largest speed: {extra['max_speed'][5, 3]:.4f} m/s" in cursor
+
+
+def test_html_of_a_512_run_is_under_20_mb(tmp_path, make_run):
+    make_run(tmp_path / "run", ny=512, nx=512, cell=20.0)
+    info = app.write_html(tmp_path / "run", tmp_path / "v.html")
+    assert info["bytes"] < 20e6, f"{info['bytes'] / 1e6:.1f} MB"
