@@ -116,6 +116,18 @@ def test_server_binds_loopback_only(served):
     assert status == 200 and len(js) > 1e6
     status, body = _get(srv, "/data/height")
     assert status == 200 and len(body) == 24 * 31 * 4
+    # from another address of this machine the port is closed
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        try:
+            s.connect(("192.0.2.1", 9))  # no packet is sent: this only picks the outgoing interface
+            own = s.getsockname()[0]
+        except OSError:
+            own = None
+    if own and not own.startswith("127."):
+        with pytest.raises(OSError):
+            socket.create_connection((own, srv.server_address[1]), timeout=2).close()
 
 
 @pytest.mark.parametrize(
