@@ -98,7 +98,7 @@ def test_tiles_cover_the_map_with_the_overlap(n, tile, overlap):
 
 def test_tiled_export_joins(run, tmp_path):
     folder, z, _ = run
-    s = export_run(folder, tmp_path / "out", ["exr", "glb"], tile=10, overlap=1)
+    s = export_run(folder, tmp_path / "out", ["exr", "glb", "png16", "raw16", "splat"], tile=10, overlap=1)
     assert len(s["tiles"]) == 3 * 4  # 24 rows: 0-10, 9-19, 18-24; 31 cols: 0-10, 9-19, 18-28, 27-31
     parts = np.full(z.shape, np.nan, np.float32)
     for t in s["tiles"]:
@@ -109,6 +109,10 @@ def test_tiled_export_joins(run, tmp_path):
         parts[r0:r1, c0:c1] = sub
     assert np.array_equal(parts, z.astype(np.float32))
     assert json.loads((tmp_path / "out" / "export.json").read_text())["overlap"] == 1
+    # a tile's 16-bit map sits where the tile is: rows 9.., columns 18.. of the map
+    t = heightmaps.read(tmp_path / "out" / "tile_r01_c02" / "height.png")
+    assert t.transform[2] == pytest.approx(1000.0 + 18 * 2.5) and t.transform[5] == pytest.approx(5000.0 - 9 * 2.5)
+    assert np.abs(t.z - z[9:19, 18:28]).max() <= (z.max() - z.min()) / 65535
 
 
 def test_flood_run_opens_with_its_layers(tmp_path, make_run):

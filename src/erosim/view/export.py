@@ -16,6 +16,7 @@ import numpy as np
 
 from erosim.core.atomic import write_json
 from erosim.core.errors import InputError
+from erosim.core.heightmap import Heightmap
 from erosim.io import exports, heightmaps
 from erosim.io.results import open_run
 
@@ -42,6 +43,15 @@ def _texture(kind: str, z: np.ndarray, cell_size: float, layers: dict[str, np.nd
             zs, cell_size * step, pick.get("stream", zero), pick.get("water", zero), vegetation=pick.get("vegetation")
         )
     return maps.shaded_relief(zs, cell_size * step)
+
+
+def _window(hm: Heightmap, z: np.ndarray, rows: slice, cols: slice) -> Heightmap:
+    """The heightmap of one tile: its heights, the map's CRS, the transform moved to the tile's corner."""
+    t = hm.transform
+    if t:
+        a, b, c, d, e, f = t[:6]
+        t = (a, b, c + a * cols.start + b * rows.start, d, e, f + d * cols.start + e * rows.start)
+    return Heightmap(z=z, cell_size=hm.cell_size, crs=hm.crs, transform=t)
 
 
 def export_run(
@@ -99,7 +109,7 @@ def export_run(
         # the 16-bit files of every tile share the whole map's range, so tiles join without steps
         for f, ext in (("png16", "png"), ("raw16", "r16")):
             if f in formats:
-                info = heightmaps.write(folder / f"height.{ext}", zt, like=hm, height_range=(lo, hi))
+                info = heightmaps.write(folder / f"height.{ext}", _window(hm, zt, rows, cols), height_range=(lo, hi))
                 files += [folder / f"height.{ext}"] + [Path(s) for s in info.get("sidecars", [])]
         if "splat" in formats:
             w = exports.splat_weights(
