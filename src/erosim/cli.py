@@ -465,15 +465,19 @@ def export(run, to, formats, tile, overlap, texture):
 )
 @click.option("--no-browser", is_flag=True, help="Do not open a browser; print the address only.")
 @click.option("--html", "html_out", type=click.Path(), default=None, help="Write one self-contained HTML file instead.")
-def view(run, port, no_browser, html_out):
+@click.option(
+    "--max-side", type=click.IntRange(min=16), default=1024, show_default=True,
+    help="Cells a side the view reads at most; larger maps are read at a stride (the 'full' detail).",
+)  # fmt: skip
+def view(run, port, no_browser, html_out, max_side):
     """Show RUN in the browser: the terrain in 3-D, its layers, particles over time, values under the cursor."""
     from erosim.view import app
 
     if html_out:
-        info = _guard(app.write_html, run, html_out)
+        info = _guard(app.write_html, run, html_out, max_side=max_side)
         click.echo(f"Wrote {info['path']} ({info['bytes'] / 1e6:.1f} MB; opens offline in any browser)")
         return
-    _guard(app.serve, run, port, browser=not no_browser, echo=click.echo)
+    _guard(app.serve, run, port, browser=not no_browser, echo=click.echo, max_side=max_side)
 
 
 # ------------------------------------------------------------------------------------------- info

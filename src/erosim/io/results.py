@@ -151,7 +151,10 @@ def open_run(path: str | os.PathLike) -> Run:
         raise InputError(f"'{p}' is a file, not a run folder; pass the folder an `erosim run` wrote, e.g. runs/demo.")
     rep = p / "report.json"
     if not rep.is_file():
-        raise InputError(f"'{p}' is not a run folder: it holds no report.json; pass the folder an `erosim run` wrote.")
+        raise InputError(
+            f"'{p}' is not a run folder: it holds no report.json (a run writes it when it ends); "
+            "pass the folder an `erosim run` wrote."
+        )
     try:
         report = json.loads(rep.read_text(encoding="utf-8"))
     except (OSError, ValueError, UnicodeDecodeError):

@@ -35,9 +35,11 @@ def start(run: str | os.PathLike, port: int = 0, *, max_side: int = page.MAX_SID
     return srv, server.url_of(srv)
 
 
-def serve(run: str | os.PathLike, port: int = 0, *, browser: bool = True, echo=print) -> None:
+def serve(
+    run: str | os.PathLike, port: int = 0, *, browser: bool = True, echo=print, max_side: int = page.MAX_SIDE
+) -> None:
     """Serve the view until Ctrl-C; opens the default browser unless ``browser`` is False."""
-    srv, url = start(run, port)
+    srv, url = start(run, port, max_side=max_side)
     echo(f"erosim view: {url}  (127.0.0.1 only; Ctrl-C stops)")
     if browser:
         import webbrowser
