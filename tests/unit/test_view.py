@@ -249,3 +249,35 @@ def test_html_of_a_512_run_is_under_20_mb(tmp_path, make_run):
     make_run(tmp_path / "run", ny=512, nx=512, cell=20.0)
     info = app.write_html(tmp_path / "run", tmp_path / "v.html")
     assert info["bytes"] < 20e6, f"{info['bytes'] / 1e6:.1f} MB"
+
+
+def test_erosim_view_serves_until_ctrl_c(tmp_path, make_run):
+    import signal
+    import sys
+    import time
+    import urllib.request
+
+    make_run(tmp_path / "run")
+    cmd = [sys.executable, "-m", "erosim.cli", "view", str(tmp_path / "run"), "--no-browser"]
+    p = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # a background shell ignores it
+    )  # fmt: skip
+    try:
+        line = p.stdout.readline()
+        url = re.search(r"http://127\.0\.0\.1:\d+/", line).group(0)
+        deadline = time.time() + 30
+        while True:
+            try:
+                with urllib.request.urlopen(url, timeout=5) as r:
+                    assert r.status == 200 and b"erosim view" in r.read()
+                break
+            except OSError:
+                assert time.time() < deadline
+                time.sleep(0.2)
+        p.send_signal(signal.SIGINT)
+        out, _ = p.communicate(timeout=30)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 0 and "stopped" in out
