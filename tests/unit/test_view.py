@@ -281,3 +281,18 @@ def test_erosim_view_serves_until_ctrl_c(tmp_path, make_run):
         if p.poll() is None:
             p.kill()
     assert p.returncode == 0 and "stopped" in out
+
+
+def test_particles_and_the_time_slider_in_headless_chromium(tmp_path):
+    browser = _browser()
+    if browser is None:
+        pytest.skip("no Chromium here: install Debian's chromium package (apt-get install chromium) to run this test")
+    make_sph_run(tmp_path / "sph", frames=4, n=400)
+    html = tmp_path / "v.html"
+    app.write_html(tmp_path / "sph", html)
+    first = _shoot(browser, html, tmp_path / "f0.png", "frame=0", tmp_path)
+    last = _shoot(browser, html, tmp_path / "f3.png", "frame=3", tmp_path)
+    plot = (slice(50, 750), slice(320, 1150))
+    for img in (first, last):
+        assert img[plot].std() > 10, "the particle view is blank"
+    assert (np.abs(first[plot] - last[plot]).sum(axis=-1) > 30).mean() > 0.005, "the frames look the same"

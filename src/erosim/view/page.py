@@ -292,7 +292,7 @@ def html(p: Payload, *, inline: bool) -> str:
 vertical <select id="exag-select"><option value="0">auto</option><option value="1">×1</option>
 <option value="2">×2</option><option value="5">×5</option><option value="10">×10</option></select>
 <span id="exag"></span></div>
-<h2>Under the cursor</h2><div id="cursor">point at the terrain</div>
+<h2>Under the cursor</h2><div id="cursor">{"point at the terrain" if p.meta["grid"] else "point at a particle"}</div>
 <h2>Report</h2><table id="figures">{figures}</table><div id="status"></div></div>
 <div id="main"><div id="plot">{f'<img id="preview" alt="plan view" src="{preview}">' if preview else ""}</div>
 <div id="time">frame <input type="range" id="frame" min="0" max="0" value="0"> <span id="frame-label"></span>
