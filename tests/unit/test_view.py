@@ -296,3 +296,52 @@ def test_particles_and_the_time_slider_in_headless_chromium(tmp_path):
     for img in (first, last):
         assert img[plot].std() > 10, "the particle view is blank"
     assert (np.abs(first[plot] - last[plot]).sum(axis=-1) > 30).mean() > 0.005, "the frames look the same"
+
+
+def add_map_frames(folder, z, n=3, times=None):
+    """maps/frames/height_0000k.tif and lake_depth_0000k.tif: the terrain sinking, a lake rising."""
+    from erosim.io import heightmaps
+
+    like = heightmaps.read(folder / "maps" / "height.tif")
+    (folder / "maps" / "frames").mkdir()
+    for k in range(n):
+        heightmaps.write(folder / "maps" / "frames" / f"height_{k:05d}.tif", z - 5.0 * k, like=like)
+        lake = np.where(z < 45 + 5 * k, 2.0, 0)
+        heightmaps.write(folder / "maps" / "frames" / f"lake_depth_{k:05d}.tif", lake, like=like)
+    if times is not None:
+        (folder / "maps" / "frames" / "frames.json").write_text(json.dumps({"times": times}))
+
+
+def test_map_frames_drive_the_slider(tmp_path, make_run):
+    z, _ = make_run(tmp_path / "run")
+    add_map_frames(tmp_path / "run", z, times=[0.0, 10.0, 20.0])
+    run = open_run(tmp_path / "run")
+    assert [t for t, _ in run.map_frames] == [0.0, 10.0, 20.0]
+    assert sorted(run.map_frames[1][1]) == ["height", "lake_depth"]
+    p = page.payload(run)
+    mf = p.meta["map_frames"]
+    assert [f["t"] for f in mf] == [0.0, 10.0, 20.0] and p.meta["frames"] == []
+    np.testing.assert_allclose(p.arrays[mf[2]["arrays"]["height"]].reshape(z.shape), z - 10.0, atol=1e-4)
+    assert set(mf[0]["arrays"]) == {"height", "water"}
+
+
+def test_map_frames_in_headless_chromium(tmp_path, make_run):
+    browser = _browser()
+    if browser is None:
+        pytest.skip("no Chromium here: install Debian's chromium package (apt-get install chromium) to run this test")
+    z, _ = make_run(tmp_path / "run", ny=60, nx=80)
+    add_map_frames(tmp_path / "run", z)
+    html = tmp_path / "v.html"
+    app.write_html(tmp_path / "run", html)
+    a = _shoot(browser, html, tmp_path / "a.png", "frame=0&layers=water", tmp_path)
+    b = _shoot(browser, html, tmp_path / "b.png", "frame=2&layers=water", tmp_path)
+    plot = (slice(50, 750), slice(320, 1150))
+    assert _waterish(b[plot]) > _waterish(a[plot]) + 500  # the lake has grown
+    cmd = [
+        browser, "--headless", "--no-sandbox", "--disable-dev-shm-usage", "--enable-unsafe-swiftshader",
+        "--use-angle=swiftshader", "--window-size=1200,800", "--virtual-time-budget=20000",
+        f"--user-data-dir={tmp_path}", "--dump-dom", f"file://{html}#frame=2&probe=5,3",
+    ]  # fmt: skip
+    dom = subprocess.run(cmd, capture_output=True, timeout=120, text=True, env={**os.environ, "HOME": str(tmp_path)})
+    cursor = re.search(r'<div id="cursor">(.*?)</div>', dom.stdout, re.S).group(1)
+    assert f"height: {float(np.float32(z[5, 3] - 10.0)):.4g} m" in cursor  # the frame's height, not the final

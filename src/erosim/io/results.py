@@ -5,7 +5,9 @@ same bad input in one sentence (a path that is not a folder, a folder without ``
 report of an unknown kind) and both know the same maps. The maps are the GeoTIFFs the kinds write
 under ``maps/`` (:data:`LAYERS` lists those shown as layers, flood runs' included); any other
 ``maps/*.tif`` is listed too but not interpreted. Particle frames are the ``particles.pvd``
-collection of SPH runs (:mod:`erosim.io.particles`).
+collection of SPH runs (:mod:`erosim.io.particles`). Map frames — the terrain and its water over
+time — are ``maps/frames/<map>_<number>.tif`` (e.g. ``height_00003.tif``, ``water_depth_00003.tif``),
+at the times listed in ``maps/frames/frames.json`` (``{"times": [...]}``), else numbered 0, 1, 2 ….
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import re
 from pathlib import Path
 from typing import Any
 
@@ -83,6 +86,7 @@ class Run:
     report: dict[str, Any]
     maps: dict[str, Path]
     frames: list[tuple[float, Path]]
+    map_frames: list[tuple[float, dict[str, Path]]] = dataclasses.field(default_factory=list)
 
     @property
     def name(self) -> str:
@@ -178,7 +182,29 @@ def open_run(path: str | os.PathLike) -> Run:
             frames = []
     if not frames and (p / "particles").is_dir():
         frames = [(float(i), f) for i, f in enumerate(sorted((p / "particles").glob("frame_*.vtp")))]
-    return Run(path=p, kind=kind, report=report, maps=maps, frames=frames)
+    map_frames = _map_frames(p / "maps" / "frames")
+    return Run(path=p, kind=kind, report=report, maps=maps, frames=frames, map_frames=map_frames)
+
+
+def _map_frames(folder: Path) -> list[tuple[float, dict[str, Path]]]:
+    """``maps/frames/<map>_<number>.tif`` grouped by number, in order, with their times."""
+    if not folder.is_dir():
+        return []
+    groups: dict[int, dict[str, Path]] = {}
+    for f in folder.glob("*.tif"):
+        m = re.fullmatch(r"(.+)_(\d+)", f.stem)
+        if m:
+            groups.setdefault(int(m.group(2)), {})[m.group(1)] = f
+    times: list = []
+    try:
+        times = list(json.loads((folder / "frames.json").read_text(encoding="utf-8")).get("times", []))
+    except (OSError, ValueError, AttributeError):
+        times = []
+    out = []
+    for k, number in enumerate(sorted(groups)):
+        t = times[k] if k < len(times) and isinstance(times[k], (int, float)) else float(number)
+        out.append((float(t), groups[number]))
+    return out
 
 
 def read_frame(path: Path) -> dict[str, np.ndarray]:

@@ -22,10 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from erosim.io.results import Run
+from erosim.io.results import LAYERS, Run
 
 MAX_SIDE = 1024
 MAX_PARTICLES = 20_000
+MAX_MAP_FRAMES = 60
 DEFAULT_LAYERS = ("water", "stream", "hazard")
 
 TERRAIN = [[0.0, "#2f5d34"], [0.25, "#6f9a52"], [0.5, "#c4b37c"], [0.75, "#9c8670"], [1.0, "#f4f4f4"]]
@@ -108,6 +109,7 @@ def payload(run: Run, max_side: int = MAX_SIDE, max_particles: int = MAX_PARTICL
     meta["default_layers"] = list(DEFAULT_LAYERS)
     meta["terrain_colorscale"] = TERRAIN
     meta["grid"] = None
+    meta["map_frames"] = []
     ground = None
     if run.has_height():
         hm = run.height()
@@ -144,6 +146,7 @@ def payload(run: Run, max_side: int = MAX_SIDE, max_particles: int = MAX_PARTICL
         if "stream" not in present:
             _change_layer(meta, present)
         meta["preview"] = _preview(z, hm.cell_size * step, present)
+        _map_frames(p, run, step, (ny0, nx0), present.get("water"))
     _frames(p, run, max_particles, ground)
     meta["arrays"] = {
         k: {"dtype": "u1" if a.dtype == np.uint8 else "f4", "n": int(a.size)} for k, a in p.arrays.items()
@@ -188,6 +191,29 @@ def _change_layer(meta: dict, present: dict) -> None:
             "deposition": present["deposition"][1] if "deposition" in present else None,
         }
     )  # fmt: skip
+
+
+def _map_frames(p: Payload, run: Run, step: int, shape: tuple[int, int], water) -> None:
+    """Height and water of each map frame on the view's grid (frames of another shape are left out;
+    the water of a frame is drawn where the run's final maps have a water layer)."""
+    from erosim.io import heightmaps
+
+    water_names = next(layer.files for layer in LAYERS if layer.key == "water")
+    frames = run.map_frames
+    if len(frames) > MAX_MAP_FRAMES:  # evenly spaced, first and last kept
+        frames = [frames[int(round(i))] for i in np.linspace(0, len(frames) - 1, MAX_MAP_FRAMES)]
+    for i, (t, files) in enumerate(frames):
+        entry: dict = {"t": t, "arrays": {}}
+        for key, names in (("height", ("height",)), ("water", water_names)):
+            name = next((n for n in names if n in files), None)
+            if name is None:
+                continue
+            a = heightmaps.read(files[name]).z
+            if a.shape != shape:
+                continue
+            entry["arrays"][key] = p.add(f"mf{i}_{key}", a[::step, ::step])
+        if entry["arrays"]:
+            p.meta["map_frames"].append(entry)
 
 
 def _frames(p: Payload, run: Run, max_particles: int, ground) -> None:
@@ -296,7 +322,7 @@ vertical <select id="exag-select"><option value="0">auto</option><option value="
 <h2>Report</h2><table id="figures">{figures}</table><div id="status"></div></div>
 <div id="main"><div id="plot">{f'<img id="preview" alt="plan view" src="{preview}">' if preview else ""}</div>
 <div id="time">frame <input type="range" id="frame" min="0" max="0" value="0"> <span id="frame-label"></span>
-colour <select id="colour"></select></div></div>
+<span id="colour-box">colour <select id="colour"></select></span></div></div>
 <script type="application/json" id="erosim-meta">{meta}</script>
 {data}{plotly_tag}<script>{view_js()}</script>
 </body></html>

@@ -37,6 +37,27 @@
   if (hash.has("detail")) state.detail = hash.get("detail") === "full" ? 1e9 : +hash.get("detail");
   if (hash.has("frame")) state.frame = +hash.get("frame");
 
+  // the slider runs over the particle frames, else over the map frames; with both, each particle frame
+  // shows the last map frame at or before its time
+  const SLIDES = META.frames.length ? META.frames : META.map_frames;
+  function mapFrame() {
+    const M = META.map_frames;
+    if (!M.length) return null;
+    if (!META.frames.length) return M[Math.min(state.frame, M.length - 1)];
+    const t = META.frames[state.frame].t;
+    let best = M[0];
+    for (const m of M) if (m.t <= t * (1 + 1e-9)) best = m;
+    return best;
+  }
+  function heightName() {
+    const m = mapFrame();
+    return (m && m.arrays.height) || "height";
+  }
+  function valuesName(L) {
+    const m = mapFrame();
+    return (L.key === "water" && m && m.arrays.water) || L.array;
+  }
+
   function stride() {
     return G ? Math.max(1, Math.ceil(Math.max(G.ny, G.nx) / state.detail)) : 1;
   }
@@ -70,9 +91,10 @@
   const LIGHTPOS = { x: -1e5, y: 1e5, z: 2e5 };
 
   async function terrainTrace(s) {
-    const key = "terrain:" + s;
+    const hn = heightName();
+    const key = "terrain:" + s + ":" + hn;
     if (!traceCache[key]) {
-      const z = await arr("height");
+      const z = await arr(hn);
       const { x, y } = axes(s);
       traceCache[key] = {
         type: "surface", name: "terrain", x, y, z: rows(z, s), surfacecolor: rows(z, s),
@@ -90,13 +112,13 @@
       for (let k = 0; k < n; k++) out[k] = (d ? d[k] : 0) - (e ? e[k] : 0);
       return out;
     }
-    return arr(L.array);
+    return arr(valuesName(L));
   }
 
   async function layerTrace(L, s) {
-    const key = L.key + ":" + s;
+    const key = L.key + ":" + s + ":" + heightName() + ":" + valuesName(L);
     if (!traceCache[key]) {
-      const [z, v] = await Promise.all([arr("height"), layerValues(L)]);
+      const [z, v] = await Promise.all([arr(heightName()), layerValues(L)]);
       const lift = G.lift;
       const shown = (val) => (L.key === "change" ? Math.abs(val) > L.hide_below : val > L.hide_below);
       const zz = rows(v, s, (val, k) => (shown(val) ? z[k] + (L.style === "water" ? val : lift) : NaN));
@@ -244,16 +266,24 @@
     const ex = document.getElementById("exag-select");
     ex.addEventListener("change", () => { state.exag = +ex.value; redraw(); });
     const sl = document.getElementById("frame"), lab = document.getElementById("frame-label");
-    if (META.frames.length) {
-      sl.max = META.frames.length - 1;
+    if (SLIDES.length) {
+      state.frame = Math.max(0, Math.min(state.frame, SLIDES.length - 1));
+      sl.max = SLIDES.length - 1;
       sl.value = state.frame;
-      const show = () => { lab.textContent = "t = " + META.frames[state.frame].t.toPrecision(4) + " " + META.time_unit +
-        "  (" + (state.frame + 1) + "/" + META.frames.length + ", " + META.frames[state.frame].n + " particles shown)"; };
+      const show = () => {
+        const F = SLIDES[state.frame];
+        lab.textContent = "t = " + F.t.toPrecision(4) + " " + META.time_unit + "  (" + (state.frame + 1) + "/" +
+          SLIDES.length + (F.n !== undefined ? ", " + F.n + " particles shown" : ", height and water") + ")";
+      };
       show();
       sl.addEventListener("input", () => { state.frame = +sl.value; show(); redraw(); });
       const col = document.getElementById("colour");
-      for (const f of META.frame_fields) col.add(new Option(f, f));
-      col.addEventListener("change", () => { state.colour = col.value; redraw(); });
+      if (META.frames.length) {
+        for (const f of META.frame_fields) col.add(new Option(f, f));
+        col.addEventListener("change", () => { state.colour = col.value; redraw(); });
+      } else {
+        document.getElementById("colour-box").style.display = "none";
+      }
     } else {
       document.getElementById("time").innerHTML = "<i>No frames saved: the final state.</i>";
     }
@@ -280,8 +310,10 @@
       html += "<b>" + X.toFixed(2) + ", " + Y.toFixed(2) + "</b> " + (G.crs || "(no CRS)") + "<br>";
     }
     html += "row " + row + ", column " + col + "<br>";
+    const water = META.layers.find((L) => L.key === "water");
     for (const v of META.values) {
-      const a = await arr(v.array);
+      const name = v.array === "height" ? heightName() : water && v.array === water.array ? valuesName(water) : v.array;
+      const a = await arr(name);
       const val = a[k];
       const txt = v.classes ? (val ? "class " + val : "dry") : (+val).toPrecision(4) + " " + v.unit;
       html += v.label + ": " + txt + "<br>";
