@@ -437,15 +437,13 @@ def convert(src, dst, cell_size, raw_shape, height_range):
     "--format",
     "formats",
     multiple=True,
-    type=click.Choice(["gltf", "glb", "obj", "exr", "raw32", "png16", "raw16", "splat"]),
+    metavar="gltf|glb|obj|exr|raw32|png16|raw16|splat",
     help="Format (repeatable; default all but gltf): mesh glb/gltf/obj, heightmap exr/raw32/png16/raw16, splat map.",
 )
-@click.option("--tile", type=click.IntRange(min=2), default=None, help="Tiles of N cells a side (default: one piece).")
+@click.option("--tile", type=int, default=None, metavar="N", help="Tiles of N cells a side (default: one piece).")
+@click.option("--overlap", type=int, default=1, show_default=True, metavar="K", help="Cells neighbouring tiles share.")
 @click.option(
-    "--overlap", type=click.IntRange(min=0), default=1, show_default=True, help="Cells that neighbouring tiles share."
-)
-@click.option(
-    "--texture", type=click.Choice(["relief", "hillshade", "none"]), default="relief", show_default=True,
+    "--texture", metavar="relief|hillshade|none", default="relief", show_default=True,
     help="Mesh texture: shaded relief (with water where the run has it), grey hillshade, or none.",
 )  # fmt: skip
 def export(run, to, formats, tile, overlap, texture):
@@ -460,9 +458,7 @@ def export(run, to, formats, tile, overlap, texture):
 
 @cli.command()
 @click.argument("run", type=click.Path())
-@click.option(
-    "--port", type=click.IntRange(min=0, max=65535), default=0, help="Port on 127.0.0.1 (default: a free one)."
-)
+@click.option("--port", type=int, default=0, metavar="P", help="Port on 127.0.0.1 (default: a free one).")
 @click.option("--no-browser", is_flag=True, help="Do not open a browser; print the address only.")
 @click.option("--html", "html_out", type=click.Path(), default=None, help="Write one self-contained HTML file instead.")
 @click.option(

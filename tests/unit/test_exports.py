@@ -134,6 +134,8 @@ def test_flood_run_opens_with_its_layers(tmp_path, make_run):
         (["export", "{tmp}/odd", "--to", "{tmp}/o"], "unknown kind 'weather'"),
         (["export", "{tmp}/sph", "--to", "{tmp}/o"], "holds no maps/height.tif"),
         (["export", "{tmp}/run", "--to", "{tmp}/o", "--tile", "4", "--overlap", "4"], "--overlap 4"),
+        (["export", "{tmp}/run", "--to", "{tmp}/o", "--tile", "1"], "--tile 1 is too small"),
+        (["export", "{tmp}/run", "--to", "{tmp}/o", "--tile", "0"], "--tile 0 is too small"),
     ],
 )
 def test_bad_input_is_one_sentence(tmp_path, make_run, args, words):
@@ -153,5 +155,8 @@ def test_unknown_format_is_refused(tmp_path, make_run):
     make_run(tmp_path / "run")
     with pytest.raises(InputError, match="Unknown export format 'fbx'"):
         export_run(tmp_path / "run", tmp_path / "o", ["fbx"])
-    res = CliRunner().invoke(cli, ["export", str(tmp_path / "run"), "--to", str(tmp_path / "o"), "--format", "fbx"])
-    assert res.exit_code != 0 and "fbx" in res.output
+    for opt, word in (("--format", "fbx"), ("--texture", "marble")):
+        res = CliRunner().invoke(cli, ["export", str(tmp_path / "run"), "--to", str(tmp_path / "o"), opt, word])
+        lines = res.output.strip().splitlines()
+        assert res.exit_code != 0 and len(lines) == 1 and "Unknown" in lines[0] and word in lines[0], res.output
+    assert not (tmp_path / "o").exists()

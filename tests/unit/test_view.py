@@ -171,6 +171,13 @@ def test_bad_input_is_one_sentence(tmp_path, target, words):
     assert not (tmp_path / "v.html").exists()
 
 
+def test_bad_port_is_one_sentence(tmp_path, make_run):
+    make_run(tmp_path / "run")
+    res = CliRunner().invoke(cli, ["view", str(tmp_path / "run"), "--no-browser", "--port", "70000"])
+    lines = res.output.strip().splitlines()
+    assert res.exit_code != 0 and len(lines) == 1 and "--port 70000 is not a port" in lines[0], res.output
+
+
 def test_html_into_a_folder_is_refused(tmp_path, make_run):
     make_run(tmp_path / "run")
     res = CliRunner().invoke(cli, ["view", str(tmp_path / "run"), "--html", str(tmp_path)])

@@ -77,7 +77,7 @@ def export_run(
     z = np.asarray(hm.z, dtype=np.float64)
     layers = {layer.key: r.read_map(name).z for layer, name in r.layers()}
     ny, nx = z.shape
-    windows = exports.tile_windows(ny, nx, tile, overlap) if tile else [(0, 0, slice(0, ny), slice(0, nx))]
+    windows = exports.tile_windows(ny, nx, tile, overlap) if tile is not None else [(0, 0, slice(0, ny), slice(0, nx))]
     lo, hi = float(np.nanmin(z)), float(np.nanmax(z))
     summary: dict = {
         "run": str(r.path),
@@ -93,7 +93,7 @@ def export_run(
         "tiles": [],
     }
     for i, j, rows, cols in windows:
-        folder = out / f"tile_r{i:02d}_c{j:02d}" if tile else out
+        folder = out / f"tile_r{i:02d}_c{j:02d}" if tile is not None else out
         zt = z[rows, cols]
         lt = {k: v[rows, cols] for k, v in layers.items()}
         files: list[Path] = []
@@ -123,7 +123,7 @@ def export_run(
                 "files": sorted(str(p.relative_to(out)) for p in files),
             }
         )  # fmt: skip
-    if not tile:
+    if tile is None:
         summary["files"] = summary.pop("tiles")[0]["files"]
     else:
         summary["tile"], summary["overlap"] = tile, overlap

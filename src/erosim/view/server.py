@@ -58,6 +58,8 @@ def _handler(routes: dict[str, tuple[str, bytes]]):
 
 def make_server(page: str, plotly_js: bytes, arrays: dict[str, bytes], port: int = 0) -> ThreadingHTTPServer:
     """A server on 127.0.0.1:``port`` (0: any free port) holding the page, plotly.js and ``arrays``."""
+    if not 0 <= port <= 65535:
+        raise InputError(f"--port {port} is not a port; give a number from 1024 to 65535, or 0 for any free one.")
     routes = {"/": ("text/html; charset=utf-8", page.encode("utf-8")), "/plotly.min.js": ("text/javascript", plotly_js)}
     for name, data in arrays.items():
         routes["/data/" + name] = ("application/octet-stream", data)
