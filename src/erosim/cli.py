@@ -1,4 +1,4 @@
-"""Command line: ``erosim run | sweep | demo | list | describe | validate | bench | convert | info``.
+"""Command line: ``erosim run | sweep | demo | list | describe | validate | bench | convert | view | export | info``.
 
 Thin by design: parse, load the scenario, call a runner / benchmark / validation, print. Errors meant
 for the user (:class:`~erosim.core.errors.ErosimError`) are printed as one sentence with a non-zero
@@ -90,6 +90,8 @@ def cli(threads: int | None, quiet: bool, debug: bool) -> None:
       erosim run dam-break-2d              run a scenario (results in runs/<name>/)
       erosim sweep hydrology --seeds 8     an ensemble on Dask: probability maps (sweep.nc)
       erosim validate martin-moyce         compare with the Martin & Moyce (1952) experiment
+      erosim view runs/demo                see a run in the browser (offline; --html FILE for one file)
+      erosim export runs/demo --to out/    the terrain as GLB/OBJ mesh, EXR/RAW32 heights, a splat map
     """
     STATE.debug = debug
     STATE.quiet = quiet
@@ -441,6 +443,53 @@ def convert(src, dst, cell_size, raw_shape, height_range):
     if info:
         _print_result(info, as_json=False)
     click.echo(f"Wrote {dst}")
+
+
+# ----------------------------------------------------------------------------------- view, export
+@cli.command()
+@click.argument("run", type=click.Path())
+@click.option("--to", "to", type=click.Path(), required=True, help="Folder for the exported files.")
+@click.option(
+    "--format",
+    "formats",
+    multiple=True,
+    metavar="gltf|glb|obj|exr|raw32|png16|raw16|splat",
+    help="Format (repeatable; default all but gltf): mesh glb/gltf/obj, heightmap exr/raw32/png16/raw16, splat map.",
+)
+@click.option("--tile", type=int, default=None, metavar="N", help="Tiles of N cells a side (default: one piece).")
+@click.option("--overlap", type=int, default=1, show_default=True, metavar="K", help="Cells neighbouring tiles share.")
+@click.option(
+    "--texture", metavar="relief|hillshade|none", default="relief", show_default=True,
+    help="Mesh texture: shaded relief (with water where the run has it), grey hillshade, or none.",
+)  # fmt: skip
+def export(run, to, formats, tile, overlap, texture):
+    """Export RUN's terrain: glTF/GLB and OBJ meshes, EXR/RAW32/PNG16/RAW16 heightmaps, an RGBA splat map."""
+    from erosim.view.export import DEFAULT_FORMATS, export_run
+
+    fmts = tuple(formats) or DEFAULT_FORMATS
+    summary = _guard(export_run, run, to, fmts, tile=tile, overlap=overlap, texture=texture)
+    n = sum(len(t["files"]) for t in summary.get("tiles", [])) or len(summary.get("files", []))
+    click.echo(f"Wrote {n} files and export.json to {to}")
+
+
+@cli.command()
+@click.argument("run", type=click.Path())
+@click.option("--port", type=int, default=0, metavar="P", help="Port on 127.0.0.1 (default: a free one).")
+@click.option("--no-browser", is_flag=True, help="Do not open a browser; print the address only.")
+@click.option("--html", "html_out", type=click.Path(), default=None, help="Write one self-contained HTML file instead.")
+@click.option(
+    "--max-side", type=click.IntRange(min=16), default=1024, show_default=True,
+    help="Cells a side the view reads at most; larger maps are read at a stride (the 'full' detail).",
+)  # fmt: skip
+def view(run, port, no_browser, html_out, max_side):
+    """Show RUN in the browser: the terrain in 3-D, its layers, particles over time, values under the cursor."""
+    from erosim.view import app
+
+    if html_out:
+        info = _guard(app.write_html, run, html_out, max_side=max_side)
+        click.echo(f"Wrote {info['path']} ({info['bytes'] / 1e6:.1f} MB; opens offline in any browser)")
+        return
+    _guard(app.serve, run, port, browser=not no_browser, echo=click.echo, max_side=max_side)
 
 
 # ------------------------------------------------------------------------------------------- info
