@@ -88,6 +88,7 @@ def cli(threads: int | None, quiet: bool, debug: bool) -> None:
       erosim demo                          rivers, lakes and vegetation on a generated terrain
       erosim list                          the scenario library
       erosim run dam-break-2d              run a scenario (results in runs/<name>/)
+      erosim run flood-jacksboro           a dam-break flood on a real DEM, with hazard maps
       erosim sweep hydrology --seeds 8     an ensemble on Dask: probability maps (sweep.nc)
       erosim validate martin-moyce         compare with the Martin & Moyce (1952) experiment
       erosim view runs/demo                see a run in the browser (offline; --html FILE for one file)
@@ -274,6 +275,7 @@ VALIDATION_CASES = {
     "swe-dam-break": "erosim.validation.swe_dam_break:run",
     "thacker": "erosim.validation.thacker:run",
     "lake-at-rest": "erosim.validation.lake_at_rest:run",
+    "flood-solvers": "erosim.validation.flood_solvers:run",
 }
 
 

@@ -113,6 +113,16 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
     hm = site.terrain
     fl = cfg.flood
     spacing = fl.spacing if fl.spacing is not None else 2.0 * hm.cell_size
+    if fl.solver == "sph3d":
+        from erosim.scenarios.flood_sph3d import SPHFlood
+
+        estimate = float(site.depth0.sum()) * hm.cell_size**2 / spacing**3
+        if estimate > MAX_PARTICLES:
+            raise InputError(
+                f"The reservoir would need about {estimate:,.0f} particles of {spacing:g} m in 3-D; give a larger "
+                "flood.spacing or use flood.solver = 'swe'."
+            )
+        return site, SPHFlood(site, spacing, tuple(cfg.outflow.edges), seed=cfg.seed)
     if spacing > 4.0 * hm.cell_size or spacing < 0.25 * hm.cell_size:
         raise InputError(
             f"flood.spacing = {spacing:g} m against {hm.cell_size:g} m DEM cells: give a spacing between a quarter "

@@ -47,8 +47,10 @@ class OutflowSection(Section):
 
 
 class FloodSection(ShallowWaterParams):
-    solver: Literal["swe"] = param(
-        "swe", doc="'swe': shallow-water SPH (Vacondio et al. 2012); the 3-D SPH flood ('sph3d') is not built yet"
+    solver: Literal["swe", "sph3d"] = param(
+        "swe",
+        doc="'swe': shallow-water SPH (Vacondio et al. 2012), for valleys; 'sph3d': the thesis's 3-D SPH on the "
+        "heightfield ground, for local detail (particles ∝ volume/spacing³)",
     )
     spacing: float | None = param(
         None,
