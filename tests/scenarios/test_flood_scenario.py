@@ -178,3 +178,23 @@ def test_the_report_names_the_issue_keys(flood_run):
                 "gauges_summary"):  # fmt: skip
         assert key in rep
     assert set(rep["hazard_share"]) == {f"H{k}" for k in range(1, 7)}
+
+
+def test_the_3d_sph_flood_runs_on_the_same_set_up(tmp_path):
+    """flood.solver = "sph3d" (the thesis's method) on the small valley of `validate flood-solvers`:
+    the reservoir's particles, the hazard maps on the DEM's grid, an exact particle budget."""
+    from erosim.io.runfolder import RunFolder
+    from erosim.scenarios import loader
+    from erosim.scenarios.runner import execute
+    from erosim.validation.flood_solvers import SETS
+
+    scenario = loader.load("flood", [*SETS, "flood.solver=sph3d", "flood.spacing=1.0", "run.t_end=2.0"])
+    out = RunFolder(tmp_path / "run")
+    execute(scenario, out, progress=False)
+    rep = json.loads((out.path / "report.json").read_text())
+    assert rep["status"] == "completed" and rep["solver"] == "sph3d"
+    assert rep["particles"] > 300 and rep["water_budget"]["closure_rel"] == 0.0
+    # the column depths of the reservoir at t = 0 are about its depth at the dam (2 m), never far above
+    assert 1.0 < rep["max_depth_m"] < 3.5
+    with rasterio.open(out.path / "maps" / "hazard.tif") as ds:
+        assert ds.shape == (64, 64) and (ds.read(1) > 0).sum() > 20  # the reservoir where it is deeper than Δx

@@ -9,6 +9,9 @@ time from ``report.json``; ``docs/performance.md``):
 * map cells (particle stream): 180 B and 3 µs per cell; 0.45 µs per particle update (2.2·10⁶/s);
 * SPH particles: 800 B each (fluid, walls and neighbour lists; ``erosim bench sph`` at 10⁵ and 10⁶),
   1·10⁶ particle-steps/s per core, steps from the CFL limit 0.2·h/c with the auto sound speed;
+* floods: the reservoir filled from the scenario (a DEM read and a labelling, well under a second); shallow
+  water: 250 B per particle, 80 B per map cell, 3.5·10⁵ particle-steps/s (``erosim bench flood``),
+  Δt = 0.15·H/(3√(g d_max)); 3-D SPH: as SPH particles above, with the sound speed 10√(2g·fall);
 * a base of 250 MB (Python, NumPy, Numba).
 
 The time is a rough guide (within a factor of about three); the memory is checked against what the
@@ -176,7 +179,44 @@ def sph_terrain(cfg) -> Estimate | None:
     return Estimate(what, memory, None, fix)
 
 
-ESTIMATORS = {"hydrology": hydrology, "particle-stream": stream, "sph": sph, "sph-terrain": sph_terrain}
+SWE_PARTICLE_BYTES, SWE_CELL_BYTES, SWE_STEPS_S = 250.0, 80.0, 3.5e5
+
+
+def flood(cfg) -> Estimate | None:
+    """Particles from the reservoir the scenario fills (:class:`FloodSetUp`), steps from the CFL limit."""
+    from erosim.scenarios.builders_flood import FloodSetUp
+
+    site = FloodSetUp(cfg)  # bad input is refused here already, in the builder's own words
+    hm = site.terrain
+    cells = hm.z.size
+    spacing = cfg.flood.spacing if cfg.flood.spacing is not None else 2.0 * hm.cell_size
+    volume = float(site.depth0.sum()) * hm.cell_size**2
+    d_max = max(float(site.depth0.max()), 1e-3)
+    g = 9.81
+    if cfg.flood.solver == "sph3d":
+        from erosim.sph.params import SPHParams
+
+        n = volume / spacing**3
+        p = SPHParams(dim=3, spacing=spacing)
+        c = 10.0 * math.sqrt(2 * g * d_max)
+        steps = cfg.run.t_end * c / (p.cfl * p.support())
+        memory = BASE_BYTES + SPH_PARTICLE_BYTES * n + SWE_CELL_BYTES * cells
+        seconds = n * steps / (SPH_STEPS_PER_CORE_S * _cores())
+        fix = "raise flood.spacing or use flood.solver = 'swe'"
+    else:
+        n = float((site.depth0 > 0).sum()) * hm.cell_size**2 / spacing**2
+        h = cfg.flood.support * spacing
+        steps = cfg.run.t_end * 3.0 * math.sqrt(g * d_max) / (cfg.flood.courant * h)
+        memory = BASE_BYTES + SWE_PARTICLE_BYTES * n * (7 if cfg.flood.split else 1) + SWE_CELL_BYTES * cells
+        seconds = n * steps / SWE_STEPS_S
+        fix = "raise flood.spacing"
+    what = f"{volume:,.0f} m³ in about {n:,.0f} particles of {spacing:g} m ({cfg.flood.solver}), {steps:,.0f} steps"
+    return Estimate(what, memory, seconds, fix)
+
+
+ESTIMATORS = {
+    "hydrology": hydrology, "particle-stream": stream, "sph": sph, "sph-terrain": sph_terrain, "flood": flood,
+}  # fmt: skip
 
 
 def check(kind: str, cfg) -> Estimate | None:
