@@ -166,8 +166,8 @@ def test_bad_input_is_one_sentence_and_leaves_no_folder(tmp_path, sets, words):
         args += ["--set", s]
     proc, out = _cli([*args, "--set", "flood.settle_steps=0", "--set", "run.t_end=1.0"], tmp_path)
     assert proc.returncode != 0
-    lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
-    assert len(lines) == 1 and words in lines[0], proc.stderr
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("erosim: error")]
+    assert len(errors) == 1 and words in errors[0], proc.stderr
     assert "Traceback" not in proc.stderr
     assert not out.exists()
 

@@ -104,12 +104,14 @@ def bin_particles(pos, n, x0, y0, cell, ncx, ncy, cell_start, order):
 
 
 @njit(parallel=True, cache=True)
-def count_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, count):
-    """count[i] = number of j ≠ i with r_ij < max(H_i, H_j) (cells of edge ≥ max H)."""
+def scan_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, count, start, nbr, fill):
+    """The pairs j ≠ i with r_ij < max(H_i, H_j) (cells of edge ≥ max H): their number in ``count[i]``
+    (``fill`` False), or, with the offsets ``start`` from those counts, the CSR lists
+    nbr[start[i]:start[i+1]] in cell order (``fill`` True)."""
     for i in prange(n):
         cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
         cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
-        k = 0
+        k = start[i] if fill else 0
         for gy in range(max(cy - 1, 0), min(cy + 2, ncy)):
             for gx in range(max(cx - 1, 0), min(cx + 2, ncx)):
                 c = gy * ncx + gx
@@ -121,30 +123,11 @@ def count_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, count):
                     dy = pos[i, 1] - pos[j, 1]
                     hm = max(hsup[i], hsup[j])
                     if dx * dx + dy * dy < hm * hm:
+                        if fill:
+                            nbr[k] = j
                         k += 1
-        count[i] = k
-
-
-@njit(parallel=True, cache=True)
-def fill_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, start, nbr):
-    """CSR neighbour lists: nbr[start[i]:start[i+1]] in cell order (same criterion as count_pairs)."""
-    for i in prange(n):
-        cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
-        cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
-        k = start[i]
-        for gy in range(max(cy - 1, 0), min(cy + 2, ncy)):
-            for gx in range(max(cx - 1, 0), min(cx + 2, ncx)):
-                c = gy * ncx + gx
-                for q in range(cell_start[c], cell_start[c + 1]):
-                    j = order[q]
-                    if j == i:
-                        continue
-                    dx = pos[i, 0] - pos[j, 0]
-                    dy = pos[i, 1] - pos[j, 1]
-                    hm = max(hsup[i], hsup[j])
-                    if dx * dx + dy * dy < hm * hm:
-                        nbr[k] = j
-                        k += 1
+        if not fill:
+            count[i] = k
 
 
 # ---------------------------------------------------------------- depth and smoothing length

@@ -72,6 +72,9 @@ class SPHFlood:
             boundaries.append(PlaneWalls([p for p, _ in closed], [n for _, n in closed]))
         self.solver = SPHSolver(params, fluid, domain_lo=lo, domain_hi=hi, seed=seed, boundaries=boundaries)
         self.open_edges = tuple(open_edges)
+        from erosim.coupling.sources import EdgeOutflow
+
+        self._outflow = EdgeOutflow(None, self.solver, self.raster, self.open_edges)
         self.grid = FluidGrid(self.raster, 3)
         self.volume_initial = self.budget()["volume_initial_m3"]
         self.settle_steps = 0
@@ -117,20 +120,7 @@ class SPHFlood:
 
     def advance(self) -> None:
         self.solver.step()
-        self._outflow()
-
-    def _outflow(self) -> None:
-        st = self.solver.state
-        pos = st.pos[: st.n_fluid]
-        r = self.raster
-        bounds = {"west": (0, 0.0, -1.0), "east": (0, (r.nx - 1) * r.dx, 1.0),
-                  "south": (1, 0.0, -1.0), "north": (1, (r.ny - 1) * r.dy, 1.0)}  # fmt: skip
-        for e in self.open_edges:
-            axis, at, sign = bounds[e]
-            out = sign * (pos[:, axis] - at) > 0
-            if out.any():
-                self.solver.remove_fluid(out, sink=f"edge:{e}")
-                pos = st.pos[: st.n_fluid]
+        self._outflow()  # water past an open edge leaves (counted by the solver's mass budget)
 
     def state_dict(self) -> dict:
         return self.solver.state_dict()

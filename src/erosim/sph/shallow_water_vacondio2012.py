@@ -280,11 +280,11 @@ class ShallowWaterSPH:
         K.bin_particles(at, n, x0, y0, cell, ncx, ncy, cell_start, order)
         count = np.empty(n, np.int64)
         grid = (x0, y0, cell, ncx, ncy, cell_start, order)
-        K.count_pairs(at, search, n, *grid, count)
         start = np.zeros(n + 1, np.int64)
+        K.scan_pairs(at, search, n, *grid, count, start, np.empty(0, np.int64), False)
         np.cumsum(count, out=start[1:])
         nbr = np.empty(int(start[-1]), np.int64)
-        K.fill_pairs(at, search, n, *grid, start, nbr)
+        K.scan_pairs(at, search, n, *grid, count, start, nbr, True)
         self._start, self._nbr, self._search, self._built_at = start, nbr, search, at
         self.rebuilds += 1
 

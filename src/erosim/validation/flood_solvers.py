@@ -60,6 +60,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from erosim.viz.plots import save_figure
+
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")
     folder = RunFolder(out if out is not None else default_out(f"validate-flood-solvers-{resolution}"))
@@ -89,9 +91,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         ax.set_yticks([])
     fig.tight_layout()
     path = folder.figures / "flood_solvers.png"
-    with atomic.atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_figure(fig, path)
     result = {
         "case": "flood-solvers",
         "metric": "intersection over union of the flooded extents of the shallow-water and the 3-D SPH floods",

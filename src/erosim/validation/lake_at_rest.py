@@ -53,6 +53,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
 
     from erosim.scenarios.builders_flood import build
     from erosim.scenarios.loader import load
+    from erosim.viz.plots import save_figure
 
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")
@@ -86,9 +87,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
     path = folder.figures / "lake_speeds.png"
-    with atomic.atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_figure(fig, path)
     worst_p99 = max(p99)
     budget = m.budget()
     result = {

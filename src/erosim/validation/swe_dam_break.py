@@ -147,6 +147,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from erosim.viz.plots import save_figure
+
     folder = RunFolder(out if out is not None else default_out(f"validate-swe-dam-break-{resolution}"))
     cases = {"ritter": run_case(0.0, resolution), "stoker": run_case(0.1 * H0, resolution)}
     fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
@@ -161,9 +163,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     axes[-1].set_xlabel("x from the dam (m)")
     fig.tight_layout()
     path = folder.figures / "swe_dam_break.png"
-    with atomic.atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_figure(fig, path)
     worst = max(r["rms_rel"] for r in cases.values())
     result = {
         "case": "swe-dam-break",

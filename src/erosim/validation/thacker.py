@@ -116,6 +116,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from erosim.viz.plots import save_figure
+
     folder = RunFolder(out if out is not None else default_out(f"validate-thacker-{resolution}"))
     r = run_case(resolution)
     t, errors, ious, depth, X, Y = r.pop("track")
@@ -140,9 +142,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     ax1.set_title(f"Δx = {r['spacing_m']:g} m: depth RMS {100 * r['rms_rel']:.1f} % of h₀", fontsize=10)
     fig.tight_layout()
     path = folder.figures / "thacker.png"
-    with atomic.atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_figure(fig, path)
     result = {
         "case": "thacker",
         "metric": "RMS depth error against Thacker's cap over two periods (nodes wet in either), relative to h0",

@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from erosim.core.heightmap import Heightmap  # noqa: E402
-from erosim.viz.plots import _save, _scale_bar, axis_labels, extent_of, map_units  # noqa: E402
+from erosim.viz.plots import _scale_bar, axis_labels, extent_of, map_units, save_figure  # noqa: E402
 
 #: (class, colour, meaning) of FL-3, H1 … H6 (the meanings are erosim.analysis.hazard.HAZARD_MEANING's)
 HAZARD_LEGEND: tuple[tuple[str, str, str], ...] = (
@@ -97,7 +97,7 @@ def plot_flood_maps(out_png: str | os.PathLike, hm: Heightmap, hazard_maps, titl
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    return _save(fig, out_png)
+    return save_figure(fig, out_png)
 
 
 def plot_hazard(out_png: str | os.PathLike, hm: Heightmap, classes: np.ndarray, summary: dict, title: str = "") -> Path:
@@ -140,4 +140,4 @@ def plot_hazard(out_png: str | os.PathLike, hm: Heightmap, classes: np.ndarray, 
     for j in range(3):
         table[0, j].set_text_props(fontweight="bold")
     fig.tight_layout()
-    return _save(fig, out_png)
+    return save_figure(fig, out_png)

@@ -18,7 +18,8 @@ import numpy as np  # noqa: E402
 from erosim.core.atomic import atomic_path  # noqa: E402
 
 
-def _save(fig, path: str | os.PathLike) -> Path:
+def save_figure(fig, path: str | os.PathLike) -> Path:
+    """Write ``fig`` as a PNG at 110 dpi through an atomic path, and close it."""
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
@@ -67,7 +68,7 @@ def snapshot(
     ax.set_ylabel("z (m)" if pos.shape[1] == 3 else "y (m)")
     ax.set_title(f"{title} t = {t:.4g} s".strip())
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def front_vs_experiment(
@@ -92,7 +93,7 @@ def front_vs_experiment(
     if title:
         ax.set_title(title)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def series_vs_experiment(path, panels: list[dict], title: str = "") -> Path:
@@ -115,7 +116,7 @@ def series_vs_experiment(path, panels: list[dict], title: str = "") -> Path:
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def pressure_profile(
@@ -133,7 +134,7 @@ def pressure_profile(
     if title:
         ax.set_title(title)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _canvas_rgb(fig) -> np.ndarray:
@@ -208,7 +209,7 @@ def probability_map(path, p: np.ndarray, extent: tuple, title: str, shade: np.nd
     ax.set_ylabel("y (m)")
     ax.set_title(title)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _nice_length(span: float) -> float:
@@ -304,7 +305,7 @@ def map_figure(
     axis_labels(ax, geographic, km)
     ax.set_title(title)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def hillshade_figure(path, z: np.ndarray, cell_size: float, title: str, extent: tuple | None = None) -> Path:
@@ -342,4 +343,4 @@ def voxel_section(path, field: np.ndarray, extent, iso: float, *, labels=("x (m)
     ax.set_ylabel(labels[1])
     ax.set_title(title or "voxel terrain section (solid shaded; surface line, earlier surface dashed)")
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
