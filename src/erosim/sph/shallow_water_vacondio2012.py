@@ -20,8 +20,8 @@ interpolates the bed from bed particles; erosim has the DEM itself, and its Q4 s
 exactly where the potential is evaluated. Wet/dry fronts need no special case: the edge of the
 particle cloud is the shoreline, and a particle never carries water where there is none.
 
-Splitting (Vacondio et al. 2013): a particle whose spacing √(V/d) has grown past
-``split_spacing`` × the initial spacing (the flow has thinned) becomes seven: one at its position
+Splitting (Vacondio et al. 2013): a moving particle (faster than ``split_speed``) whose spacing
+√(V/d) has grown past ``split_spacing`` × the initial spacing (the flow has thinned) becomes seven: one at its position
 with 0.178 V and six on a hexagon of radius 0.4·√(V/d) with the rest in equal shares, all with the
 parent's velocity — mass, momentum and the first moment of mass are kept exactly. A particle
 lighter than ``split_min_volume`` × the reservoir particle is not split, which bounds the count.
@@ -71,6 +71,9 @@ class ShallowWaterParams(Section):
     )
     split_spacing: float = param(
         1.5, gt=1, unit="1", doc="split a particle when its spacing √(V/d) exceeds this × the initial spacing"
+    )
+    split_speed: float = param(
+        0.1, ge=0, unit="m/s", doc="split only particles moving faster than this (water at rest keeps its particles)"
     )
     split_min_volume: float = param(
         0.02, gt=0, le=1, unit="1", doc="never split particles lighter than this × the initial particle volume"
@@ -153,6 +156,7 @@ class ShallowWaterSPH:
         self.splits = 0
         self.settle_steps = 0
         self.rebuilds = 0
+        self._settling = False
         self._built_at: np.ndarray | None = None
         self.last_dt = 0.0
         self.volume_initial = float(self.vol.sum())
@@ -194,7 +198,7 @@ class ShallowWaterSPH:
             self.volume_out += float(self.vol[out].sum())
             self._keep(~out)
             blocked = blocked[~out]
-        if prm.split:
+        if prm.split and not self._settling:
             blocked = np.concatenate([blocked, np.zeros(self._split() * 6, np.int64)])
         if self.n:
             self._evaluate()
@@ -221,25 +225,29 @@ class ShallowWaterSPH:
         """
         alpha, since = 0.1, 0
         k = 0
-        for k in range(1, max_steps + 1):  # noqa: B007 (the count is returned)
-            self.step()
-            w = self.vol[:, None]
-            power = float((w * self.acc * self.vel).sum())
-            if power <= 0.0:
-                self.vel[:] = 0.0
-                alpha, since = 0.1, 0
-            else:
-                vn = math.sqrt(float((w * self.vel**2).sum()))
-                fn = math.sqrt(float((w * self.acc**2).sum()))
-                if fn > 0.0:
-                    self.vel *= 1.0 - alpha
-                    self.vel += alpha * vn / fn * self.acc
-                since += 1
-                if since > 5:
-                    alpha *= 0.99
-            # at rest: moving slower than `speed` after a step that did not stop everything
-            if power > 0.0 and since > 5 and float(np.hypot(self.vel[:, 0], self.vel[:, 1]).max()) < speed:
-                break
+        self._settling = True  # no splitting while the water comes to rest
+        try:
+            for k in range(1, max_steps + 1):  # noqa: B007 (the count is returned)
+                self.step()
+                w = self.vol[:, None]
+                power = float((w * self.acc * self.vel).sum())
+                if power <= 0.0:
+                    self.vel[:] = 0.0
+                    alpha, since = 0.1, 0
+                else:
+                    vn = math.sqrt(float((w * self.vel**2).sum()))
+                    fn = math.sqrt(float((w * self.acc**2).sum()))
+                    if fn > 0.0:
+                        self.vel *= 1.0 - alpha
+                        self.vel += alpha * vn / fn * self.acc
+                    since += 1
+                    if since > 5:
+                        alpha *= 0.99
+                # at rest: moving slower than `speed` after a step that did not stop everything
+                if power > 0.0 and since > 5 and float(np.hypot(self.vel[:, 0], self.vel[:, 1]).max()) < speed:
+                    break
+        finally:
+            self._settling = False
         self.settle_steps += k
         self.t, self.steps, self.last_dt = 0.0, 0, 0.0
         self.volume_out = 0.0
@@ -333,7 +341,9 @@ class ShallowWaterSPH:
         """Split the thinned particles (module docstring); returns how many were split."""
         prm = self.params
         spacing = np.sqrt(self.vol / np.maximum(self.depth, 1e-300))
+        moving = self.vel[:, 0] ** 2 + self.vel[:, 1] ** 2 > prm.split_speed**2
         parent = (spacing > prm.split_spacing * self.spacing) & (self.vol >= 7 * prm.split_min_volume * self.v0)
+        parent &= moving
         m = int(parent.sum())
         if m == 0:
             return 0
