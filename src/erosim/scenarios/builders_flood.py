@@ -12,7 +12,7 @@ The solver is shallow-water SPH (:mod:`erosim.sph.shallow_water_vacondio2012`). 
 hazard maxima (:mod:`erosim.analysis.hazard`) on the DEM's grid. A run leaves
 
 * ``maps/``: max_depth.tif, max_speed.tif, max_dv.tif, arrival_time.tif (s; nodata where never
-  wet), hazard.tif (uint8: 0 dry, 1–6, 255 on nodata), depth_final.tif, terrain.tif (with the breach)
+  wet), hazard.tif (uint8: 0 dry, 1–6, 255 on nodata), depth_final.tif, height.tif (the DEM with the breach)
   — the DEM's grid, CRS and transform;
 * ``figures/``: flood_maps.png (the three maxima), hazard.png (six-colour legend and area table),
   depth_NNN frames in flood.gif;
@@ -258,7 +258,7 @@ def write_flood_maps(out: Path, site: FloodSetUp, solver: ShallowWaterSPH, maps:
     write_raster(folder / "hazard.tif", classes, hm, nodata=255)
     depth = solver.depth_grid()
     write_raster(folder / "depth_final.tif", np.where(nodata, np.nan, depth).astype(np.float32), hm, nodata=np.nan)
-    write_raster(folder / "terrain.tif", np.where(nodata, np.nan, hm.z).astype(np.float32), hm, nodata=np.nan)
+    write_raster(folder / "height.tif", np.where(nodata, np.nan, hm.z).astype(np.float32), hm, nodata=np.nan)
     from erosim.viz.flood import plot_flood_maps, plot_hazard
 
     figs = Path(out) / "figures"

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from erosim.io.results import LAYERS, Run
+from erosim.viz.flood import HAZARD_LEGEND
 
 MAX_SIDE = 1024
 MAX_PARTICLES = 20_000
@@ -35,7 +36,7 @@ STREAMS = [[0.0, "#a6d8f5"], [1.0, "#1565c0"]]
 RDBU = [[0.0, "#b2182b"], [0.5, "#f7f7f7"], [1.0, "#2166ac"]]
 GREENS = [[0.0, "#c7e9c0"], [1.0, "#00441b"]]
 VIRIDIS = [[0.0, "#440154"], [0.25, "#3b528b"], [0.5, "#21918c"], [0.75, "#5ec962"], [1.0, "#fde725"]]
-HAZARD = ["#ffffb2", "#fed976", "#feb24c", "#fd8d3c", "#f03b20", "#bd0026"]  # classes 1..6
+HAZARD = [colour for _, colour, _ in HAZARD_LEGEND]  # classes 1..6, as in the flood's figures
 FIELD_UNITS = {"speed": "m/s", "pressure": "Pa", "density": "kg/m³", "above ground": "m"}
 
 
