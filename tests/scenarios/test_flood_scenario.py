@@ -198,3 +198,17 @@ def test_the_3d_sph_flood_runs_on_the_same_set_up(tmp_path):
     assert 1.0 < rep["max_depth_m"] < 3.5
     with rasterio.open(out.path / "maps" / "hazard.tif") as ds:
         assert ds.shape == (64, 64) and (ds.read(1) > 0).sum() > 20  # the reservoir where it is deeper than Δx
+
+
+def test_a_users_dem_drops_the_library_valleys_dam_breach_and_edges():
+    """--set terrain.file: the library's positions described its generated valley; only what the
+    command line sets again is placed on the user's DEM."""
+    from erosim.scenarios.loader import load
+
+    mine = ["terrain.file=dem.tif", "reservoir.level=35.0", "reservoir.seed=[1.0, 2.0]"]
+    cfg = load("flood", mine).config
+    assert cfg.reservoir.barrier is None and cfg.breach is None and cfg.outflow.edges == []
+    assert cfg.terrain.cell_size is None
+    cfg = load("flood", [*mine, "reservoir.barrier=[[0.0, 1.0], [5.0, 1.0]]", "outflow.edges=['east']"]).config
+    assert cfg.reservoir.barrier == [[0.0, 1.0], [5.0, 1.0]] and cfg.outflow.edges == ["east"] and cfg.breach is None
+    assert load("flood").config.breach is not None  # the library's own valley keeps them

@@ -161,6 +161,24 @@ def _merge(base: dict, extra: dict) -> dict:
     return out
 
 
+#: settings a library scenario sets for its own generated terrain; ``--set terrain.file=DEM`` drops
+#: those the command line does not set again (cell size; a flood's dam line, breach, hazard polygon and
+#: open edges, which are positions and edges of the generated valley)
+TERRAIN_BOUND = (
+    ("terrain", "cell_size"), ("reservoir", "barrier"), ("breach",), ("hazard", "inside"), ("outflow", "edges"),
+)  # fmt: skip
+
+
+def _drop(body: dict, keys: tuple) -> None:
+    """Remove ``keys`` (a table or a value in one) from a scenario's body, if present."""
+    table = body
+    for k in keys[:-1]:
+        table = table.get(k)
+        if not isinstance(table, dict):
+            return
+    table.pop(keys[-1], None)
+
+
 def load(
     name_or_path: str | os.PathLike, overrides: list[str] | tuple[str, ...] = (), preset: str | None = None
 ) -> Scenario:
@@ -187,9 +205,12 @@ def load(
             raise ConfigError(f"Scenario '{path.stem}' has no preset '{preset}'; its presets: {names}.")
         body = _merge(body, presets[preset])
     set_keys = {tuple(keys) for keys, _value, _item in sets}
-    if ("terrain", "file") in set_keys and ("terrain", "cell_size") not in set_keys and "terrain" in body:
-        # the scenario's cell size described its generated terrain: the user's DEM keeps its own
-        body["terrain"] = {k: v for k, v in body["terrain"].items() if k != "cell_size"}
+    if ("terrain", "file") in set_keys:
+        # the scenario's cell size and positions described its generated terrain: the user's DEM keeps
+        # its own cell size, and nothing is placed on it that the command line does not place
+        for bound in TERRAIN_BOUND:
+            if not any(k[: len(bound)] == bound for k in set_keys):
+                _drop(body, bound)
     for keys, value, item in sets:
         if keys[0] in META_KEYS:
             if keys != ["preset"]:
