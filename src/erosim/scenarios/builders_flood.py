@@ -37,7 +37,7 @@ from erosim.scenarios.schema_flood import FloodScenario
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
 from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
-from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, equal_volumes
+from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, equal_volumes, felt_bed
 from erosim.terrain.reservoir import barrier_mask, cut_breach, fill_reservoir
 
 #: particles beyond this many would not fit a workstation (about 200 B each, times the splitting)
@@ -138,11 +138,9 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
     # the reservoir settles on the DEM as it stands, the dam whole (the barrier all wall), then the
     # breach opens at t = 0
     closed = site.wall | (site.barrier if site.barrier is not None else False)
-    probe = ShallowWaterSPH(
-        site.dem.z, hm.cell_size, np.zeros((1, 2)) + hm.cell_size, np.ones(1), spacing,
-        ShallowWaterParams(**params), wall=closed, open_edges=tuple(cfg.outflow.edges), surface=site.level,
-    )  # fmt: skip
-    pos, vol = site.particles(spacing, probe.bed)
+    open_edges = tuple(e in cfg.outflow.edges for e in ("west", "east", "north", "south"))
+    bed = felt_bed(site.dem.z, closed, open_edges, site.level, fl.bed_smoothing * spacing / hm.cell_size)
+    pos, vol = site.particles(spacing, bed)
     if len(pos) == 0:
         raise InputError(
             f"No particle fits the reservoir at flood.spacing = {spacing:g} m; give a smaller spacing or raise "

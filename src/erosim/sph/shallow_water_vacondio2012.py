@@ -263,10 +263,7 @@ class ShallowWaterSPH:
         self._evaluate()
 
     def _felt_bed(self, bed: np.ndarray) -> np.ndarray:
-        """The DEM smoothed at the particles' scale (``bed_smoothing``), then its walls raised."""
-        sigma = self.params.bed_smoothing * self.spacing / self.cell
-        smooth = ndimage.gaussian_filter(bed, sigma, mode="nearest") if sigma > 0 else bed
-        return raised_walls(smooth, self.wall, self.open, self.surface0)
+        return felt_bed(bed, self.wall, self.open, self.surface0, self.params.bed_smoothing * self.spacing / self.cell)
 
     # ------------------------------------------------------------------ passes
 
@@ -476,6 +473,13 @@ class ShallowWaterSPH:
             rebuilds = self.rebuilds
             self._build_lists(np.ascontiguousarray(state["lists_at"]), np.ascontiguousarray(state["lists_search"]))
             self.rebuilds = rebuilds
+
+
+def felt_bed(bed: np.ndarray, wall: np.ndarray, open_edges: tuple, surface: float, sigma_cells: float) -> np.ndarray:
+    """The bed the water feels: the DEM smoothed by a Gaussian of ``sigma_cells`` cells (the particles'
+    scale, ``bed_smoothing``), then its walls and closed edges raised (:func:`raised_walls`)."""
+    smooth = ndimage.gaussian_filter(bed, sigma_cells, mode="nearest") if sigma_cells > 0 else bed
+    return raised_walls(smooth, wall, open_edges, surface)
 
 
 def raised_walls(
