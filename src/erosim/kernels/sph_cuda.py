@@ -23,6 +23,10 @@ Neighbour search (the CPU's method, :mod:`erosim.kernels.neighbours`, on a dense
    the 3^d cells around it (count pass, prefix sum, fill pass); a boundary particle's list holds its
    fluid neighbours in index order (the CPU's transpose gives that order).
 
+Helpers shared by several kernels are inlined ``njit`` functions (numba-cuda compiles them into each
+kernel that calls them; plain Python in the simulator) rather than ``cuda.jit(device=True)`` ones, so
+every kernel also compiles to PTX on a machine without a GPU (``benchmarks/cuda_compile_check.py``).
+
 Reductions (largest |r − r_ref|², |v|², |a|²) are maxima (block reduction in shared memory, then one
 atomic max per block), so they do not depend on the launch order: the device path is deterministic.
 Under Numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``) the same kernels run as Python on the CPU
@@ -35,7 +39,7 @@ import functools
 import math
 
 import numpy as np
-from numba import config, cuda, int64
+from numba import config, cuda, int64, njit
 
 from erosim.kernels import sph_kernels as K
 from erosim.sph import forces
@@ -63,6 +67,11 @@ _enforce = _dev(_box.enforce)
 _density_rate_particle = _dev(_bparticles.density_rate_particle)
 
 
+def _helper(fn):
+    """A helper called from kernels: inlined into them on a device, plain Python in the simulator."""
+    return fn if SIMULATOR else njit(inline="always")(fn)
+
+
 def blocks(n: int) -> int:
     """Blocks of :data:`TPB` threads covering ``n`` items (at least one)."""
     return max(1, (int(n) + TPB - 1) // TPB)
@@ -76,7 +85,7 @@ def red_blocks(n: int) -> int:
 # ---------------------------------------------------------------- block reductions
 
 
-@cuda.jit(device=True)
+@_helper
 def _block_max(sh, v):
     """Maximum of ``v`` over the block (every thread gets it); ``sh`` is a TPB-long shared array."""
     t = cuda.threadIdx.x
@@ -192,7 +201,7 @@ def exclusive_scan(src, m: int, dst) -> None:
 # ---------------------------------------------------------------- cells and the counting sort
 
 
-@cuda.jit(device=True)
+@_helper
 def _cell_coord(x, origin, inv_cell):
     return int64(math.floor((x - origin) * inv_cell)) + 1
 
@@ -296,7 +305,7 @@ def copy_rows(src, dst, n):
 # ---------------------------------------------------------------- Verlet lists
 
 
-@cuda.jit(device=True)
+@_helper
 def _neighbour_cell(c, m, dims, dim):
     """Id of the m-th of the 3^dim cells around cell c, in the CPU's order (dz, dy, dx; dx fastest)."""
     dx = m % 3 - 1
@@ -307,7 +316,7 @@ def _neighbour_cell(c, m, dims, dim):
     return c + dx + dims[0] * dy
 
 
-@cuda.jit(device=True)
+@_helper
 def _dist2(spos, s, x0, x1, x2, d):
     t = x0 - spos[s, 0]
     r2 = t * t

@@ -1,0 +1,173 @@
+"""The SPH step on the CUDA device path, checked under Numba's CUDA simulator against the CPU solver.
+
+The simulator runs the device kernels as Python threads, so it is switched on in a subprocess
+(``NUMBA_ENABLE_CUDASIM=1``): the CPU tests of this process keep their compiled Numba. One
+subprocess runs every comparison (its start-up and the simulator's slowness dominate) and prints
+one JSON line; the tests below assert on it.
+
+Tolerance: the device path calls the CPU's own per-particle functions over the same neighbour
+lists in the same order, so the two differ only where one contracts a·b + c into a fused
+multiply-add and the other does not (the CPU kernels are compiled with ``contract``; the simulator
+evaluates in Python, without). Each such step changes a result by at most half an ulp (1.1e-16
+relative); over a few hundred operations per particle and three steps that stays below 1e-13 of a
+field's scale. We allow 1e-11 of the field's largest value: 100× that bound, and 10⁶× below any
+physical difference (one Δt changes a position by |v|Δt/L ≈ 1e-4 of the tank).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[2] / "src"
+
+SCRIPT = r"""
+import json
+import numpy as np
+from erosim.bench.sph import dam_break_geometry
+from erosim.sph.params import SPHParams
+from erosim.sph.solver import SPHSolver
+from erosim.sph.solver_cuda import CudaSPHSolver
+
+# 2-D dam break with boundary-particle walls, ~50 fluid particles; skin 0 rebuilds the lists (and
+# re-sorts the fluid by cell) every step, so every kernel of the device path runs each step
+fluid, lo, hi = dam_break_geometry(50, 2, 0.01)
+prm = SPHParams(dim=2, spacing=0.01, skin=0.0)
+kw = dict(domain_lo=lo, domain_hi=hi)
+cpu = SPHSolver(prm, fluid, **kw)
+dev = CudaSPHSolver(prm, fluid, **kw)
+out = {"n_fluid": cpu.n_fluid, "n_boundary": cpu.n_boundary}
+s, m, nbr = dev.device_lists()
+out["lists_equal_at_start"] = bool(
+    np.array_equal(s, cpu.start) and np.array_equal(m, cpu.mid) and np.array_equal(nbr, cpu.nbr[: s[-1]])
+)
+
+FIELDS = ("positions", "velocities", "density", "pressure", "accelerations")
+
+
+def rel_diff(a, b):
+    res = {f: float(np.max(np.abs(getattr(a, "fluid_" + f)() - getattr(b, "fluid_" + f)()))
+                    / max(float(np.max(np.abs(getattr(a, "fluid_" + f)()))), 1e-300)) for f in FIELDS}
+    res["boundary_pressure"] = float(np.max(np.abs(a.boundary_pressure() - b.boundary_pressure()))
+                                     / max(float(np.max(np.abs(a.boundary_pressure()))), 1e-300))
+    return res
+
+
+for _ in range(2):
+    cpu.step()
+    dev.step()
+out["steps"] = [cpu.steps, dev.steps]
+out["rebuilds"] = [cpu.rebuilds, dev.rebuilds]
+out["dt"] = [cpu.last_dt, dev.last_dt]
+out["ids_equal"] = bool(np.array_equal(cpu.state.ids, (dev._sync(), dev.state.ids)[1]))
+out["moved"] = float(np.max(np.abs(cpu.fluid_positions() - fluid)))
+s, m, nbr = dev.device_lists()
+out["lists_equal_after_steps"] = bool(
+    np.array_equal(s, cpu.start) and np.array_equal(m, cpu.mid) and np.array_equal(nbr, cpu.nbr[: s[-1]])
+)
+out["after_steps"] = rel_diff(cpu, dev)
+
+# checkpoints across devices: the CPU's state resumes on the device and the device's on the CPU
+ck_cpu, ck_dev = cpu.state_dict(), dev.state_dict()
+dev_from_cpu = CudaSPHSolver(prm, fluid, **kw)
+dev_from_cpu.load_state_dict(ck_cpu)
+cpu_from_dev = SPHSolver(prm, fluid, **kw)
+cpu_from_dev.load_state_dict(ck_dev)
+for s_ in (cpu, dev, dev_from_cpu, cpu_from_dev):
+    s_.step()
+out["resumed_steps"] = [dev_from_cpu.steps, cpu_from_dev.steps]
+out["cpu_checkpoint_on_device"] = rel_diff(cpu, dev_from_cpu)
+out["device_checkpoint_on_cpu"] = rel_diff(dev, cpu_from_dev)
+# the device resumed from its own checkpoint: the step is bit for bit the uninterrupted one
+dev_again = CudaSPHSolver(prm, fluid, **kw)
+dev_again.load_state_dict(ck_dev)
+dev_again.step()
+out["device_resume_bitwise"] = all(
+    np.array_equal(getattr(dev, "fluid_" + f)(), getattr(dev_again, "fluid_" + f)()) for f in FIELDS
+)
+print(json.dumps(out))
+"""
+
+
+@pytest.fixture(scope="module")
+def simulated():
+    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
+    proc = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+TOL = 1e-11  # relative to each field's largest value; see the module docstring
+
+
+def test_device_lists_are_the_cpu_lists(simulated):
+    assert simulated["lists_equal_at_start"]
+    assert simulated["lists_equal_after_steps"]
+    assert simulated["rebuilds"][0] == simulated["rebuilds"][1] >= 3  # a rebuild with re-sorting each step
+    assert simulated["ids_equal"]  # the fluid re-sorted into the same order
+
+
+def test_device_steps_agree_with_cpu_to_rounding(simulated):
+    assert simulated["steps"] == [2, 2]
+    assert simulated["dt"][0] == pytest.approx(simulated["dt"][1], rel=TOL)
+    assert simulated["moved"] > 0  # the fluid moved: the comparison is not of a state at rest
+    for field, diff in simulated["after_steps"].items():
+        assert diff <= TOL, field
+
+
+def test_checkpoints_resume_across_devices(simulated):
+    assert simulated["resumed_steps"] == [3, 3]
+    assert simulated["device_resume_bitwise"]
+    for case in ("cpu_checkpoint_on_device", "device_checkpoint_on_cpu"):
+        for field, diff in simulated[case].items():
+            assert diff <= TOL, (case, field)
+
+
+def test_device_cuda_without_cuda_is_one_sentence(cli_runner, tmp_path):
+    from erosim.cli import cli
+    from erosim.core.devices import cuda_status
+
+    if cuda_status()[0]:
+        pytest.skip("this machine has a usable CUDA device")
+    out = tmp_path / "run"
+    for args in (
+        ["run", "hydrostatic", "--device", "cuda", "--out", str(out)],
+        ["bench", "sph", "--device", "cuda", "--particles", "1000"],
+        ["validate", "hydrostatic", "--device", "cuda", "--out", str(out)],
+    ):
+        res = cli_runner.invoke(cli, args)
+        assert res.exit_code == 2, (args, res.output)
+        lines = [ln for ln in res.output.splitlines() if ln.strip()]
+        assert len(lines) == 1 and "Device 'cuda' is not usable" in lines[0] and "--device cpu" in lines[0]
+        assert not out.exists()
+
+
+def test_run_device_setting_refused_in_toml_without_cuda(cli_runner, tmp_path):
+    from erosim.cli import cli
+    from erosim.core.devices import cuda_status
+
+    if cuda_status()[0]:
+        pytest.skip("this machine has a usable CUDA device")
+    toml = tmp_path / "t.toml"
+    toml.write_text(
+        'schema_version = 1\nkind = "sph"\nname = "t"\n[sph]\nspacing = 0.02\n[domain]\nlo = [0.0, 0.0]\n'
+        'hi = [0.2, 0.3]\n[[fluid]]\nlo = [0.0, 0.0]\nhi = [0.1, 0.1]\n[run]\nt_end = 0.001\ndevice = "cuda"\n'
+    )
+    out = tmp_path / "run"
+    res = cli_runner.invoke(cli, ["--quiet", "run", str(toml), "--out", str(out)])
+    assert res.exit_code == 2
+    assert "Device 'cuda' is not usable" in res.output
+    assert not out.exists()  # no half-written run folder
+
+
+def test_info_lists_devices(cli_runner):
+    from erosim.cli import cli
+
+    res = cli_runner.invoke(cli, ["info"])
+    assert res.exit_code == 0
+    assert "device cpu" in res.output and "device cuda" in res.output
