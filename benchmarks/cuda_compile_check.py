@@ -27,7 +27,7 @@ def signatures(dtype: str, dim: int):
 
     f = {"float64": float64, "float32": float32}[dtype]
     A2, A1 = f[:, :], f[:]
-    I1, D1, D2 = int64[:], float64[:], float64[:, :]
+    I1, D1 = int64[:], float64[:]
     out = [
         ("bounds", kc.bounds, (A2, int64, D1, D1)),
         ("max_displacement", kc.max_displacement, (A2, A2, int64, D1)),
@@ -67,7 +67,8 @@ def signatures(dtype: str, dim: int):
                 (A2, A2, I1, I1, int32[:], int64, int64, float64, float64, A1),
             )
         )
-    for kernel, form, visc in itertools.product(("wendland", "muller"), ("wcsph", "symmetric"), ("artificial", "laminar")):
+    variants = itertools.product(("wendland", "muller"), ("wcsph", "symmetric"), ("artificial", "laminar"))
+    for kernel, form, visc in variants:
         out.append(
             (
                 f"fluid_pass[{kernel},{form},{visc}]",
