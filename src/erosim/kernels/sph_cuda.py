@@ -181,6 +181,14 @@ def _add_block_offsets(dst, m, offs):
 
 
 @cuda.jit
+def zero(arr, m):
+    """arr[:m] = 0 (on the device: no host array of the grid's size is made or copied)."""
+    k = cuda.grid(1)
+    if k < m:
+        arr[k] = 0
+
+
+@cuda.jit
 def _set_first_zero(dst):
     if cuda.grid(1) == 0:
         dst[0] = 0

@@ -137,11 +137,13 @@ class CudaSPHSolver(SPHSolver):
             )
         d_origin = cuda.to_device(origin)
         d_dims = cuda.to_device(dims.astype(np.int64))
-        counts = cuda.to_device(np.zeros(ncell, np.int64))
+        counts = cuda.device_array(ncell, np.int64)
+        kc.zero[kc.blocks(ncell), kc.TPB](counts, ncell)
         kc.cell_ids[kc.blocks(n), kc.TPB](src, n, d_origin, inv_cell, d_dims, self.d["pcell"], counts)
         cell_start = cuda.device_array(ncell + 1, np.int64)
         kc.exclusive_scan(counts, ncell, cell_start)
-        fill = cuda.to_device(np.zeros(ncell, np.int64))
+        fill = counts  # the counts are spent: reuse them as the scatter's fill counters
+        kc.zero[kc.blocks(ncell), kc.TPB](fill, ncell)
         kc.scatter[kc.blocks(n), kc.TPB](self.d["pcell"], n, cell_start, fill, self._cell_index)
         kc.sort_ranges[kc.blocks(ncell), kc.TPB](cell_start, ncell, self._cell_index)
         # ---- fluid re-sorted by cell (memory locality), as the CPU does at a rebuild
