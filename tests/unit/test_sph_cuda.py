@@ -171,3 +171,50 @@ def test_info_lists_devices(cli_runner):
     res = cli_runner.invoke(cli, ["info"])
     assert res.exit_code == 0
     assert "device cpu" in res.output and "device cuda" in res.output
+
+
+TOML = """schema_version = 1
+kind = "sph"
+name = "t"
+[sph]
+spacing = 0.02
+[domain]
+lo = [0.0, 0.0]
+hi = [0.2, 0.3]
+[[fluid]]
+lo = [0.0, 0.0]
+hi = [0.1, 0.1]
+[run]
+t_end = {t_end}
+output_interval = 0.0
+snapshots = 0
+"""
+
+
+@pytest.mark.slow
+def test_cli_run_resumes_a_cpu_run_on_the_device(tmp_path):
+    """`erosim run --resume DIR --device cuda` continues a CPU run folder on the device (simulator);
+    the state at the end matches the uninterrupted CPU run to rounding (tolerance: module docstring)."""
+    import numpy as np
+
+    from erosim.io import checkpoint
+
+    def erosim(*args, sim=False):
+        env = {**os.environ, "PYTHONPATH": str(SRC), "NUMBA_ENABLE_CUDASIM": "1" if sim else "0"}
+        code = "import sys; from erosim.cli import main; sys.argv[0] = 'erosim'; main()"
+        proc = subprocess.run([sys.executable, "-c", code, "--quiet", *args], env=env, capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+
+    short, full = tmp_path / "short.toml", tmp_path / "full.toml"
+    short.write_text(TOML.format(t_end=0.0005))
+    full.write_text(TOML.format(t_end=0.001))
+    erosim("run", str(full), "--out", str(tmp_path / "cpu"))
+    erosim("run", str(short), "--out", str(tmp_path / "mixed"))
+    erosim("run", "--resume", str(tmp_path / "mixed"), "--set", "run.t_end=0.001", "--device", "cuda", sim=True)
+    a, _ = checkpoint.load(tmp_path / "cpu" / "checkpoint")
+    b, _ = checkpoint.load(tmp_path / "mixed" / "checkpoint")
+    assert int(a["model.fluid.steps"]) == int(b["model.fluid.steps"]) >= 3
+    assert np.array_equal(a["model.fluid.ids"], b["model.fluid.ids"])
+    for name in ("pos", "vel", "rho", "p"):
+        x, y = a[f"model.fluid.{name}"], b[f"model.fluid.{name}"]
+        assert float(np.max(np.abs(x - y))) <= TOL * float(np.max(np.abs(x))), name
