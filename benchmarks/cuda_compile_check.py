@@ -35,6 +35,7 @@ def signatures(dtype: str, dim: int):
         ("_add_block_offsets", kc._add_block_offsets, (I1, int64, I1)),
         ("_set_first_zero", kc._set_first_zero, (I1,)),
         ("zero", kc.zero, (I1, int64)),
+        ("zero(float)", kc.zero, (D1, int64)),
         ("cell_ids", kc.cell_ids, (A2, int64, D1, float64, I1, I1, I1)),
         ("scatter", kc.scatter, (I1, int64, I1, I1, I1)),
         ("sort_ranges", kc.sort_ranges, (I1, int64, I1)),

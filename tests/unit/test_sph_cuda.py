@@ -260,3 +260,20 @@ def test_every_variant_agrees_with_cpu():
     assert len(diffs) == 13
     for case, diff in diffs.items():
         assert diff <= (1e-5 if "float32" in case else TOL), case
+
+
+@pytest.mark.slow
+def test_bench_on_the_device_has_the_cpu_keys_plus_device():
+    """`erosim bench sph --device cuda` reports what the CPU benchmark reports, plus the device."""
+    code = (
+        "import json; from erosim.bench.sph import run; "
+        "print(json.dumps([run(100, 1, 2, warmup=1, device=d) for d in ('cpu', 'cuda')]))"
+    )
+    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    cpu, dev = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert cpu["device"] == "cpu" and dev["device"] == "cuda"
+    assert set(cpu) <= set(dev) and set(dev) - set(cpu) == {"gpu"}
+    assert dev["particles"] == cpu["particles"] and dev["particle_steps_per_s"] > 0
+    assert dev["neighbours_mean"] == cpu["neighbours_mean"]  # the same lists after the same steps

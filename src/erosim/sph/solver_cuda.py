@@ -87,15 +87,15 @@ class CudaSPHSolver(SPHSolver):
         self._box = tuple(cuda.to_device(np.ascontiguousarray(a)) for a in (box._lo, box._hi, box._olo, box._ohi))
         self._spare = {name: cuda.device_array_like(self.d[name]) for name in _PERMUTED}
         self._have_boundary_particles = any(isinstance(bd, BoundaryParticles) for bd in self.boundaries)
-        self._disp2 = cuda.device_array(1, np.float64)
-        self._maxima = cuda.device_array(2, np.float64)
+        self._d_disp2 = cuda.device_array(1, np.float64)
+        self._d_maxima = cuda.device_array(2, np.float64)
         self._d_start = cuda.device_array(n + 1, np.int64)
         self._d_mid = cuda.device_array(n, np.int64)
         self._d_nbr = cuda.device_array(max(1, self.nbr.size), np.int32)
-        self._cell_index = cuda.device_array(n, np.int64)
-        self._spos = cuda.device_array((n, d), f)
-        self._count_f = cuda.device_array(n, np.int64)
-        self._count_t = cuda.device_array(n, np.int64)
+        self._d_cell_index = cuda.device_array(n, np.int64)
+        self._d_spos = cuda.device_array((n, d), f)
+        self._d_count_f = cuda.device_array(n, np.int64)
+        self._d_count_t = cuda.device_array(n, np.int64)
         self._dirty = False
         src = np.ascontiguousarray(st.pos.copy())
         src[:nf] = st.ref
@@ -147,38 +147,42 @@ class CudaSPHSolver(SPHSolver):
         kc.exclusive_scan(counts, ncell, cell_start)
         fill = counts  # the counts are spent: reuse them as the scatter's fill counters
         kc.zero[kc.blocks(ncell), kc.TPB](fill, ncell)
-        kc.scatter[kc.blocks(n), kc.TPB](self.d["pcell"], n, cell_start, fill, self._cell_index)
-        kc.sort_ranges[kc.blocks(ncell), kc.TPB](cell_start, ncell, self._cell_index)
+        kc.scatter[kc.blocks(n), kc.TPB](self.d["pcell"], n, cell_start, fill, self._d_cell_index)
+        kc.sort_ranges[kc.blocks(ncell), kc.TPB](cell_start, ncell, self._d_cell_index)
         # ---- fluid re-sorted by cell (memory locality), as the CPU does at a rebuild
         if reorder and nf > 0:
             flags = cuda.device_array(n, np.int64)
             newidx = cuda.device_array(n + 1, np.int64)
             perm = cuda.device_array(nf, np.int64)
-            kc.fluid_flags[kc.blocks(n), kc.TPB](self._cell_index, n, nf, flags)
+            kc.fluid_flags[kc.blocks(n), kc.TPB](self._d_cell_index, n, nf, flags)
             kc.exclusive_scan(flags, n, newidx)
-            kc.fluid_permutation[kc.blocks(n), kc.TPB](self._cell_index, n, nf, newidx, perm)
+            kc.fluid_permutation[kc.blocks(n), kc.TPB](self._d_cell_index, n, nf, newidx, perm)
             self._permute(perm)
             src = self.d["pos"]
-        kc.gather_sorted[kc.blocks(n), kc.TPB](src, self._cell_index, n, self._spos)
+        kc.gather_sorted[kc.blocks(n), kc.TPB](src, self._d_cell_index, n, self._d_spos)
         # ---- Verlet lists: fluid particles (fluid + boundary neighbours), then boundary particles
         r2 = self.rc * self.rc
-        args = (self.d["pcell"], d_dims, cell_start, self._cell_index, r2)
-        kc.count_lists[kc.blocks(nf), kc.TPB](src, self._spos, nf, 0, nf, *args, self._count_f, self._count_t)
-        kc.exclusive_scan(self._count_t, nf, self._d_start)
-        kc.fluid_offsets[kc.blocks(nf), kc.TPB](self._count_f, self._d_start, nf, self._d_mid)
+        args = (self.d["pcell"], d_dims, cell_start, self._d_cell_index, r2)
+        kc.count_lists[kc.blocks(nf), kc.TPB](src, self._d_spos, nf, 0, nf, *args, self._d_count_f, self._d_count_t)
+        kc.exclusive_scan(self._d_count_t, nf, self._d_start)
+        kc.fluid_offsets[kc.blocks(nf), kc.TPB](self._d_count_f, self._d_start, nf, self._d_mid)
         nbnd = n - nf
         bscan = cuda.device_array(nbnd + 1, np.int64)
         if nbnd > 0:
-            kc.count_lists[kc.blocks(nbnd), kc.TPB](src, self._spos, nf, nf, n, *args, self._count_f, self._count_t)
-            kc.exclusive_scan(self._count_f, nbnd, bscan)
+            kc.count_lists[kc.blocks(nbnd), kc.TPB](
+                src, self._d_spos, nf, nf, n, *args, self._d_count_f, self._d_count_t
+            )
+            kc.exclusive_scan(self._d_count_f, nbnd, bscan)
             kc.boundary_offsets[kc.blocks(nbnd), kc.TPB](bscan, nf, n, self._d_start, self._d_mid)
         total = int(self._d_start[n : n + 1].copy_to_host()[0])
         if self._d_nbr.size < total:
             self._d_nbr = cuda.device_array(int(total * 1.2) + 64, np.int32)
-        kc.fill_lists[kc.blocks(nf), kc.TPB](src, self._spos, nf, 0, nf, *args, self._d_start, self._d_mid, self._d_nbr)
+        kc.fill_lists[kc.blocks(nf), kc.TPB](
+            src, self._d_spos, nf, 0, nf, *args, self._d_start, self._d_mid, self._d_nbr
+        )
         if nbnd > 0:
             kc.fill_lists[kc.blocks(nbnd), kc.TPB](
-                src, self._spos, nf, nf, n, *args, self._d_start, self._d_mid, self._d_nbr
+                src, self._d_spos, nf, nf, n, *args, self._d_start, self._d_mid, self._d_nbr
             )  # fmt: skip
             kc.sort_boundary_lists[kc.blocks(nbnd), kc.TPB](self._d_start, nf, n, self._d_nbr)
         kc.copy_rows[kc.blocks(nf), kc.TPB](src, self.d["ref"], nf)
@@ -217,9 +221,9 @@ class CudaSPHSolver(SPHSolver):
                 dv["rho"], dv["rho_old"], dv["drho"], dv["p"], self._d_start, nf, n, dt, rho0, b, gamma, pmin, True
             )  # fmt: skip
         # rebuild test: the largest displacement since the lists were built
-        self._disp2.copy_to_device(np.zeros(1))
-        kc.max_displacement[kc.red_blocks(nf), kc.TPB](dv["pos"], dv["ref"], nf, self._disp2)
-        disp2 = float(self._disp2.copy_to_host()[0])
+        kc.zero[1, kc.TPB](self._d_disp2, 1)
+        kc.max_displacement[kc.red_blocks(nf), kc.TPB](dv["pos"], dv["ref"], nf, self._d_disp2)
+        disp2 = float(self._d_disp2.copy_to_host()[0])
         half = 0.5 * (self.rc - self.h)
         if disp2 >= half * half:
             self._device_rebuild(reorder=(self.rebuilds % prm.reorder_every) == 0)
@@ -234,16 +238,16 @@ class CudaSPHSolver(SPHSolver):
             dv["pos"], dv["vel"], dv["rho"], dv["p"], start, mid, nbr, nf, self.m, self.h, self.kv, self.eps2,
             self.kdiff, self.eps2, self.kh, g[0], g[1], gz, dv["acc"], dv["drho"],
         )  # fmt: skip
-        self._maxima.copy_to_device(np.zeros(2))
+        kc.zero[1, kc.TPB](self._d_maxima, 2)
         kc.correct[kc.red_blocks(nf), kc.TPB](
             dv["vel"], dv["acc"], dv["rho"], dv["rho_old"], dv["drho"], dv["p"], nf, k2, dt, rho0, b, gamma, pmin,
-            self._maxima,
+            self._d_maxima,
         )  # fmt: skip
         if bnd:
             kc.boundary_update_density[bb, kc.TPB](
                 dv["rho"], dv["rho_old"], dv["drho"], dv["p"], start, nf, n, dt, rho0, b, gamma, pmin, False
             )  # fmt: skip
-        v2, a2 = self._maxima.copy_to_host()
+        v2, a2 = self._d_maxima.copy_to_host()
         self.vmax = math.sqrt(float(v2))
         self.amax = math.sqrt(float(a2))
         self.t += dt
