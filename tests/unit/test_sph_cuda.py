@@ -252,14 +252,15 @@ print(json.dumps(out))
 def test_every_variant_agrees_with_cpu():
     """Each kernel × pressure form × viscosity, symplectic Euler, the linear EOS, float32, reflecting
     walls only and 3-D: one step (with a list rebuild) on the device matches the CPU. float64 to
-    TOL; float32 to 1e-5 (a few float32 ulps, 6e-8 each, over the step's sums)."""
+    TOL; float32 to 2e-6, about 30 float32 ulps (6e-8 each): the simulator rounds its float64
+    arithmetic to float32 only where it stores, the CPU's compiled code also in between."""
     env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
     proc = subprocess.run([sys.executable, "-c", VARIANTS_SCRIPT], env=env, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr[-3000:]
     diffs = json.loads(proc.stdout.strip().splitlines()[-1])
     assert len(diffs) == 13
     for case, diff in diffs.items():
-        assert diff <= (1e-5 if "float32" in case else TOL), case
+        assert diff <= (2e-6 if "float32" in case else TOL), case
 
 
 @pytest.mark.slow
