@@ -427,14 +427,6 @@ def sort_boundary_lists(start, n_fluid, n, nbr):
         nbr[t + 1] = v
 
 
-@cuda.jit
-def copy_ref(pos, ref, n_fluid):
-    i = cuda.grid(1)
-    if i < n_fluid:
-        for a in range(pos.shape[1]):
-            ref[i, a] = pos[i, a]
-
-
 # ---------------------------------------------------------------- integration (erosim.sph.integrators)
 
 
