@@ -81,6 +81,22 @@ def _require_device(device: str | None) -> None:
         _guard(require, device)
 
 
+def _check_device_kind(scenario, resume, preset) -> None:
+    """--device is a setting of kind = "sph" scenarios only: one sentence for the others."""
+    from erosim.scenarios import loader
+
+    try:
+        sc = loader.load(Path(resume) / "scenario.toml", []) if resume else loader.load(scenario, [], preset)
+    except ErosimError:
+        return  # the run itself reports what is wrong with the scenario
+    if sc.kind != "sph":
+        _fail(
+            ErosimError(
+                f"--device applies to kind = \"sph\" scenarios, not '{sc.name}' (kind '{sc.kind}'); leave it out."
+            )
+        )
+
+
 def _set_threads(threads: int | None) -> None:
     if threads is None:
         return
@@ -143,6 +159,7 @@ def run(scenario, overrides, preset, out, resume, overwrite, device):
 
     _require_device(device)
     if device is not None:
+        _check_device_kind(scenario, resume, preset)
         overrides = (*overrides, f"run.device={device}")
     run_folder, summary = _guard(
         execute, scenario, list(overrides), preset, out, resume, overwrite, progress=not STATE.quiet

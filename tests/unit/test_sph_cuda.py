@@ -278,3 +278,16 @@ def test_bench_on_the_device_has_the_cpu_keys_plus_device():
     assert set(cpu) <= set(dev) and set(dev) - set(cpu) == {"gpu"}
     assert dev["particles"] == cpu["particles"] and dev["particle_steps_per_s"] > 0
     assert dev["neighbours_mean"] == cpu["neighbours_mean"]  # the same lists after the same steps
+
+
+def test_device_on_a_kind_without_one_is_one_sentence(cli_runner, tmp_path, monkeypatch):
+    """With a usable device (the simulator's switch stands in for a GPU: nothing runs), --device on a
+    scenario of another kind names the kind and stops before writing anything."""
+    from erosim.cli import cli
+
+    monkeypatch.setenv("NUMBA_ENABLE_CUDASIM", "1")
+    out = tmp_path / "run"
+    res = cli_runner.invoke(cli, ["run", "hydrology", "--device", "cuda", "--out", str(out)])
+    assert res.exit_code == 2
+    assert "--device applies to kind = \"sph\" scenarios, not 'hydrology'" in res.output
+    assert not out.exists()
