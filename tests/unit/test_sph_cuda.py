@@ -26,6 +26,16 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[2] / "src"
 
+
+def _numba_cuda_missing() -> bool:
+    """numba.cuda (built into Numba up to now, else the numba-cuda package) holds the simulator."""
+    import importlib.util
+
+    return importlib.util.find_spec("numba.cuda") is None
+
+
+needs_simulator = pytest.mark.skipif(_numba_cuda_missing(), reason="numba.cuda (the CUDA simulator) is not installed")
+
 SCRIPT = r"""
 import json
 import numpy as np
@@ -96,6 +106,8 @@ print(json.dumps(out))
 
 @pytest.fixture(scope="module")
 def simulated():
+    if _numba_cuda_missing():
+        pytest.skip("numba.cuda (the CUDA simulator) is not installed")
     env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
     proc = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -192,6 +204,7 @@ snapshots = 0
 
 
 @pytest.mark.slow
+@needs_simulator
 def test_cli_run_resumes_a_cpu_run_on_the_device(tmp_path):
     """`erosim run --resume DIR --device cuda` continues a CPU run folder on the device (simulator);
     the state at the end matches the uninterrupted CPU run to rounding (tolerance: module docstring)."""
@@ -249,6 +262,7 @@ print(json.dumps(out))
 
 
 @pytest.mark.slow
+@needs_simulator
 def test_every_variant_agrees_with_cpu():
     """Each kernel × pressure form × viscosity, symplectic Euler, the linear EOS, float32, reflecting
     walls only and 3-D: one step (with a list rebuild) on the device matches the CPU. float64 to
@@ -264,6 +278,7 @@ def test_every_variant_agrees_with_cpu():
 
 
 @pytest.mark.slow
+@needs_simulator
 def test_bench_on_the_device_has_the_cpu_keys_plus_device():
     """`erosim bench sph --device cuda` reports what the CPU benchmark reports, plus the device."""
     code = (
