@@ -4,10 +4,11 @@
 #   bash benchmarks/gpu_measure.sh [OUT] [PART]
 #
 # PART = bench     `erosim info`; the CPU/GPU agreement check (benchmarks/gpu_agreement.py); the device
-#                  benchmark at 10^6 and 10^7 fluid particles; the CPU benchmark at 10^6 (the ratio,
-#                  same machine, same call)
+#                  benchmark at 10^6 and 10^7 fluid particles; the CPU benchmark at the same sizes (the
+#                  ratio: same machine, same call; 40 and 10 timed steps after 20 untimed ones)
 #        validate  `erosim validate martin-moyce --device cuda` and `hydrostatic --device cuda`
 #        all       both (default)
+# Each part takes a few minutes (Numba compiles the CPU and GPU kernels on a fresh machine first).
 # OUT (default gpu-results) receives one JSON file per figure and measure.log (every command, its
 # exit status, wall time and the tail of its error output); run folders go to $RUNS (default
 # /tmp/erosim-gpu-runs). PYTHON picks the interpreter (default python3); it needs numba-cuda
@@ -59,17 +60,19 @@ if [ "$PART" = all ] || [ "$PART" = bench ]; then
     step bench_cuda_1e6 erosim bench sph --device cuda --particles 1000000 --json
     step bench_cuda_1e7 erosim bench sph --device cuda --particles 10000000 --json
     step bench_cpu_1e6 erosim bench sph --device cpu --particles 1000000 --steps 40 --json
+    step bench_cpu_1e7 erosim bench sph --device cpu --particles 10000000 --steps 10 --json
     $PY - "$OUT" <<'EOF' 2>&1 | tee -a "$LOG"
 import json, sys
 from pathlib import Path
 out = Path(sys.argv[1])
-try:
-    gpu = json.loads((out / "bench_cuda_1e6.json").read_text())
-    cpu = json.loads((out / "bench_cpu_1e6.json").read_text())
-    print(f"GPU/CPU particle-steps/s at 1e6: {gpu['particle_steps_per_s']:.4g} / {cpu['particle_steps_per_s']:.4g}"
-          f" = {gpu['particle_steps_per_s'] / cpu['particle_steps_per_s']:.1f}x (CPU threads: {cpu['threads']})")
-except (OSError, ValueError, KeyError) as exc:
-    print(f"no ratio: {exc}")
+for n in ("1e6", "1e7"):
+    try:
+        gpu = json.loads((out / f"bench_cuda_{n}.json").read_text())
+        cpu = json.loads((out / f"bench_cpu_{n}.json").read_text())
+        g, c = gpu["particle_steps_per_s"], cpu["particle_steps_per_s"]
+        print(f"GPU/CPU particle-steps/s at {n}: {g:.4g} / {c:.4g} = {g / c:.1f}x (CPU threads: {cpu['threads']})")
+    except (OSError, ValueError, KeyError) as exc:
+        print(f"no ratio at {n}: {exc}")
 EOF
 fi
 
