@@ -15,9 +15,11 @@ Neighbour search (the CPU's method, :mod:`erosim.kernels.neighbours`, on a dense
 1. Cell of a particle: c_a = ⌊(x_a − origin_a)/r_c⌋ + 1 with the CPU's origin (minimum corner − r_c)
    and cell edge r_c (the list radius); cell id = c_0 + N_0(c_1 + N_1 c_2) over the particles'
    bounding box (N_a = max c_a + 2), so ids increase in the CPU's key order (z, then y, then x).
-2. Counting sort by cell: per-cell counts (atomic adds), an exclusive prefix sum (Hillis & Steele
-   1986 within blocks, blocks combined recursively), a scatter, then each cell's few particles
-   sorted by index — the CPU's stable order, whatever order the scatter's atomics gave.
+2. Counting sort by cell: per-cell counts (atomic adds), an exclusive prefix sum (each thread sums a
+   run of entries, a block scans its runs' totals after Hillis & Steele 1986, blocks are combined
+   recursively), a scatter, then each cell's few particles sorted by index — the CPU's stable
+   order, whatever order the scatter's atomics gave. (The CPU numbers occupied cells through a hash
+   table; a dense grid over the bounding box needs no hashing and suits box domains.)
 3. Verlet lists in the CPU's CSR layout: for fluid particle i, fluid neighbours
    ``nbr[start[i]:mid[i]]`` then boundary ones ``nbr[mid[i]:start[i+1]]``, each in the scan order of
    the 3^d cells around it (count pass, prefix sum, fill pass); a boundary particle's list holds its
