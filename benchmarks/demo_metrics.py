@@ -5,7 +5,9 @@
 Prints hillslope roughness before and after (std of the Laplacian where stream < 0.05 and no lake;
 target: after ≤ 1.1 × before), the longest river's span (stream ≥ 0.2, 8-connected; target ≥ 40 % of
 the width), the share of river cells in rivers that reach a lake or the edge (target ≥ 80 %), the
-deepest cut and the sediment moved per unit of rain (erosim.analysis.terrain_metrics).
+deepest cut and the sediment moved per unit of rain (erosim.analysis.terrain_metrics): gross (every
+volume the droplets picked up, counted again each time it is picked up anew) and net (the sediment
+carried off the map).
 """
 
 from __future__ import annotations
@@ -19,6 +21,14 @@ import numpy as np
 
 from erosim.analysis.terrain_metrics import hillslopes, laplacian_roughness, river_network
 from erosim.io import heightmaps as hio
+from erosim.terrain.priority_flood_barnes2014 import closed_basin_depth
+
+
+def _closed_basins(z: np.ndarray) -> float | None:
+    """Share of the map in closed basins (water there cannot reach the edge until they fill)."""
+    if not np.isfinite(z).all():
+        return None  # nodata holes: the basins' outlets are not defined here
+    return float((closed_basin_depth(z) > 0).mean())
 
 
 def measure(folder: Path) -> dict:
@@ -32,6 +42,7 @@ def measure(folder: Path) -> dict:
     rivers = river_network(maps["stream"].z, maps["lake_depth"].z)
     rain = report["water_budget"]["rained"]
     eroded = report["sediment_budget"]["eroded"]
+    carried = report["sediment_budget"]["carried_off"]
     return {
         "run": str(folder),
         "shape": list(maps["height"].shape),
@@ -47,6 +58,9 @@ def measure(folder: Path) -> dict:
         "sediment_eroded_m3": eroded,
         "rain_m3": rain,
         "sediment_per_rain": eroded / rain if rain else None,
+        "sediment_carried_off_m3": carried,
+        "carried_off_per_rain": carried / rain if rain else None,
+        "closed_basin_fraction_before": _closed_basins(maps["height_initial"].z),
     }
 
 

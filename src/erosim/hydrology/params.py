@@ -15,8 +15,7 @@ Defaults differ from the seed where its values made droplets slow and long-lived
 physical terrain (friction 0.5 /s, evaporation 0.003 /s, sub-steps of at most one cell, and
 ``pit_flood``: a droplet that comes to rest in a pit floods there at once instead of oscillating
 until it evaporates; trees: 10 seedlings per cycle, spread 0.03; hillslope creep, which the seed
-does not have: without it droplets leave cell-scale pits on the slopes; 750 droplets per cycle
-instead of 250, so that rivers reach their lakes and the map's edge). The ``simplehydrology-2020``
+does not have: without it droplets leave cell-scale pits on the slopes). The ``simplehydrology-2020``
 preset restores the seed's. The defaults are the library ``hydrology`` scenario's: ``HydrologyParams()``
 is what a scenario that leaves ``[hydrology]`` out runs with (tests/unit/test_api.py checks it).
 
@@ -56,7 +55,7 @@ class HydrologyParams(Section):
     spill: int = param(5, ge=1, le=100, unit="1", doc="descend/flood rounds per droplet (seed 5)")
     stream_rate: float = param(0.01, gt=0, le=1, unit="1", doc="stream map adaptation rate r (seed 0.01)")
     cycle_droplets: int = param(
-        750, ge=1, unit="1", doc="droplets per stream/vegetation update, per (256 ℓ)² of map area (seed 250)"
+        250, ge=1, unit="1", doc="droplets per stream/vegetation update, per (256 ℓ)² of map area (seed 250)"
     )
     max_step: float = param(1.0, ge=0, unit="cells", doc="largest move per sub-step; 0 = none (the seed)")
     lakes: bool = param(True, doc="flood droplets into lakes (HY-2); off: a stopped droplet ends")

@@ -71,6 +71,7 @@ class TerrainSection(Section):
     plateau_detail: float | None = param(None, unit="1", doc="raw noise kept on mesas")
     offset_x: float | None = param(None, unit="m", doc="map's west edge in the noise world")
     offset_y: float | None = param(None, unit="m", doc="map's north edge in the noise world")
+    fill_slope: float | None = param(None, unit="m/m", doc="fill closed basins, falling at this slope (0 = off)")
 
     @property
     def uses_file(self) -> bool:

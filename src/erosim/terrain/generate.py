@@ -23,6 +23,10 @@ Shaping of u ∈ ~[0, 1] into heights: u ← max(u, 0)^exponent (flatter valleys
 optional mesa shaping for plateaus, u ← (1−d)·S(u) + d·u with S a logistic step of the given
 sharpness at ``plateau_level`` rescaled to [0, 1]; z = base + relief·u.
 
+Closed basins: ``fill_slope`` s > 0 fills every closed basin to its spill level as a plain falling at
+s toward the spill point (:mod:`erosim.terrain.priority_flood_barnes2014`), so that all water can
+reach the map's edge, as in a landscape whose rivers have had time to fill their basins.
+
 Octaves: ``octaves = 0`` (auto) adds octaves until the finest wavelength L/λ^{K−1} reaches two
 cells; a fixed count makes two resolutions bit-identical at every common point.
 """
@@ -97,6 +101,10 @@ class NoiseParams(Section):
     plateau_detail: float = param(0.1, ge=0, le=1, unit="1", doc="share of the raw noise kept on mesas")
     offset_x: float = param(0.0, unit="m", doc="x of the map's west edge in the noise world")
     offset_y: float = param(0.0, unit="m", doc="y of the map's north edge in the noise world")
+    fill_slope: float = param(
+        0.0, ge=0, le=0.1, unit="m/m",
+        doc="fill closed basins to their spill level, falling at this slope toward it (Barnes 2014); 0 = off",
+    )  # fmt: skip
 
     @model_validator(mode="after")
     def _warped_needs_warp(self) -> NoiseParams:
@@ -228,4 +236,8 @@ def generate(
         X, Y = np.meshgrid(xs, ys)
         u = height_fraction(p, seed, X.ravel(), Y.ravel(), octaves)
         z[r0:r1] = (p.base + p.relief * u).reshape(r1 - r0, nx)
+    if p.fill_slope > 0:
+        from erosim.terrain.priority_flood_barnes2014 import fill_basins
+
+        z = fill_basins(z, float(cell_size), p.fill_slope)
     return Heightmap(z=z, cell_size=float(cell_size))
