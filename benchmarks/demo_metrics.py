@@ -24,11 +24,11 @@ from erosim.io import heightmaps as hio
 from erosim.terrain.priority_flood_barnes2014 import closed_basin_depth
 
 
-def _closed_basins(z: np.ndarray) -> float | None:
+def _closed_basins(hm) -> float | None:
     """Share of the map in closed basins (water there cannot reach the edge until they fill)."""
-    if not np.isfinite(z).all():
-        return None  # nodata holes: the basins' outlets are not defined here
-    return float((closed_basin_depth(z) > 0).mean())
+    if (hm.nodata is not None and hm.nodata.any()) or not np.isfinite(hm.z).all():
+        return None  # nodata holes drain too: the map's edge alone does not define the outlets
+    return float((closed_basin_depth(hm.z) > 0).mean())
 
 
 def measure(folder: Path) -> dict:
@@ -60,7 +60,7 @@ def measure(folder: Path) -> dict:
         "sediment_per_rain": eroded / rain if rain else None,
         "sediment_carried_off_m3": carried,
         "carried_off_per_rain": carried / rain if rain else None,
-        "closed_basin_fraction_before": _closed_basins(maps["height_initial"].z),
+        "closed_basin_fraction_before": _closed_basins(maps["height_initial"]),
     }
 
 
