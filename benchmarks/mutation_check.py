@@ -336,6 +336,21 @@ MUTATIONS = (
         ("tests/scenarios/test_users_dems.py",),
         "a droplet reaching a nodata cell goes on over its filled height instead of leaving",
     ),
+    Mutation(
+        "fill-no-slope",
+        "terrain/priority_flood_barnes2014.py",
+        (("                floor = zf[c] + (rise_diag if dx != 0 and dy != 0 else rise)\n",
+          "                floor = zf[c]\n"),),  # fmt: skip
+        ("tests/unit/test_priority_flood.py",),
+        "closed basins filled flat (no ε slope toward the spill point)",
+    ),
+    Mutation(
+        "fill-diagonal-as-straight",
+        "terrain/priority_flood_barnes2014.py",
+        (("    _fill(out.reshape(-1), nx, ny, rise, SQRT2 * rise)", "    _fill(out.reshape(-1), nx, ny, rise, rise)"),),
+        ("tests/unit/test_priority_flood.py",),
+        "the fill's rise over a diagonal step is Δx·s instead of √2·Δx·s",
+    ),
 )
 
 
