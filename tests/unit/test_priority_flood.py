@@ -81,3 +81,14 @@ def test_generate_applies_fill_slope():
     np.testing.assert_array_equal(drained.z, fill_basins(raw.z, 20.0, 0.005))
     with pytest.raises(ValueError):
         fill_basins(raw.z, 20.0, -1.0)
+
+
+def test_the_demo_terrain_drains_and_the_seed_preset_keeps_its_basins():
+    """The library hydrology scenario (the demo) fills its closed basins; the seed's preset does not."""
+    from erosim.scenarios import loader
+    from erosim.scenarios.schema_common import build_terrain
+
+    demo = loader.load("hydrology", ["terrain.size=96"]).config
+    assert closed_basin_depth(build_terrain(demo.terrain, demo.seed).z).max() == 0.0
+    seed = loader.load("hydrology", ["terrain.size=96"], preset="simplehydrology-2020").config
+    assert (closed_basin_depth(build_terrain(seed.terrain, seed.seed).z) > 0).mean() > 0.05
