@@ -2,7 +2,7 @@
 
 The CUDA simulator (the test suite's check of the device path) runs the kernels as Python, so it
 cannot see what only the real compiler rejects (typing, shared memory, atomics on float64). This
-script compiles each kernel of :mod:`erosim.kernels.sph_cuda` for its real argument types — both
+script compiles each kernel of :mod:`erosim.sph.kernels_cuda` for its real argument types — both
 precisions, 2-D and 3-D, every variant of the fused pass — with numba-cuda's ``compile_ptx``, which
 needs NVVM (the ``nvidia-cuda-nvcc-cu12`` wheel) but no driver and no GPU.
 
@@ -23,7 +23,7 @@ def signatures(dtype: str, dim: int):
     """(name, python function, argument types) of every kernel for one precision and dimension."""
     from numba import boolean, float32, float64, int32, int64
 
-    from erosim.kernels import sph_cuda as kc
+    from erosim.sph import kernels_cuda as kc
 
     f = {"float64": float64, "float32": float32}[dtype]
     A2, A1 = f[:, :], f[:]

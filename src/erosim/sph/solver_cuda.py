@@ -5,7 +5,7 @@ built, checked and started on the host exactly like the CPU solver (the first ne
 force evaluation included), then its particle state is copied to the device, where it stays between
 steps. Each step runs the CPU step's passes in the CPU's order (SPEC SPH-13): kick + drift + EOS →
 box reflection → boundary particles' predictor → neighbour lists rebuilt (cell sort, particle
-re-sort, Verlet lists; :mod:`erosim.kernels.sph_cuda`) when a particle moved half the skin →
+re-sort, Verlet lists; :mod:`erosim.sph.kernels_cuda`) when a particle moved half the skin →
 boundary particles' continuity rate → the fused fluid pass → kick + corrector → boundary corrector.
 Per step only three numbers come back to the host (the largest displacement, speed and
 acceleration, for the rebuild test and the adaptive Δt); the particle fields are copied back only
@@ -61,7 +61,7 @@ class CudaSPHSolver(SPHSolver):
         for bd in self.boundaries:
             if type(bd) not in (BoxWalls, BoundaryParticles):
                 raise _unsupported(f"The boundary model '{bd.name}'")
-        from erosim.kernels import sph_cuda as kc
+        from erosim.sph import kernels_cuda as kc
 
         self._kc = kc
         prm = self.params
