@@ -19,10 +19,19 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.kernels.sph_diffusion import pair_weights, pairs_within
+
+@njit(cache=True)
+def _distances(pos, i, j, out):
+    for p in range(i.size):
+        a, b = i[p], j[p]
+        out[p] = math.sqrt((pos[a, 0] - pos[b, 0]) ** 2 + (pos[a, 1] - pos[b, 1]) ** 2 + (pos[a, 2] - pos[b, 2]) ** 2)
+    return out
+
 
 #: the diffusion support in ground spacings (Wendland C2: about 50 neighbours in 3-D)
 SUPPORT = 2.0
@@ -62,12 +71,15 @@ class PorousGround:
         return len(self.theta)
 
     def follow(self) -> None:
-        """Lay every column under the current ground (after the terrain changed) and renew the pairs."""
+        """Lay every column under the current ground (after the terrain changed); the pairs' distances
+        follow. The pairs themselves are those within 1.5 h of the first laying (columns only move
+        vertically, so a pair leaves the support, where its weight is 0, long before a new one enters)."""
         top = sample(self.raster, self.terrain, np.column_stack([self.xy, np.zeros(self.ncol)]))
         self.pos[:, 2] = np.tile(top, self.layers) - self.depth
-        h = SUPPORT * self.s
-        self.i, self.j, r = pairs_within(self.pos, h)
-        self.h, self._r = h, r
+        self.h = SUPPORT * self.s
+        if not hasattr(self, "i"):
+            self.i, self.j, _ = pairs_within(self.pos, 1.5 * self.h)
+        self._r = _distances(self.pos, self.i, self.j, np.empty(len(self.i)))
 
     def water(self) -> float:
         """m³ of water held in the pores."""
