@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy.special import erfc
 
+from erosim.coupling.porous_ground import PorousGround
 from erosim.coupling.raster import Raster
 from erosim.hydrology.seepage_darcy import absorb, conductivity, evaporate
 from erosim.kernels.sph_diffusion import diffuse
-from erosim.coupling.porous_ground import PorousGround
 
 
 def _flat(n_cells, spacing, layers, porosity=0.4, saturation=0.0):

@@ -25,6 +25,7 @@ from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.kernels.sph_diffusion import pair_weights, pairs_within
 
+
 @njit(cache=True)
 def _distances(pos, i, j, out):
     for p in range(i.size):

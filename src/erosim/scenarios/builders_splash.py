@@ -187,7 +187,8 @@ class WetnessFrames(cb.Callback):
 
         path = sim.out.figures / "wetness_frames.png"
         wetness_frames_figure(path, self.thumbs, self.times)
-        return {"wetness_frames": {"count": len(self.times), "folder": "maps/frames", "figure": "figures/wetness_frames.png"}}
+        figure = "figures/wetness_frames.png"
+        return {"wetness_frames": {"count": len(self.times), "folder": "maps/frames", "figure": figure}}
 
 
 class TimedRain(Rain):
@@ -351,19 +352,30 @@ def splash_report(cfg: SplashScenario, geo, dx: float, solver, wet: WetGround, s
         "t_end": cfg.run.t_end,
         "steps": int(solver.steps),
         "fluid_particles": solver.n_fluid,
-        "terrain": {"shape": list(geo.terrain.shape), "cell_size_m": geo.raster.dx,
-                    "crs": geo.dem.crs if geo.dem is not None else None},  # fmt: skip
-        "resolution": {"fluid_spacing_m": dx, "particle_radius_m": wet.radius, "ground_spacing_m": wet.ground.s,
-                       "ground_particles": wet.ground.n, "support_h_m": solver.h,
-                       "sound_speed_m_s": solver.c},  # fmt: skip
+        "terrain": {
+            "shape": list(geo.terrain.shape),
+            "cell_size_m": geo.raster.dx,
+            "crs": geo.dem.crs if geo.dem is not None else None,
+        },  # fmt: skip
+        "resolution": {
+            "fluid_spacing_m": dx,
+            "particle_radius_m": wet.radius,
+            "ground_spacing_m": wet.ground.s,
+            "ground_particles": wet.ground.n,
+            "support_h_m": solver.h,
+            "sound_speed_m_s": solver.c,
+        },  # fmt: skip
         "water_budget": wet.water_budget(),
         "solid_budget": wet.solid_budget(),
         "impacts": {
             "count": wet.n_impacts,
             "mean_speed_m_s": float(imp[:, 3].mean()) if len(imp) else None,
             "mean_depth_m": float(imp[:, 6].mean()) if len(imp) else None,
-            "first": dict(zip(("t", "x", "y", "speed", "theta", "sigma", "depth", "radius"), imp[0].tolist(),
-                              strict=True)) if len(imp) else None,  # fmt: skip
+            "first": dict(
+                zip(("t", "x", "y", "speed", "theta", "sigma", "depth", "radius"), imp[0].tolist(), strict=True)
+            )
+            if len(imp)
+            else None,  # fmt: skip
         },
         "surface_wetness": {"mean": float(wet.wetness().mean()), "max": float(wet.wetness().max())},
         "wall_cost": wet.costs(sim),
