@@ -7,7 +7,7 @@ One callback, :class:`WetGround`, runs the seed's three stages on the fluid of a
 since the last one:
 
 1. **contact**: a fluid particle touches the ground when its centre is closer than
-   ``splash.contact``·Δx to the Q4 surface; its speed towards the ground is measured along the
+   ``splash.contact``·h to the Q4 surface (h the kernel support: where the ground's wall acts on it); its speed towards the ground is measured along the
    surface normal. A particle that comes into contact strikes the ground at the larger of its speed
    now and at the last check while it was farther than the kernel support h from the ground (before
    the wall's push began to slow it) — unless water already lies on the ground there (another
@@ -16,7 +16,9 @@ since the last one:
 2. **splash** (SP-1, SP-2): each strike faster than ``splash.min_speed`` digs the crater of
    :mod:`erosim.erosion.splash` with the strength σ_s(θ) (:mod:`erosim.erosion.wet_strength`) of the
    surface particle under it; the particle takes the crater's solid up as mud (concentration C, up to
-   ``splash.mud_max``), the rest is thrown clear (counted, ``splashed_away``);
+   ``splash.mud_max``), the rest is thrown clear (counted, ``splashed_away``). The strike's normal
+   velocity is spent on the crater (the energy balance of the law): the particle keeps only its
+   motion along the ground and does not rebound;
 3. **scour** (SP-5): particles touching the ground wear it by Krištof et al.'s shear-stress law,
    shared with the voxel eroder (:func:`erosim.erosion.shear_stress_kristof2009.excess_stress`):
    volume k_s·max(0, K θⁿ − τ_c)·Δx²·Δt per particle, θ = v_∥/max(l, l_min), v_∥ the speed along the
@@ -106,7 +108,7 @@ class WetGround:
         dx = solver.params.spacing
         self.vp = dx**3
         self.radius = (3.0 * self.vp / (4.0 * np.pi)) ** (1.0 / 3.0)  # the particle's equivalent sphere
-        self.contact = splash.contact * dx
+        self.contact = splash.contact * solver.h
         st = solver.state
         for field, fill in (("water", 1.0), ("mud", 0.0), ("touching", 0.0), ("approach", 0.0)):
             if field not in st.specs:
@@ -165,9 +167,15 @@ class WetGround:
                 a = float(sp.crater_radius(self.radius, d))
                 self.impacts.append([float(s.t), pos[i, 0], pos[i, 1], float(speed[i]), float(theta_here[i]), sigma,
                                      d, a])  # fmt: skip
+        if len(strike):
+            # the energy balance: the strike's normal kinetic energy is spent digging; the particle keeps
+            # only its motion along the ground (no rebound)
+            nrm = np.column_stack([-sx[strike], -sy[strike], np.ones(len(strike))]) / norm[strike, None]
+            keep = np.maximum(vn[strike], 0.0)[:, None] * nrm
+            st.vel[strike] = (vel[strike] + keep).astype(st.vel.dtype)
         st.touching[:nf] = touch
-        # the speed of approach is the one measured before the ground's wall (support h) began to push
-        free = gap >= s.h
+        # the speed of approach is the one measured before the ground's wall began to push
+        free = gap >= max(s.h, self.contact)
         st.approach[:nf] = np.where(touch, 0.0, np.where(free, np.maximum(vn, 0.0), st.approach[:nf]))
 
         # ---- 3 scour

@@ -37,8 +37,8 @@ class SplashParams(Section):
     """When and how an impact digs a crater."""
 
     min_speed: float = param(0.5, ge=0, unit="m/s", doc="normal impact speeds below this dig no crater")
-    contact: float = param(0.75, gt=0, le=2, unit="spacing", doc="a particle touches the ground when its centre is "
-                           "closer than this many fluid spacings to it")  # fmt: skip
+    contact: float = param(1.0, gt=0, le=1.5, unit="h", doc="a particle touches the ground when its centre is closer "
+                           "than this many kernel supports h to it (1: where the ground's wall acts)")  # fmt: skip
     mud_max: float = param(0.5, ge=0, lt=1, unit="1", doc="most solid a particle takes up (volume fraction C); the "
                            "rest of a crater's solid is thrown clear (counted as splashed away)")  # fmt: skip
 
