@@ -7,12 +7,12 @@ One callback, :class:`WetGround`, runs the seed's three stages on the fluid of a
 since the last one:
 
 1. **contact**: a fluid particle touches the ground when its centre is closer than
-   ``splash.contact``·h to the Q4 surface (h the kernel support: where the ground's wall acts on it); its speed towards the ground is measured along the
-   surface normal. A particle that comes into contact strikes the ground at the larger of its speed
-   now and at the last check while it was farther than the kernel support h from the ground (before
-   the wall's push began to slow it) — unless water already lies on the ground there (another
-   particle touching the same ground column): then the water cushions it and it strikes at the speed
-   it has now;
+   ``splash.contact``·h to the Q4 surface (h the kernel support: where the ground's wall acts on
+   it); its speed towards the ground is measured along the surface normal. A particle that comes
+   into contact strikes the ground at the larger of its speed now and at the last check while it
+   was farther than h from the ground (before the wall's push began to slow it) — unless water
+   already lies on the ground there (another particle touching the same ground column): then the
+   water cushions it and it strikes at the speed it has now;
 2. **splash** (SP-1, SP-2): each strike faster than ``splash.min_speed`` digs the crater of
    :mod:`erosim.erosion.splash` with the strength σ_s(θ) (:mod:`erosim.erosion.wet_strength`) of the
    surface particle under it; the particle takes the crater's solid up as mud (concentration C, up to
