@@ -303,10 +303,16 @@ def setup(scenario, out) -> Setup:
     if cfg.edges.outflow:
         callbacks.append(EdgeOutflow(IterationInterval(1), solver, r, cfg.edges.outflow))
     grid = FluidGrid(r, 3, ground=geo.terrain, near=2.0 * solver.h)
+    warnings = list(geo.dem.notes) if geo.dem is not None and cfg.drop is None else []
     if cfg.rain.rate > 0:
         chance = terrain_kind._rain_map(cfg, geo)
+        height = cfg.rain.height
+        if height < 2.0 * solver.h:  # drops born inside the ground's reach would never strike it
+            height = 2.0 * solver.h
+            warnings.append(f"rain.height = {cfg.rain.height:g} m is within two kernel supports of the ground; the "
+                            f"drops start {height:.3g} m above it so that they strike it.")  # fmt: skip
         callbacks.append(TimedRain(IterationInterval(cfg.rain.every), solver, r, geo.terrain, chance, cfg.rain.rate,
-                                   cfg.rain.height, cfg.seed, grid=grid, until=cfg.run.rain_until))  # fmt: skip
+                                   height, cfg.seed, grid=grid, until=cfg.run.rain_until))  # fmt: skip
     for name, inf in cfg.inflows.items():
         xy = geo.to_local(inf.position, f"inflows.{name}.position")
         callbacks.append(PointInflow(IterationInterval(1), solver, r, geo.terrain, xy, inf.discharge,
@@ -318,7 +324,6 @@ def setup(scenario, out) -> Setup:
     if run.wetness_frames > 0:
         callbacks.append(WetnessFrames(TimeInterval(run.t_end / run.wetness_frames), geo, wet, out.maps / "frames"))
     callbacks.append(SplashOutputs(geo, wet, grid, cfg.drop is not None))
-    warnings = list(geo.dem.notes) if geo.dem is not None and cfg.drop is None else []
 
     def report(sim) -> dict[str, Any]:
         return splash_report(cfg, geo, dx, solver, wet, sim)
