@@ -136,3 +136,12 @@ def test_bad_input_is_one_sentence_and_leaves_no_folder(tmp_path, sets, words):
         run("splash-drop", out, set=sets)
     assert words in str(err.value) and str(err.value).count(". ") == 0
     assert not out.exists()
+
+
+def test_validate_splash_wetness_passes_and_draws_the_craters(tmp_path):
+    from erosim.validation.splash_wetness import run as validate
+
+    res = validate("coarse", tmp_path / "v", progress=False, radius=R)
+    assert res["passed"] and res["ordered_dry_partly_saturated"]
+    assert res["depth_ratio_saturated_to_dry"] == pytest.approx(res["expected_ratio"], rel=1e-9)
+    assert (tmp_path / "v" / "figures" / "craters.png").is_file()

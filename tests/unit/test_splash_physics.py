@@ -9,7 +9,7 @@ from erosim.core.errors import ConfigError
 from erosim.coupling.raster import Raster
 from erosim.erosion.splash import crater_depth, crater_increment, crater_radius, crater_volume, imprint_depth
 from erosim.erosion.wet_strength import WetStrengthParams, strength, weakening
-from erosim.sph.mud import diffuse_concentration, mixture_density, mixture_viscosity
+from erosim.sph.mud import diffuse_concentration, mixture_acceleration, mixture_density, mixture_viscosity
 
 
 def test_crater_depth_is_the_formula_and_proportional_to_speed():
@@ -99,3 +99,14 @@ def test_a_blob_of_mud_spreads_and_keeps_its_solid():
     assert c.min() >= 0.0 and c.max() <= 0.4  # no overshoot (sub-steps keep the maximum principle)
     var1 = (c * ((pos - pos.mean(0)) ** 2).sum(1)).sum() / c.sum()
     assert var1 > var0 * 1.2  # it spread
+
+
+def test_mud_sinks_through_still_water_and_falls_freely_in_air():
+    g = np.array([0.0, 0.0, -9.81])
+    c = np.array([0.0, 0.3, 0.5])
+    rho = mixture_density(c, 1000.0, 2650.0)
+    # in still water the pair forces hold the water up (a_water = 0): mud sinks at g(ρ − ρ_f)/ρ (buoyancy)
+    still = mixture_acceleration(np.zeros((3, 3)), g, c, 1000.0, 2650.0)
+    np.testing.assert_allclose(still[:, 2], -9.81 * (rho - 1000.0) / rho, rtol=1e-14)
+    # a free-falling particle (no forces: a_water = g) falls at g whatever it carries
+    np.testing.assert_allclose(mixture_acceleration(np.tile(g, (3, 1)), g, c, 1000.0, 2650.0), np.tile(g, (3, 1)))

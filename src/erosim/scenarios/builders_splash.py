@@ -46,6 +46,7 @@ from erosim.scenarios.schema_splash import SplashScenario, ground_spacing
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
 from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
+from erosim.sph.mud import MudInertia
 
 #: a drop's fluid spacing per drop radius: the cube of the drop's volume
 DROP_SPACING = (4.0 * math.pi / 3.0) ** (1.0 / 3.0)
@@ -113,6 +114,7 @@ def build_solver(cfg: SplashScenario, geo, dx: float):
     planes = terrain_kind._edge_planes(geo, cfg.edges.outflow)
     if planes is not None:
         boundaries.append(PlaneWalls(*planes))
+    boundaries.append(MudInertia(cfg.mud.solid_density))  # mud is heavier than water (sph/mud.py)
     solver = SPHSolver(p, fluid, fluid_vel=vel, domain_lo=lo, domain_hi=hi, seed=cfg.seed, boundaries=boundaries)
     return solver
 

@@ -11,11 +11,18 @@ and C spreads between neighbouring particles by the SPH diffusion of seed eq. (1
 in the conservative pairwise form of :mod:`erosim.kernels.sph_diffusion` (all particles have the
 volume V_p = m/ρ₀, so Σ C_i V_p — the solid carried — is conserved to rounding).
 
-Modelling choice (stated, not hidden): the weakly compressible solver's particles share one mass and
-rest density, so the mixture density and viscosity are computed for every particle (written to the
-particle frames and the report) but do not yet feed back into the momentum equation; mud moves as
-water that carries its solid. C is the solid's volume per particle volume, capped at
-``splash.mud_max`` when solid is taken up.
+Modelling choices. The weakly compressible solver's particles share one mass m = ρ_f V_p and one rest
+density, so the mixture acts on the flow through the particle's inertia (:class:`MudInertia`, a pass
+after the pair forces): a mud particle's mass is ρ V_p, so the forces of its neighbours and walls
+accelerate it ρ_f/ρ times as much as they would water,
+
+    a_i = g + (ρ_f/ρ_i)(a_i^water − g),
+
+which makes mud sink through still water at g(ρ − ρ_f)/ρ (buoyancy). Its neighbours still feel it
+with the water's mass (the pair forces are computed once, with equal masses), so momentum is not
+exchanged exactly symmetrically when C > 0 — the price of not rewriting the fused pair pass. The
+mixture viscosity μ is computed (particle frames) but not used by the pair pass. C is the solid's
+volume per particle volume, capped at ``splash.mud_max`` when solid is taken up.
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ import numpy as np
 
 from erosim.core.config import Section, param
 from erosim.kernels.sph_diffusion import diffuse, pair_weights, pairs_within
+from erosim.sph.boundaries.base import Boundary
 
 
 class MudParams(Section):
@@ -57,3 +65,33 @@ def diffuse_concentration(pos: np.ndarray, c: np.ndarray, volume: float, h: floa
     w = pair_weights(r, h, dim, volume, volume, diffusivity)
     cap = np.full(len(c), volume)
     return diffuse(c, cap, i, j, w, dt)
+
+
+def mixture_acceleration(acc: np.ndarray, g: np.ndarray, c: np.ndarray, rho_fluid: float, rho_solid: float):
+    """a = g + (ρ_f/ρ)(a_water − g) for accelerations ``acc`` (n, d) of particles of concentration ``c``."""
+    ratio = rho_fluid / mixture_density(c, rho_fluid, rho_solid)
+    return g + ratio[:, None] * (acc - g)
+
+
+class MudInertia(Boundary):
+    """The pass of :func:`mixture_acceleration` after the pair forces (a per-particle pass through the
+    boundary hooks; it lays no particles). Registers the ``mud`` field (C) if nobody has."""
+
+    name = "mud_inertia"
+
+    def __init__(self, rho_solid: float):
+        self.rho_solid = float(rho_solid)
+
+    def bind(self, solver) -> None:
+        if "mud" not in solver.state.specs:
+            solver.state.register("mud", fill=0.0)
+
+    def forces(self, solver) -> None:
+        st = solver.state
+        nf = st.n_fluid
+        c = st.mud[:nf]
+        if nf == 0 or not c.any():
+            return
+        k = np.flatnonzero(c)
+        g = np.asarray(solver.g, dtype=np.float64)[: solver.dim]
+        st.acc[k] = mixture_acceleration(st.acc[k].astype(np.float64), g, c[k], solver.params.rho0, self.rho_solid)

@@ -28,8 +28,10 @@ RESOLUTIONS = {"coarse": 3.0, "default": 4.0, "fine": 8.0}  # heightmap cells pe
 def run(resolution: str = "default", out: Path | None = None, progress: bool = True, speed: float = 4.0,
         radius: float = 0.002) -> dict:  # fmt: skip
     """The three runs, the comparison and the figure."""
-    from erosim.api import run as run_scenario
+    import json
+
     from erosim.io import heightmaps as hio
+    from erosim.scenarios import loader, runner
     from erosim.viz.splash import craters_side_by_side
 
     if resolution not in RESOLUTIONS:
@@ -38,10 +40,10 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     rows, sections = [], []
     for theta, label in zip(SATURATIONS, LABELS, strict=True):
         sub = folder.path / f"saturation_{theta:g}"
-        res = run_scenario("splash-drop", sub, overwrite=True, progress=progress, set={
-            "ground.saturation": theta, "drop.speed": speed, "drop.radius": radius,
-            "drop.cells_per_radius": RESOLUTIONS[resolution]})  # fmt: skip
-        rep = res.report
+        sets = [f"ground.saturation={theta!r}", f"drop.speed={speed!r}", f"drop.radius={radius!r}",
+                f"drop.cells_per_radius={RESOLUTIONS[resolution]!r}"]  # fmt: skip
+        runner.run(loader.load("splash-drop", sets), RunFolder(sub, overwrite=True), progress=progress)
+        rep = json.loads((sub / "report.json").read_text(encoding="utf-8"))
         law = rep["crater_law"]
         rows.append({
             "saturation": theta,
