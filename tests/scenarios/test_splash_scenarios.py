@@ -63,7 +63,8 @@ def _dem(path, cell=1.0, size=16):
 def test_rain_splash_on_a_users_dem_writes_wetness_on_its_grid(tmp_path):
     dem = _dem(tmp_path / "dem.tif")
     res = run("rain-splash", tmp_path / "run", set={"terrain.file": str(dem), "run.t_end": 1.0, "rain.rate": 2e5,
-                                                    "ground.evaporation": 0.0, "run.wetness_frames": 2})  # fmt: skip
+                                                    "ground.evaporation": 0.0, "run.wetness_frames": 2,
+                                                    "run.output_interval": 0.5})  # fmt: skip
     rep = res.report
     assert rep["resolution"]["fluid_spacing_m"] == pytest.approx(0.5)  # scale.spacing_cells = 0.5 of the DEM's 1 m
     with rasterio.open(dem) as a, rasterio.open(res.path / "maps" / "wetness.tif") as b:
@@ -72,8 +73,16 @@ def test_rain_splash_on_a_users_dem_writes_wetness_on_its_grid(tmp_path):
     assert 0.0 <= wet.min() and wet.max() <= 1.0 and wet.max() > 0.0  # the rain wetted some ground
     for name in ("height", "erosion", "deposition", "puddles"):
         assert (res.path / "maps" / f"{name}.tif").is_file()
-    png = hio.read(res.path / "maps" / "wetness.png")
-    assert png.z.shape == wet.shape
+    from PIL import Image
+
+    from erosim.io.results import read_frame
+
+    with Image.open(res.path / "maps" / "wetness.png") as im:
+        assert im.mode.startswith("I;16") and im.size == (wet.shape[1], wet.shape[0])  # the 16-bit mask
+    fluid = read_frame(res.path / "particles" / "frame_00002.vtp")
+    ground = read_frame(res.path / "particles" / "ground" / "frame_00002.vtp")
+    assert {"water", "mud", "mixture_density"} <= set(fluid["fields"]) and "saturation" in ground["fields"]
+    assert ground["fields"]["saturation"].max() <= 1.0 and fluid["fields"]["water"].max() <= 1.0
     frames = json.loads((res.path / "maps" / "frames" / "frames.json").read_text())["times"]
     assert len(frames) >= 2 and (res.path / "maps" / "frames" / "wetness_00001.tif").is_file()
     assert rep["water_budget"]["closure_rel"] < 1e-9 and rep["solid_budget"]["closure_rel"] < 1e-9
