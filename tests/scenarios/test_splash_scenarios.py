@@ -94,6 +94,8 @@ def test_water_jet_splashes_and_soaks_in(tmp_path):
     rep = run("water-jet", tmp_path / "jet", set={"run.t_end": 0.3, "run.wetness_frames": 0}).report
     assert rep["impacts"]["count"] > 0
     assert rep["solid_budget"]["eroded"] > 0 and rep["water_budget"]["absorbed"] > 0
+    sb = rep["solid_budget"]
+    assert sb["by_splash"] > sb["by_scour"]  # SP-5: where water falls vertically splash dominates (99 % at 0.6 s)
     assert rep["water_budget"]["closure_rel"] < 1e-9 and rep["solid_budget"]["closure_rel"] < 1e-9
 
 

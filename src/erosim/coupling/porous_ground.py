@@ -62,7 +62,7 @@ class PorousGround:
         self.porosity = np.full(n, float(porosity))
         self.pore = self.porosity * self.volume
         self.theta = np.full(n, float(saturation))
-        self.density = float(density)
+        self.density = np.full(n, float(density))  # grain density of each particle (kg/m³)
         self.surface = np.zeros(n, bool)
         self.surface[: self.ncol] = True
         self.follow()
@@ -105,6 +105,12 @@ class PorousGround:
         gx, gy = np.meshgrid(xs, ys)
         cols = self.column_of(np.column_stack([gx.ravel(), gy.ravel()]))
         return v[cols].reshape(self.raster.shape)
+
+    def strength(self, sigma_dry: float, sigma_wet: float) -> np.ndarray:
+        """Each particle's yield strength σ_s(θ) (Pa; :mod:`erosim.erosion.wet_strength`)."""
+        from erosim.erosion.wet_strength import strength
+
+        return strength(self.theta, sigma_dry, sigma_wet)
 
     def state_dict(self) -> dict:
         return {"theta": self.theta.copy(), "z": self.pos[:, 2].copy()}

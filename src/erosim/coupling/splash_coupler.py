@@ -117,7 +117,8 @@ class WetGround:
         self.sx, self.sy = node_slopes(terrain, raster.dx, raster.dy)
         self._w = ground.weights(self.diffusivity)
         self.ground_water0 = ground.water()
-        self.totals = dict.fromkeys(("eroded", "deposited", "suspended", "splashed_away", "evaporated"), 0.0)
+        self.totals = dict.fromkeys(("eroded", "deposited", "suspended", "splashed_away", "evaporated", "dug",
+                                     "scoured"), 0.0)  # fmt: skip
         self.impacts: list[list[float]] = []  # per strike: t, x, y, speed, θ, σ, depth, opening radius
         self.n_impacts = 0
         self.last_t = float(solver.t)
@@ -162,6 +163,7 @@ class WetGround:
             taken_up += take
             thrown += vol - take
             dz += dzi
+            self.totals["dug"] += vol
             self.n_impacts += 1
             if len(self.impacts) < 1000:
                 a = float(sp.crater_radius(self.radius, d))
@@ -195,6 +197,7 @@ class WetGround:
                 dz -= _scatter(r, pos[idx, :2], vol)
                 st.mud[idx] += vol / self.vp
                 taken_up += float(vol.sum())
+                self.totals["scoured"] += float(vol.sum())
         t1 = time.perf_counter()
 
         # ---- 4 seepage: Darcy absorption, spent particles settle their mud
@@ -275,7 +278,8 @@ class WetGround:
         }
 
     def solid_budget(self) -> dict[str, Any]:
-        """m³ of solid: what the ground lost (eroded − settled back) and where it is."""
+        """m³ of solid: what the ground lost (eroded − settled back), where it is, and what dug it (the craters'
+        volume ``by_splash`` and the scour's ``by_scour``)."""
         st = self.solver.state
         mud = float(st.mud[: st.n_fluid].sum()) * self.vp
         left = st.removed_sums.get("mud", 0.0) * self.vp
@@ -289,6 +293,8 @@ class WetGround:
             "in_mud": mud,
             "mud_left_edges": left,
             "splashed_away": t["splashed_away"],
+            "by_splash": t["dug"],
+            "by_scour": t["scoured"],
             "terrain_change": change,
             "closure_rel": abs(lost - mud - left - t["splashed_away"]) / t["eroded"] if t["eroded"] > 0 else 0.0,
         }

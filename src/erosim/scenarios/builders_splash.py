@@ -140,7 +140,9 @@ class SplashFrames(cb.ParticleFrames):
         }
         self.series.write(float(s.t), s.fluid_positions().astype(np.float32), fields)
         g = w.ground
-        self.ground_series.write(float(s.t), g.pos.astype(np.float32), {"saturation": g.theta.astype(np.float32)})
+        fields = {"saturation": g.theta.astype(np.float32), "porosity": g.porosity.astype(np.float32),
+                  "strength": g.strength(w.sigma_dry, w.sigma_wet).astype(np.float32)}  # fmt: skip
+        self.ground_series.write(float(s.t), g.pos.astype(np.float32), fields)
 
     def state_dict(self) -> dict[str, Any]:
         return {**super().state_dict(), "ground_frames": [list(f) for f in self.ground_series.frames]}
