@@ -73,13 +73,15 @@ class PorousGround:
 
     def follow(self) -> None:
         """Lay every column under the current ground (after the terrain changed); the pairs' distances
-        follow. The pairs themselves are those within 1.5 h of the first laying (columns only move
-        vertically, so a pair leaves the support, where its weight is 0, long before a new one enters)."""
+        follow. The pairs themselves are those within 1.1 h of the first laying (columns only move
+        vertically, by a crater's or a deposit's depth, so a pair leaves the support, where its weight is
+        0, long before a new one could enter)."""
         top = sample(self.raster, self.terrain, np.column_stack([self.xy, np.zeros(self.ncol)]))
         self.pos[:, 2] = np.tile(top, self.layers) - self.depth
         self.h = SUPPORT * self.s
         if not hasattr(self, "i"):
-            self.i, self.j, _ = pairs_within(self.pos, 1.5 * self.h)
+            i, j, _ = pairs_within(self.pos, 1.1 * self.h)
+            self.i, self.j = i.astype(np.int32), j.astype(np.int32)
         self._r = _distances(self.pos, self.i, self.j, np.empty(len(self.i)))
 
     def water(self) -> float:

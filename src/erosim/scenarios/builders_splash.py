@@ -48,6 +48,8 @@ from erosim.simulation import callbacks as cb
 from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
 from erosim.sph.mud import MudInertia
 
+#: the most porous ground particles a run lays (each holds about 1 kB with its diffusion pairs)
+MAX_GROUND = 2_000_000
 #: a drop's fluid spacing per drop radius: the cube of the drop's volume
 DROP_SPACING = (4.0 * math.pi / 3.0) ** (1.0 / 3.0)
 
@@ -81,8 +83,8 @@ def drop_column(cfg: SplashScenario, geo, dx: float, h: float) -> tuple[np.ndarr
 
 
 def build_solver(cfg: SplashScenario, geo, dx: float):
-    """The solver on the heightmap's wall, with closed edges as planes; the sound speed from the fastest
-    water expected (10×)."""
+    """The solver on the heightmap's wall, with closed edges as planes; the sound speed
+    ``scale.sound_factor`` times the fastest water expected."""
     from erosim.sph.boundaries.heightfield import HeightfieldGround
     from erosim.sph.boundaries.planes import PlaneWalls
     from erosim.sph.solver import SPHSolver
@@ -105,7 +107,7 @@ def build_solver(cfg: SplashScenario, geo, dx: float):
     fall = max(tops) - ground_min
     speeds.append(math.sqrt(2 * g * max(fall, dx)))
     if p.sound_speed <= 0:
-        p = p.model_copy(update={"sound_speed": max(10.0 * max(speeds), 1e-3)})
+        p = p.model_copy(update={"sound_speed": max(cfg.scale.sound_factor * max(speeds), 1e-3)})
     margin = 4.0 * h
     lo = [r.x0 - margin, r.y0 - margin, ground_min - margin]
     hi = [r.x0 + (r.nx - 1) * r.dx + margin, r.y0 + (r.ny - 1) * r.dy + margin, max(tops) + max(10 * h, 0.5 * fall)]
@@ -293,12 +295,14 @@ def setup(scenario, out) -> Setup:
         )
     solver = build_solver(cfg, geo, dx)
     gs = cfg.ground
-    ground = PorousGround(r, geo.terrain, s_ground, gs.layers, gs.porosity, gs.saturation, gs.density)
-    if ground.n > terrain_kind.MAX_PARTICLES:
+    columns = int(((r.nx - 1) * r.dx) // s_ground) * int(((r.ny - 1) * r.dy) // s_ground)
+    if columns * gs.layers > MAX_GROUND:
         raise ConfigError(
-            f"The ground would need {ground.n:.3g} particles of {s_ground:g} m, more than fit in memory; raise "
-            "ground.spacing or sph.spacing, or lower ground.layers."
+            f"The ground would need {columns * gs.layers:.3g} particles of {s_ground:g} m, more than the "
+            f"{MAX_GROUND:.0e} that fit in a laptop's memory (about 1 kB each with their pairs); raise "
+            "scale.spacing_cells (up to 2) or sph.spacing, or lower ground.layers."
         )
+    ground = PorousGround(r, geo.terrain, s_ground, gs.layers, gs.porosity, gs.saturation, gs.density)
     wet = WetGround(IterationInterval(cfg.run.every), solver, r, geo.terrain, ground, splash=cfg.splash,
                     sigma_dry=gs.sigma_dry, sigma_wet=gs.sigma_wet, permeability=gs.permeability,
                     diffusivity=gs.diffusivity, evaporation_mm_h=gs.evaporation, mud=cfg.mud,
