@@ -62,7 +62,7 @@ def _dem(path, cell=1.0, size=16):
 
 def test_rain_splash_on_a_users_dem_writes_wetness_on_its_grid(tmp_path):
     dem = _dem(tmp_path / "dem.tif")
-    res = run("rain-splash", tmp_path / "run", set={"terrain.file": str(dem), "run.t_end": 1.0, "rain.rate": 2e5,
+    res = run("rain-splash", tmp_path / "run", set={"terrain.file": str(dem), "run.t_end": 0.3, "rain.rate": 2e5,
                                                     "ground.evaporation": 0.0, "run.wetness_frames": 2,
                                                     "run.output_interval": 0.5})  # fmt: skip
     rep = res.report
@@ -87,7 +87,9 @@ def test_rain_splash_on_a_users_dem_writes_wetness_on_its_grid(tmp_path):
     assert len(frames) >= 2 and (res.path / "maps" / "frames" / "wetness_00001.tif").is_file()
     assert rep["water_budget"]["closure_rel"] < 1e-9 and rep["solid_budget"]["closure_rel"] < 1e-9
     assert rep["water_budget"]["absorbed"] > 0 and rep["impacts"]["count"] > 0  # no evaporation: all by seepage
-    assert any("rain.height" in w for w in rep["warnings"])  # 0.3 m is within the 1 m support: lifted, said
+    # values for 5 cm cells, scaled to the DEM's 1 m by Froude similarity: λ = 20, times × √20
+    assert rep["froude_scale"] == pytest.approx(20.0) and rep["t_end"] == pytest.approx(0.3 * math.sqrt(20.0))
+    assert any("Froude similarity" in w for w in rep["warnings"])
 
 
 def test_water_jet_splashes_and_soaks_in(tmp_path):

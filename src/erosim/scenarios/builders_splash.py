@@ -69,6 +69,54 @@ def geometry(cfg: SplashScenario) -> tuple[terrain_kind.Geometry, float]:
     return geo, dx
 
 
+def froude_scaled(cfg: SplashScenario, cell: float) -> tuple[SplashScenario, float]:
+    """The scenario scaled from ``scale.reference_cell`` to a terrain of ``cell`` metres by Froude similarity,
+    λ = cell/reference: lengths × λ, times and speeds × √λ, so that a storm on a DEM of any scale does what it
+    does on the reference terrain in as many steps (a λ times larger particle falls √λ times longer):
+
+    run.t_end, run.rain_until × √λ;  rain.height × λ, rain.rate (a speed) × √λ;  inflow discharge × λ^{5/2},
+    radius and height × λ;  permeability × √λ (K is a speed);  moisture and mud diffusivities × λ^{3/2};
+    evaporation × √λ;  yield strengths × λ (d_p/R ∝ v/√σ stays);  splash.min_speed × √λ;  scour k_s × √λ,
+    τ_c × λ^{−n/2} (the shear rate v/l scales as 1/√λ);  a set sph.sound_speed × √λ, sph.dt × √λ.
+    Returns the scaled scenario and λ (1: unchanged)."""
+    ref = cfg.scale.reference_cell
+    if ref is None or cfg.drop is not None or abs(cell / ref - 1.0) < 1e-12:
+        return cfg, 1.0
+    lam = cell / ref
+    r = math.sqrt(lam)
+    run = cfg.run.model_copy(
+        update={
+            "t_end": cfg.run.t_end * r,
+            "rain_until": None if cfg.run.rain_until is None else cfg.run.rain_until * r,
+        }
+    )
+    rain = cfg.rain.model_copy(update={"height": cfg.rain.height * lam, "rate": cfg.rain.rate * r})
+    inflows = {
+        k: v.model_copy(
+            update={"discharge": v.discharge * lam**2.5, "radius": v.radius * lam, "height": v.height * lam}
+        )
+        for k, v in cfg.inflows.items()
+    }
+    g = cfg.ground
+    ground = g.model_copy(
+        update={
+            "permeability": g.permeability * r,
+            "diffusivity": g.diffusivity * lam**1.5,
+            "evaporation": g.evaporation * r,
+            "sigma_dry": g.sigma_dry * lam,
+            "sigma_wet": g.sigma_wet * lam,
+        }
+    )
+    splash = cfg.splash.model_copy(update={"min_speed": cfg.splash.min_speed * r})
+    sc = cfg.scour
+    scour = sc.model_copy(update={"k_s": sc.k_s * r, "tau_c": sc.tau_c * lam ** (-sc.n / 2)})
+    mud = cfg.mud.model_copy(update={"diffusivity": cfg.mud.diffusivity * lam**1.5})
+    sph = cfg.sph.model_copy(update={"sound_speed": cfg.sph.sound_speed * r, "dt": cfg.sph.dt * r})
+    out = cfg.model_copy(update={"run": run, "rain": rain, "inflows": inflows, "ground": ground, "splash": splash,
+                                 "scour": scour, "mud": mud, "sph": sph})  # fmt: skip
+    return out, lam
+
+
 def drop_column(cfg: SplashScenario, geo, dx: float, h: float) -> tuple[np.ndarray, np.ndarray]:
     """Positions and velocities of the drops: a column over the patch's centre, the first one support h
     (plus half a spacing) above the ground."""
@@ -285,6 +333,7 @@ def setup(scenario, out) -> Setup:
     """The fluid, the porous ground, the sources and sinks and the outputs of a ``splash`` run."""
     cfg: SplashScenario = scenario.config
     geo, dx = geometry(cfg)
+    cfg, lam = froude_scaled(cfg, geo.raster.dx)
     s_ground = ground_spacing(dx, cfg.ground)
     r = geo.raster
     span = min((r.nx - 1) * r.dx, (r.ny - 1) * r.dy)
@@ -334,7 +383,9 @@ def setup(scenario, out) -> Setup:
     callbacks.append(SplashOutputs(geo, wet, grid, cfg.drop is not None))
 
     def report(sim) -> dict[str, Any]:
-        return splash_report(cfg, geo, dx, solver, wet, sim)
+        rep = splash_report(cfg, geo, dx, solver, wet, sim)
+        rep["froude_scale"] = lam
+        return rep
 
     def summary(sim, rep: dict) -> dict[str, Any]:
         out = {
@@ -351,9 +402,16 @@ def setup(scenario, out) -> Setup:
         out["wall_time_s"] = round(sim.wall_time, 2)
         return out
 
+    assumed = []
+    if lam != 1.0:
+        assumed.append(f"The scenario's values are for {cfg.scale.reference_cell:g} m cells; on these "
+                       f"{geo.raster.dx:g} m cells they are scaled by Froude similarity (λ = {lam:.4g}): lengths × λ, "
+                       f"times and speeds × √λ (t_end {run.t_end:.4g} s).")  # fmt: skip
+        warnings += assumed
+
     return Setup(
         models=[solver], callbacks=callbacks, stop_time=run.t_end, unit="s", report=report, summary=summary,
-        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings,
+        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings, assumed=assumed,
     )  # fmt: skip
 
 

@@ -65,6 +65,10 @@ class DropSection(Section):
 class ScaleSection(Section):
     spacing_cells: float | None = param(None, gt=0, le=2, unit="cells", doc="fluid spacing in terrain cells "
                                         "(follows a DEM's own cell size); none: sph.spacing")  # fmt: skip
+    reference_cell: float | None = param(None, gt=0, unit="m", doc="the cell size the scenario's values are for: "
+                                         "on a terrain of another cell size every dimensional value is scaled by "
+                                         "Froude similarity (lengths ∝ λ, times and speeds ∝ √λ); none: no "
+                                         "scaling")  # fmt: skip
     sound_factor: float = param(10.0, ge=3, le=40, unit="1", doc="sound speed as a multiple of the fastest water "
                                 "expected (drops, jets, the highest fall), unless sph.sound_speed is set")  # fmt: skip
 
