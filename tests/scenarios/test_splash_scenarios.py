@@ -158,3 +158,17 @@ def test_validate_splash_wetness_passes_and_draws_the_craters(tmp_path):
     assert res["passed"] and res["ordered_dry_partly_saturated"]
     assert res["depth_ratio_saturated_to_dry"] == pytest.approx(res["expected_ratio"], rel=1e-9)
     assert (tmp_path / "v" / "figures" / "craters.png").is_file()
+
+
+def test_every_splash_scenario_has_a_case():
+    splash = {
+        n for n in loader.library_names() if loader.read_toml(loader.LIBRARY / f"{n}.toml").get("kind") == "splash"
+    }
+    assert splash == {"splash-drop", "rain-splash", "water-jet"}  # the three tests above and below run each
+
+
+def test_rain_splash_as_shipped_starts_wetting_its_hills(tmp_path):
+    rep = run("rain-splash", tmp_path / "rain", set={"run.t_end": 0.35, "run.wetness_frames": 0}).report
+    assert rep["status"] == "completed" and rep["froude_scale"] == 1.0
+    assert rep["impacts"]["count"] > 0 and rep["water_budget"]["absorbed"] > 0
+    assert rep["water_budget"]["closure_rel"] < 1e-9 and rep["solid_budget"]["closure_rel"] < 1e-9
