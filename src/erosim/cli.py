@@ -64,6 +64,39 @@ def _print_result(result: dict, as_json: bool) -> None:
     Console().print(table)
 
 
+DEVICE_CASES = ("martin-moyce", "hydrostatic")  # validations that run on --device cuda
+
+
+def _device_option(help_text: str):
+    return click.option(
+        "--device", type=click.Choice(["cpu", "cuda"]), default=None, help=help_text + " (default: cpu)."
+    )
+
+
+def _require_device(device: str | None) -> None:
+    """One sentence and a non-zero exit when ``device`` cannot run here (before anything is written)."""
+    if device is not None:
+        from erosim.core.devices import require
+
+        _guard(require, device)
+
+
+def _check_device_kind(scenario, resume, preset) -> None:
+    """--device is a setting of kind = "sph" scenarios only: one sentence for the others."""
+    from erosim.scenarios import loader
+
+    try:
+        sc = loader.load(Path(resume) / "scenario.toml", []) if resume else loader.load(scenario, [], preset)
+    except ErosimError:
+        return  # the run itself reports what is wrong with the scenario
+    if sc.kind != "sph":
+        _fail(
+            ErosimError(
+                f"--device applies to kind = \"sph\" scenarios, not '{sc.name}' (kind '{sc.kind}'); leave it out."
+            )
+        )
+
+
 def _set_threads(threads: int | None) -> None:
     if threads is None:
         return
@@ -119,10 +152,15 @@ def cli(threads: int | None, quiet: bool, debug: bool) -> None:
     "--resume", type=click.Path(file_okay=False), default=None, help="Continue an interrupted run from its folder."
 )
 @click.option("--overwrite", is_flag=True, help="Allow writing into an existing, non-empty --out folder.")
-def run(scenario, overrides, preset, out, resume, overwrite):
+@_device_option('Where the SPH steps run, for kind = "sph" scenarios: cpu or cuda; sets run.device')
+def run(scenario, overrides, preset, out, resume, overwrite, device):
     """Run SCENARIO (a library name or a TOML file) and write a run folder."""
     from erosim.api import execute
 
+    _require_device(device)
+    if device is not None:
+        _check_device_kind(scenario, resume, preset)
+        overrides = (*overrides, f"run.device={device}")
     run_folder, summary = _guard(
         execute, scenario, list(overrides), preset, out, resume, overwrite, progress=not STATE.quiet
     )
@@ -293,14 +331,20 @@ VALIDATION_CASES = {
     default=None,
     help="martin-moyce only: the tank floor as boundary particles (box, default) or a flat heightmap.",
 )
-def validate(case, resolution, out, as_json, ground):
+@_device_option("martin-moyce and hydrostatic: where the SPH steps run")
+def validate(case, resolution, out, as_json, ground, device):
     """Run a validation CASE against published experimental or analytic data."""
     from erosim.scenarios.kinds import resolve
 
     if ground is not None and case != "martin-moyce":
         _fail(ErosimError(f"--ground applies to martin-moyce only, not '{case}'; leave it out."))
+    if device is not None and case not in DEVICE_CASES:
+        _fail(ErosimError(f"--device applies to {' and '.join(DEVICE_CASES)} only, not '{case}'; leave it out."))
+    _require_device(device)
     fn = _guard(resolve, VALIDATION_CASES[case])
     extra = {"ground": ground} if ground else {}
+    if device is not None:
+        extra["device"] = device
     result = _guard(fn, resolution, Path(out) if out else None, not (STATE.quiet or as_json), **extra)
     _print_result(result, as_json)
     if not result.get("passed", False):
@@ -321,13 +365,15 @@ def bench():
     "--steps", type=click.IntRange(min=1), default=None, help="Timed steps (default: enough for a few seconds)."
 )
 @click.option("--dim", type=click.Choice(["2", "3"]), default="3", show_default=True)
+@_device_option("Where the SPH steps run: cpu or cuda")
 @click.option("--json", "as_json", is_flag=True)
-def bench_sph(particles, steps, dim, as_json):
+def bench_sph(particles, steps, dim, device, as_json):
     """SPH solver on a 3-D dam break: particle-steps/s and neighbour-pair interactions/s."""
     from erosim.scenarios.kinds import resolve
 
+    _require_device(device)
     fn = _guard(resolve, "erosim.bench.sph:run")
-    _print_result(_guard(fn, particles, steps, int(dim)), as_json)
+    _print_result(_guard(fn, particles, steps, int(dim), device=device or "cpu"), as_json)
 
 
 @bench.command(name="sph-terrain")
@@ -498,10 +544,11 @@ def view(run, port, no_browser, html_out, max_side):
 # ------------------------------------------------------------------------------------------- info
 @cli.command()
 def info():
-    """Versions, threads and where things are."""
+    """Versions, threads, usable devices and where things are."""
     import numba
     import numpy
 
+    from erosim.core.devices import available
     from erosim.scenarios import loader
 
     _print_result(
@@ -512,6 +559,7 @@ def info():
             "numba": numba.__version__,
             "threads": numba.get_num_threads(),
             "cpu_cores": os.cpu_count(),
+            **{f"device {name}": what for name, what in available().items()},
             "scenarios": ", ".join(loader.library_names()),
         },
         as_json=False,

@@ -16,7 +16,11 @@ Reported:
   steps / wall time;
 * ``neighbours_mean``, ``ms_per_step``, ``threads`` (Numba threads), ``peak_rss_mb`` (peak resident
   memory of the process), ``cpu_s`` (process CPU time of the timed steps: on a shared machine, wall
-  time also counts the other jobs' load), ``boundary_particles``, ``rebuilds`` (during the timed steps).
+  time also counts the other jobs' load), ``boundary_particles``, ``rebuilds`` (during the timed steps);
+* ``device`` (``cpu`` or ``cuda``: ``--device cuda`` times :class:`~erosim.sph.solver_cuda.CudaSPHSolver`,
+  whose steps include the per-step copies of three numbers back to the host) and, on the GPU,
+  ``gpu`` (its name). The GPU's timed steps end with the step's last host copy, so all kernels of
+  them have finished.
 """
 
 from __future__ import annotations
@@ -54,12 +58,19 @@ def run(
     precision: str = "float64",
     walls: str = "particles",
     seconds: float = 8.0,
+    device: str = "cpu",
 ) -> dict:
     """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
     import numba
 
+    from erosim.core.devices import require
     from erosim.sph.params import SPHParams
-    from erosim.sph.solver import SPHSolver
+
+    require(device)
+    if device == "cuda":
+        from erosim.sph.solver_cuda import CudaSPHSolver as SPHSolver
+    else:
+        from erosim.sph.solver import SPHSolver
 
     spacing = 0.01
     fluid, lo, hi = dam_break_geometry(int(particles), int(dim), spacing)
@@ -103,4 +114,13 @@ def run(
         "build_s": round(build_s, 2),
         "precision": precision,
         "walls": walls,
+        "device": device,
+        **({"gpu": devices_gpu()} if device == "cuda" else {}),
     }
+
+
+def devices_gpu() -> str:
+    """The GPU (or the simulator) that ran the benchmark, in words."""
+    from erosim.core.devices import cuda_status
+
+    return cuda_status()[1]

@@ -97,8 +97,12 @@ class Built:
 
 
 def build(cfg: SPHScenario) -> Built:
-    """Particles and an :class:`erosim.sph.solver.SPHSolver` for the scenario."""
-    from erosim.sph.solver import SPHSolver  # Numba import only when a run starts
+    """Particles and an :class:`erosim.sph.solver.SPHSolver` for the scenario (its CUDA subclass
+    :class:`erosim.sph.solver_cuda.CudaSPHSolver` with ``run.device = "cuda"``)."""
+    if cfg.run.device == "cuda":
+        from erosim.sph.solver_cuda import CudaSPHSolver as SPHSolver
+    else:
+        from erosim.sph.solver import SPHSolver  # Numba import only when a run starts
 
     pos, vel = fluid_particles(cfg)
     solver = SPHSolver(

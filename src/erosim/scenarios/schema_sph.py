@@ -8,7 +8,7 @@
     [particles]      optional target fluid particle count: derives sph.spacing (then h and m)
     [[fluid]]        blocks of fluid: lo, hi, optional initial velocity
     [[obstacles]]    solid axis-aligned boxes: lo, hi
-    [run]            t_end, frame / sample / checkpoint intervals
+    [run]            t_end, frame / sample / checkpoint intervals, device ("cpu" or "cuda")
     [[probes]]       pressure probes: name, position
     [[gauges]]       water-level gauges: name, horizontal position
     [measure]        surge front on/off and its origin (the column's back wall)
@@ -62,6 +62,11 @@ class Run(Section):
     sample_interval: float = param(0.01, gt=0, unit="s", doc="gauges, probes and front sampled every this long")
     snapshots: int = param(4, ge=0, le=100, unit="1", doc="PNG snapshots (coloured by speed) over the run")
     checkpoint_wall_s: float = param(300.0, gt=0, unit="s", doc="wall-clock time between checkpoints")
+    device: Literal["cpu", "cuda"] = param(
+        "cpu",
+        doc="where the SPH steps run: 'cpu' (Numba threads) or 'cuda' (an NVIDIA GPU, needs `pip install "
+        "'erosim[cuda]'`; docs/gpu.md); a checkpoint of either resumes on the other",
+    )
 
 
 class Probe(Section):

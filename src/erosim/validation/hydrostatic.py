@@ -42,8 +42,9 @@ def errors(pos: np.ndarray, p: np.ndarray, rho: np.ndarray, *, rho0: float, g: f
     }
 
 
-def run(resolution: str = "default", out: Path | None = None, progress: bool = True) -> dict:
-    """Run the case; writes ``validation.json`` and ``figures/pressure_profile.png``."""
+def run(resolution: str = "default", out: Path | None = None, progress: bool = True, device: str = "cpu") -> dict:
+    """Run the case; writes ``validation.json`` and ``figures/pressure_profile.png`` (``device = "cuda"``:
+    the SPH steps on the GPU)."""
     from erosim.scenarios.runner import execute
     from erosim.viz.plots import pressure_profile
 
@@ -61,11 +62,13 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
             "run.output_interval=0.1",
             "run.snapshots=1",
             "run.checkpoint_wall_s=600.0",
+            f"run.device={device}",
         ],
     )
     cfg = scenario.config
     g = abs(cfg.sph.gravity_vector()[-1])
-    folder = RunFolder(out if out is not None else default_out(f"validate-hydrostatic-{resolution}"))
+    name = f"validate-hydrostatic-{resolution}" + ("-cuda" if device == "cuda" else "")
+    folder = RunFolder(out if out is not None else default_out(name))
     wall0 = time.perf_counter()
     summary, sim = execute(scenario, folder, progress=progress)
     solver = sim.models[0]
@@ -94,6 +97,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         "density_threshold": RHO_THRESHOLD,
         "particles_outside": e["outside"],
         "resolution": resolution,
+        "device": device,
         "spacing": H / n_h,
         "particles_across_depth": n_h,
         "settling_time_s": float(solver.t),

@@ -78,8 +78,16 @@ def _heightfield_scenario(n_a: int, t_end: float, sample_dt: float):
     )  # fmt: skip
 
 
-def run(resolution: str = "default", out: Path | None = None, progress: bool = True, ground: str = "box") -> dict:
-    """Run the case; writes ``validation.json`` and ``figures/front_vs_experiment.png`` in the run folder."""
+def run(
+    resolution: str = "default",
+    out: Path | None = None,
+    progress: bool = True,
+    ground: str = "box",
+    device: str = "cpu",
+) -> dict:
+    """Run the case; writes ``validation.json`` and ``figures/front_vs_experiment.png`` in the run folder.
+
+    ``device = "cuda"`` runs the SPH steps on the GPU (box ground only)."""
     from erosim.data import MARTIN_MOYCE_SURGE, reference_csv
     from erosim.scenarios.runner import execute
     from erosim.viz.plots import front_vs_experiment
@@ -88,6 +96,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")
     if ground not in GROUNDS:
         raise ConfigError(f"Unknown ground '{ground}'; use one of: {', '.join(GROUNDS)}.")
+    if device != "cpu" and ground != "box":
+        raise ConfigError(f"--device {device} runs martin-moyce with the box ground only; leave out --ground.")
     ref = reference_csv(MARTIN_MOYCE_SURGE)
     n_a = RESOLUTIONS[resolution]
     g = 9.81
@@ -103,10 +113,12 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
             f"run.sample_interval={sample_dt!r}",
             "run.snapshots=2",
             "run.checkpoint_wall_s=600.0",
+            f"run.device={device}",
         ]
         scenario = loader.load("dam-break-2d", overrides)
     g = abs(scenario.config.sph.gravity_vector()[-1])
     name = f"validate-martin-moyce-{resolution}" + ("-heightfield" if ground == "heightfield" else "")
+    name += "-cuda" if device == "cuda" else ""
     folder = RunFolder(out if out is not None else default_out(name))
     wall0 = time.perf_counter()
     summary, sim = execute(scenario, folder, progress=progress)
@@ -136,6 +148,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         "out": str(folder.path),
         "resolution": resolution,
         "ground": ground,
+        "device": device,
         "spacing": A / n_a,
         "particles_across_column": n_a,
         **run_facts(solver, summary, wall),
