@@ -314,6 +314,7 @@ VALIDATION_CASES = {
     "thacker": "erosim.validation.thacker:run",
     "lake-at-rest": "erosim.validation.lake_at_rest:run",
     "flood-solvers": "erosim.validation.flood_solvers:run",
+    "splash-wetness": "erosim.validation.splash_wetness:run",
 }
 
 

@@ -32,6 +32,9 @@ KINDS = {
     "flood": ["flood", "run.t_end=40.0", "run.map_frames=2", "flood.settle_steps=40", "flood.spacing=40.0"],
 }  # fmt: skip
 
+# kinds interrupted only in the slow run (their uninterrupted references cost a minute or more in all)
+SLOW_KINDS = {"splash": ["rain-splash", "run.t_end=0.35", "run.wetness_frames=2", "run.output_interval=0.15"]}
+
 
 # report entries that describe a session, not the result: wall times, rates, this session's counts
 def _session_key(key: str) -> bool:
@@ -49,7 +52,7 @@ def _erosim(args, *, interrupt=None):
 
 
 def _run_args(kind, out):
-    name, *sets = KINDS[kind]
+    name, *sets = {**KINDS, **SLOW_KINDS}[kind]
     args = ["run", name, "--out", str(out)]
     for s in sets:
         args += ["--set", s]
@@ -100,6 +103,18 @@ def references(tmp_path_factory):
     return made
 
 
+@pytest.fixture(scope="module")
+def slow_references(tmp_path_factory):
+    """The uninterrupted runs of the kinds interrupted only in the slow run."""
+    made = {}
+    for kind in SLOW_KINDS:
+        out = tmp_path_factory.mktemp("ref") / kind
+        res = _erosim(_run_args(kind, out))
+        assert res.returncode == 0, res.stderr
+        made[kind] = out
+    return made
+
+
 def _moment(kind: str, phase: str, draw: int, ref: Path) -> int:
     """A random N within the phase's range for this kind (seeded by kind, phase and draw)."""
     rep = json.loads((ref / "report.json").read_text())
@@ -140,6 +155,13 @@ def test_resume_after_ctrl_c_equals_the_uninterrupted_run(kind, phase, reference
 @pytest.mark.parametrize("kind", sorted(KINDS))
 def test_resume_after_ctrl_c_at_more_moments(kind, phase, draw, references, tmp_path):
     _case(kind, phase, draw, references, tmp_path)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("phase", PHASES)
+@pytest.mark.parametrize("kind", sorted(SLOW_KINDS))
+def test_resume_after_ctrl_c_equals_the_uninterrupted_run_slow_kinds(kind, phase, slow_references, tmp_path):
+    _case(kind, phase, 0, slow_references, tmp_path)
 
 
 def test_one_press_during_the_final_outputs_lets_them_finish(references, tmp_path):

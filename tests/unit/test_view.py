@@ -156,8 +156,7 @@ def test_run_without_frames_or_terrain_opens(tmp_path, make_run):
 
 
 @pytest.mark.parametrize(
-    "target, words",
-    [("nothing", "does not exist"), ("empty", "not a run folder"), ("odd", "unknown kind 'weather'")],
+    "target, words", [("nothing", "does not exist"), ("empty", "not a run folder"), ("odd", "unknown kind 'weather'")]
 )
 def test_bad_input_is_one_sentence(tmp_path, target, words):
     (tmp_path / "empty").mkdir()

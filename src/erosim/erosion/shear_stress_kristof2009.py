@@ -71,6 +71,22 @@ class ShearStressParams(Section):
     every: int = param(50, ge=1, unit="1", doc="SPH steps between erosion evaluations (VX-6: 50)")
 
 
+@njit(cache=True, inline="always")
+def excess_stress(v_par, dist, l_min, k, expo, tau_c):
+    """The law of one particle: max(0, K θⁿ − τ_c) with the shear rate θ = v_par / max(dist, l_min)."""
+    theta = max(v_par, 0.0) / max(dist, l_min)
+    tau = k * theta**expo
+    return tau - tau_c if tau > tau_c else 0.0
+
+
+@njit(cache=True)
+def excess_stresses(v_par, dist, l_min, k, expo, tau_c, out):
+    """:func:`excess_stress` of every particle (arrays ``v_par``, ``dist``, ``tau_c``; the heightmap's scour
+    in :mod:`erosim.coupling.splash_coupler` uses it with a τ_c per particle)."""
+    for i in range(v_par.size):
+        out[i] = excess_stress(v_par[i], dist[i], l_min, k, expo, tau_c[i])
+
+
 @njit(cache=True)
 def shear_sums(dens, ox, oy, oz, inv, d_air, pos, vel, wall_l, n, radius, l_min, k, expo, tau_c, z_floor, scale,
                out):  # fmt: skip
@@ -106,10 +122,9 @@ def shear_sums(dens, ox, oy, oz, inv, d_air, pos, vel, wall_l, n, radius, l_min,
                     if rc > radius:
                         continue
                     vr = abs(vx * rx + vy * ry + vz * rz) / r if r > 0.0 else 0.0
-                    theta = max(speed - vr, 0.0) / max(rc, l_min)
-                    tau = k * theta**expo
-                    if tau > tau_c:
-                        out[kk, jj, ii] += scale * (tau - tau_c)
+                    e = excess_stress(speed - vr, rc, l_min, k, expo, tau_c)
+                    if e > 0.0:
+                        out[kk, jj, ii] += scale * e
 
 
 @njit(cache=True)

@@ -25,7 +25,7 @@ from erosim.core.errors import InputError
 from erosim.core.heightmap import Heightmap
 
 # kinds whose run folders erosim knows (flood: the flood-hazard kind's maps and report keys)
-KNOWN_KINDS = ("hydrology", "sph", "sph-terrain", "particle-stream", "flood")
+KNOWN_KINDS = ("hydrology", "sph", "sph-terrain", "particle-stream", "flood", "splash")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,6 +47,7 @@ LAYERS = (
     Layer("vegetation", ("vegetation",), "Vegetation (tree density)", "0–1"),
     Layer("hazard", ("hazard",), "Hazard class", "class 1–6"),
     Layer("wetness", ("wetness",), "Wetness", "0–1"),
+    Layer("puddles", ("puddles",), "Puddles (hollows' depth)", "m"),
     Layer("speed", ("max_speed",), "Largest speed", "m/s"),
     Layer("dv", ("max_dv",), "Largest depth × speed", "m²/s"),
     Layer("arrival", ("arrival_time",), "Arrival time", "s"),
@@ -70,6 +71,10 @@ KEY_FIGURES = (
     ("eroded", ("sediment_budget", "eroded"), ""),
     ("deposited", ("sediment_budget", "deposited"), ""),
     ("sediment closure", ("sediment_budget", "closure_rel"), ""),
+    ("water absorbed", ("water_budget", "absorbed"), "m³"),
+    ("solid eroded", ("solid_budget", "eroded"), "m³"),
+    ("solid closure", ("solid_budget", "closure_rel"), ""),
+    ("crater depth", ("crater_depth_m",), "m"),
     ("lake share", ("statistics", "lake_fraction"), ""),
     ("largest lake depth", ("statistics", "max_lake_depth_m"), "m"),
     ("fluid particles", ("fluid_particles",), ""),
@@ -100,7 +105,8 @@ class Run:
         if "height" not in self.maps:
             raise InputError(
                 f"Run '{self.path}' (kind {self.kind}) holds no maps/height.tif; "
-                "only runs on a heightmap (hydrology, sph-terrain, particle-stream, flood) have a terrain to export."
+                "only runs on a heightmap (hydrology, sph-terrain, particle-stream, flood, splash) have a terrain "
+                "to export."
             )
         return self.read_map("height")
 

@@ -188,9 +188,7 @@ def depth_and_support(pos, vol, hsup, n, start, nbr, k2, h_min, h_max, tol, max_
 
 
 @njit(parallel=True, cache=True)
-def accelerations(
-    pos, vel, vol, hsup, depth, omega, n, start, nbr, bed, inv_cell, g, alpha, acc
-):
+def accelerations(pos, vel, vol, hsup, depth, omega, n, start, nbr, bed, inv_cell, g, alpha, acc):
     """a_i = −(g/2) Σ_j V_j [∇W_ij(H_i)/Ω_i + ∇W_ij(H_j)/Ω_j] − g ∇b(x_i) − Σ_j V_j Π_ij ∇W̄_ij.
 
     The first two terms are the variational shallow-water momentum equation (Rodriguez-Paz & Bonet

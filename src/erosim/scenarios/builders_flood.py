@@ -361,4 +361,3 @@ def setup(scenario, out) -> Setup:
         models=[solver], callbacks=callbacks, stop_time=cfg.run.t_end, unit="s", report=report, summary=summary,
         checkpoint_wall_s=cfg.run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings, assumed=assumed,
     )  # fmt: skip
-

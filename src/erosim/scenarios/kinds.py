@@ -32,6 +32,7 @@ KINDS: dict[str, Kind] = {
         "erosim.scenarios.schema_sph_terrain:SPHTerrainScenario", "erosim.scenarios.builders_sph_terrain:setup"
     ),
     "flood": Kind("erosim.scenarios.schema_flood:FloodScenario", "erosim.scenarios.builders_flood:setup"),
+    "splash": Kind("erosim.scenarios.schema_splash:SplashScenario", "erosim.scenarios.builders_splash:setup"),
 }
 
 

@@ -1,0 +1,122 @@
+"""Porous ground particles laid on a heightmap in layers (seed 003 fig. 2; SPEC SP-1…SP-3).
+
+Solid particles sampled on the terrain surface: columns on a square lattice of spacing s over the
+map (x = x0 + (i + ½)s, y = y0 + (j + ½)s), ``layers`` particles deep under the Q4 surface at
+z = ground(x, y) − (l + ½)s. Each has a porosity φ, a saturation θ ∈ [0, 1] (the share of its pores
+holding water), a grain density ρ_s and — through θ — a yield strength (:mod:`erosim.erosion.wet_strength`).
+It holds φs³θ m³ of water; the top layer (l = 0) is the surface that water touches and that
+evaporates.
+
+The particles are the soil's moisture carriers: when the heightmap changes (a crater, a deposit) every
+column follows its ground (:meth:`PorousGround.follow`), keeping its water; the solid volume the
+terrain gains or loses is the heightmap's (Σ Δz·A), counted by the eroder contract. The fluid feels
+the ground through the heightmap's particle-free wall (:class:`~erosim.sph.boundaries.heightfield.HeightfieldGround`);
+water passes into the particles by Darcy seepage (:mod:`erosim.hydrology.seepage_darcy`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from erosim.coupling.raster import Raster
+from erosim.coupling.sampling import sample
+from erosim.kernels.sph_diffusion import pair_weights, pairs_within
+
+
+@njit(cache=True)
+def _distances(pos, i, j, out):
+    for p in range(i.size):
+        a, b = i[p], j[p]
+        out[p] = math.sqrt((pos[a, 0] - pos[b, 0]) ** 2 + (pos[a, 1] - pos[b, 1]) ** 2 + (pos[a, 2] - pos[b, 2]) ** 2)
+    return out
+
+
+#: the diffusion support in ground spacings (Wendland C2: about 50 neighbours in 3-D)
+SUPPORT = 2.0
+
+
+class PorousGround:
+    """Layers of porous particles under ``terrain`` (raster.shape, SPH frame, read live)."""
+
+    def __init__(self, raster: Raster, terrain: np.ndarray, spacing: float, layers: int, porosity: float,
+                 saturation: float, density: float):  # fmt: skip
+        self.raster, self.terrain = raster, terrain
+        self.s = s = float(spacing)
+        self.layers = int(layers)
+        xe, ye = (raster.nx - 1) * raster.dx, (raster.ny - 1) * raster.dy
+        self.ncx, self.ncy = max(1, int(math.floor(xe / s + 1e-9))), max(1, int(math.floor(ye / s + 1e-9)))
+        xs = raster.x0 + (np.arange(self.ncx) + 0.5) * s
+        ys = raster.y0 + (np.arange(self.ncy) + 0.5) * s
+        gx, gy = np.meshgrid(xs, ys)  # (ncy, ncx): column c = j·ncx + i
+        self.xy = np.column_stack([gx.ravel(), gy.ravel()])
+        self.ncol = len(self.xy)
+        n = self.ncol * self.layers
+        self.pos = np.zeros((n, 3))
+        self.pos[:, :2] = np.tile(self.xy, (self.layers, 1))
+        self.depth = np.repeat((np.arange(self.layers) + 0.5) * s, self.ncol)
+        self.volume = s**3
+        self.area = s * s
+        self.porosity = np.full(n, float(porosity))
+        self.pore = self.porosity * self.volume
+        self.theta = np.full(n, float(saturation))
+        self.density = np.full(n, float(density))  # grain density of each particle (kg/m³)
+        self.surface = np.zeros(n, bool)
+        self.surface[: self.ncol] = True
+        self.follow()
+
+    @property
+    def n(self) -> int:
+        return len(self.theta)
+
+    def follow(self) -> None:
+        """Lay every column under the current ground (after the terrain changed); the pairs' distances
+        follow. The pairs themselves are those within 1.1 h of the first laying (columns only move
+        vertically, by a crater's or a deposit's depth, so a pair leaves the support, where its weight is
+        0, long before a new one could enter)."""
+        top = sample(self.raster, self.terrain, np.column_stack([self.xy, np.zeros(self.ncol)]))
+        self.pos[:, 2] = np.tile(top, self.layers) - self.depth
+        self.h = SUPPORT * self.s
+        if not hasattr(self, "i"):
+            i, j, _ = pairs_within(self.pos, 1.1 * self.h)
+            self.i, self.j = i.astype(np.int32), j.astype(np.int32)
+        self._r = _distances(self.pos, self.i, self.j, np.empty(len(self.i)))
+
+    def water(self) -> float:
+        """m³ of water held in the pores."""
+        return float((self.theta * self.pore).sum())
+
+    def weights(self, diffusivity: float) -> np.ndarray:
+        """Pair weights D φ̄ V² L(r) of the moisture diffusion (seepage_darcy's docstring)."""
+        phi = 0.5 * (self.porosity[self.i] + self.porosity[self.j])
+        return phi * pair_weights(self._r, self.h, 3, self.volume, self.volume, diffusivity)
+
+    def column_of(self, xy: np.ndarray) -> np.ndarray:
+        """Index of the column (= its surface particle) under horizontal points ``xy`` (k, 2)."""
+        r = self.raster
+        i = np.clip(np.floor((xy[:, 0] - r.x0) / self.s).astype(np.int64), 0, self.ncx - 1)
+        j = np.clip(np.floor((xy[:, 1] - r.y0) / self.s).astype(np.int64), 0, self.ncy - 1)
+        return j * self.ncx + i
+
+    def surface_map(self, values: np.ndarray | None = None) -> np.ndarray:
+        """A surface particles' value (default θ) at every node of the raster (the column over the node)."""
+        v = self.theta if values is None else values
+        xs, ys = self.raster.nodes()
+        gx, gy = np.meshgrid(xs, ys)
+        cols = self.column_of(np.column_stack([gx.ravel(), gy.ravel()]))
+        return v[cols].reshape(self.raster.shape)
+
+    def strength(self, sigma_dry: float, sigma_wet: float) -> np.ndarray:
+        """Each particle's yield strength σ_s(θ) (Pa; :mod:`erosim.erosion.wet_strength`)."""
+        from erosim.erosion.wet_strength import strength
+
+        return strength(self.theta, sigma_dry, sigma_wet)
+
+    def state_dict(self) -> dict:
+        return {"theta": self.theta.copy(), "z": self.pos[:, 2].copy()}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.theta[...] = state["theta"]
+        self.follow()  # the terrain is restored first (by its owner); the columns lie under it

@@ -1,0 +1,78 @@
+"""Seepage into porous ground by Darcy's law, moisture spreading inside it, and evaporation (seed 003
+§2, SPEC SP-3).
+
+**Absorption.** Water standing on a surface ground particle k enters it at the Darcy flux
+
+    q_k = K (1 − θ_k),        K = k_p ρ_w g / μ_w        (m/s),
+
+K the hydraulic conductivity of a ground of permeability k_p (m²), over the particle's top area A_k,
+so in Δt the particle takes at most K(1 − θ_k)A_k Δt — and never more than its free pore volume
+(1 − θ_k)φ_k V_k, nor more than the water of the fluid particles touching it (each gives in
+proportion to what it holds). Modelling choice: the seed says only that absorption follows Darcy's
+law; the hydraulic gradient across the wetting surface is taken as one (gravity drainage) and the
+saturation deficit (1 − θ) stands for the suction that draws water into dry ground and vanishes at
+saturation — a saturated surface takes water again only as moisture drains away from it. A puddle
+on a bed that keeps its surface dry therefore sinks at K; one on a closed surface layer of pore
+volume φV fills it as θ(t) = 1 − (1 − θ₀) e^{−KAt/(φV)}.
+
+**Moisture diffusion.** Between ground particles, driven by saturation differences:
+d(φ_iV_iθ_i)/dt = Σ_j D_θ φ̄_ij V_i V_j L(r_ij)(θ_j − θ_i) (the conservative SPH diffusion of
+:mod:`erosim.kernels.sph_diffusion`; φ̄ the mean porosity of the pair), so a step of wet over dry
+ground spreads as erfc(z/(2√(D_θ t))) and a moisture front moves ∝ √t.
+
+**Evaporation** (optional): surface particles lose E·A_k·Δt of water (E in m/s), while they have it.
+
+Every transfer is subtracted from one store and added to another in the same floating-point
+amounts, so water in the fluid + in the ground + evaporated is constant to rounding (SP-3's
+conservation; runs report the closure).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+WATER_DENSITY = 1000.0  # kg/m³
+WATER_VISCOSITY = 1.0e-3  # Pa·s (20 °C)
+
+
+def conductivity(permeability: float, gravity: float = 9.81, rho: float = WATER_DENSITY,
+                 mu: float = WATER_VISCOSITY) -> float:  # fmt: skip
+    """Hydraulic conductivity K = k_p ρ g / μ (m/s) of a ground of permeability ``permeability`` (m²)."""
+    return permeability * rho * gravity / mu
+
+
+def absorb(water: np.ndarray, contact: np.ndarray, theta: np.ndarray, pore: np.ndarray, area: float, k: float,
+           dt: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """One Darcy absorption step.
+
+    ``water`` (n_f,) m³ of water each fluid particle holds; ``contact`` (n_f,) the ground particle it
+    touches (−1: none); ``theta``, ``pore`` (n_g,) the ground's saturations and pore volumes (m³);
+    ``area`` the top area of a surface particle (m²), ``k`` the conductivity K (m/s).
+    Returns (taken (n_f,) m³ each fluid particle loses, gained (n_g,) m³ each ground particle gains);
+    Σ taken = Σ gained to rounding (gained is the bincount of taken).
+    """
+    n_g = len(theta)
+    touching = contact >= 0
+    taken = np.zeros(len(water))
+    if not touching.any() or dt <= 0:
+        return taken, np.zeros(n_g)
+    c = contact[touching]
+    supply = np.bincount(c, water[touching], n_g)
+    deficit = np.clip(1.0 - theta, 0.0, 1.0)
+    demand = np.minimum(k * deficit * area * dt, deficit * pore)
+    take = np.minimum(demand, supply)
+    share = np.divide(take, supply, out=np.zeros(n_g), where=supply > 0)
+    taken[touching] = water[touching] * share[c]
+    gained = np.bincount(contact[touching], taken[touching], n_g)
+    return taken, gained
+
+
+def evaporate(theta: np.ndarray, pore: np.ndarray, surface: np.ndarray, area: float, rate: float,
+              dt: float) -> float:  # fmt: skip
+    """Take E·A·Δt (at most what they hold) from the ``surface`` particles' water (θ in place); returns m³ taken."""
+    if rate <= 0 or dt <= 0:
+        return 0.0
+    held = theta[surface] * pore[surface]
+    loss = np.minimum(held, rate * area * dt)
+    theta[surface] = (held - loss) / pore[surface]
+    return float(loss.sum())

@@ -1,0 +1,476 @@
+"""The ``splash`` kind: SPH water on porous ground that it wets, weakens, splashes and scours (seed 003;
+SPEC SP-1…SP-6).
+
+The terrain (a DEM, a generated map, or — with ``[drop]`` — a flat patch scaled to the drop) lives in
+the SPH frame of :mod:`erosim.scenarios.builders_sph_terrain` (x east, y north, z up, rows
+northward). The fluid feels the ground as the heightmap's particle-free wall; porous ground particles
+(:class:`~erosim.coupling.porous_ground.PorousGround`) lie in layers under it; every ``run.every``
+steps :class:`~erosim.coupling.splash_coupler.WetGround` digs the craters of the particles that
+strike the ground, scours, lets water seep in and spread, and mixes mud.
+
+A ``[drop]`` run: each drop is one fluid particle of the drop's volume, so the crater law's R is the
+drop's radius; the fluid spacing is R·(4π/3)^{1/3}; the patch's cells are R/``cells_per_radius``;
+the drops start one kernel support above the ground, at ``drop.speed`` downward.
+
+It leaves ``maps/`` (the DEM's grid): height.tif, height_initial.tif, erosion.tif, deposition.tif,
+wetness.tif (surface saturation θ, 0…1), puddles.tif (depth of the closed hollows water stands in),
+water_depth.tif, and wetness.png (16-bit: 0…65535 for θ = 0…1); ``maps/frames/`` wetness and height
+over time (``run.wetness_frames``); ``figures/`` (wetness, erosion and deposition, the wetness frames,
+a crater's profile for drop runs); particle frames with each particle's water share, mud
+concentration and mixture density, and the ground particles' saturation; ``report.json`` with
+``water_budget`` and ``solid_budget`` (each with ``closure_rel``), the impacts, the cost of the
+passes, and for drop runs ``crater_depth_m``, ``crater_width_m`` (a_p: the opening's radius) and the
+crater law's values beside them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from erosim.core.errors import ConfigError
+from erosim.core.heightmap import Heightmap, default_transform
+from erosim.coupling.binning import FluidGrid
+from erosim.coupling.porous_ground import PorousGround
+from erosim.coupling.raster import Raster
+from erosim.coupling.sources import EdgeOutflow, PointInflow, Rain
+from erosim.coupling.splash_coupler import WetGround
+from erosim.erosion import splash as sp
+from erosim.erosion.wet_strength import strength
+from erosim.scenarios import builders_sph_terrain as terrain_kind
+from erosim.scenarios.schema_splash import SplashScenario, ground_spacing
+from erosim.scenarios.setup import Setup
+from erosim.simulation import callbacks as cb
+from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
+from erosim.sph.mud import MudInertia
+
+#: the most porous ground particles a run lays (each holds about 1 kB with its diffusion pairs)
+MAX_GROUND = 2_000_000
+#: a drop's fluid spacing per drop radius: the cube of the drop's volume
+DROP_SPACING = (4.0 * math.pi / 3.0) ** (1.0 / 3.0)
+
+
+def geometry(cfg: SplashScenario) -> tuple[terrain_kind.Geometry, float]:
+    """The terrain in the SPH frame and the fluid spacing."""
+    if cfg.drop is not None:
+        d = cfg.drop
+        cell = d.radius / d.cells_per_radius
+        n = 2 * int(math.ceil(0.5 * d.patch * d.cells_per_radius)) + 1  # odd: a node under the patch's centre
+        z = np.zeros((n, n))
+        raster = Raster(0.0, 0.0, cell, cell, n, n)
+        dem = Heightmap(z.copy(), cell, transform=default_transform(n, n, cell))
+        return terrain_kind.Geometry(raster, z.copy(), z.copy(), None, dem, 3), d.radius * DROP_SPACING
+    geo = terrain_kind.geometry(cfg)
+    dx = cfg.scale.spacing_cells * geo.raster.dx if cfg.scale.spacing_cells else cfg.sph.spacing
+    return geo, dx
+
+
+def froude_scaled(cfg: SplashScenario, cell: float) -> tuple[SplashScenario, float]:
+    """The scenario scaled from ``scale.reference_cell`` to a terrain of ``cell`` metres by Froude similarity,
+    λ = cell/reference: lengths × λ, times and speeds × √λ, so that a storm on a DEM of any scale does what it
+    does on the reference terrain in as many steps (a λ times larger particle falls √λ times longer):
+
+    run.t_end, run.rain_until × √λ;  rain.height × λ, rain.rate (a speed) × √λ;  inflow discharge × λ^{5/2},
+    radius and height × λ;  permeability × √λ (K is a speed);  moisture and mud diffusivities × λ^{3/2};
+    evaporation × √λ;  yield strengths × λ (d_p/R ∝ v/√σ stays);  splash.min_speed × √λ;  scour k_s × √λ,
+    τ_c × λ^{−n/2} (the shear rate v/l scales as 1/√λ);  a set sph.sound_speed × √λ, sph.dt × √λ.
+    Returns the scaled scenario and λ (1: unchanged)."""
+    ref = cfg.scale.reference_cell
+    if ref is None or cfg.drop is not None or abs(cell / ref - 1.0) < 1e-12:
+        return cfg, 1.0
+    lam = cell / ref
+    r = math.sqrt(lam)
+    run = cfg.run.model_copy(
+        update={
+            "t_end": cfg.run.t_end * r,
+            "rain_until": None if cfg.run.rain_until is None else cfg.run.rain_until * r,
+        }
+    )
+    rain = cfg.rain.model_copy(update={"height": cfg.rain.height * lam, "rate": cfg.rain.rate * r})
+    inflows = {
+        k: v.model_copy(
+            update={"discharge": v.discharge * lam**2.5, "radius": v.radius * lam, "height": v.height * lam}
+        )
+        for k, v in cfg.inflows.items()
+    }
+    g = cfg.ground
+    ground = g.model_copy(
+        update={
+            "permeability": g.permeability * r,
+            "diffusivity": g.diffusivity * lam**1.5,
+            "evaporation": g.evaporation * r,
+            "sigma_dry": g.sigma_dry * lam,
+            "sigma_wet": g.sigma_wet * lam,
+        }
+    )
+    splash = cfg.splash.model_copy(update={"min_speed": cfg.splash.min_speed * r})
+    sc = cfg.scour
+    scour = sc.model_copy(update={"k_s": sc.k_s * r, "tau_c": sc.tau_c * lam ** (-sc.n / 2)})
+    mud = cfg.mud.model_copy(update={"diffusivity": cfg.mud.diffusivity * lam**1.5})
+    sph = cfg.sph.model_copy(update={"sound_speed": cfg.sph.sound_speed * r, "dt": cfg.sph.dt * r})
+    out = cfg.model_copy(update={"run": run, "rain": rain, "inflows": inflows, "ground": ground, "splash": splash,
+                                 "scour": scour, "mud": mud, "sph": sph})  # fmt: skip
+    return out, lam
+
+
+def drop_column(cfg: SplashScenario, geo, dx: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Positions and velocities of the drops: a column over the patch's centre, the first one support h
+    (plus half a spacing) above the ground."""
+    d = cfg.drop
+    r = geo.raster
+    cx, cy = r.x0 + (r.nx // 2) * r.dx, r.y0 + (r.ny // 2) * r.dy
+    z = h + 0.5 * dx + np.arange(d.count) * max(d.gap * 2.0 * d.radius, 1.01 * dx)
+    pos = np.column_stack([np.full(d.count, cx), np.full(d.count, cy), z])
+    vel = np.zeros_like(pos)
+    vel[:, 2] = -d.speed
+    return pos, vel
+
+
+def build_solver(cfg: SplashScenario, geo, dx: float):
+    """The solver on the heightmap's wall, with closed edges as planes; the sound speed
+    ``scale.sound_factor`` times the fastest water expected."""
+    from erosim.sph.boundaries.heightfield import HeightfieldGround
+    from erosim.sph.boundaries.planes import PlaneWalls
+    from erosim.sph.solver import SPHSolver
+
+    p, r = cfg.sph.model_copy(update={"spacing": dx}), geo.raster
+    h = p.support()
+    g = math.sqrt(sum(x * x for x in p.gravity_vector()))
+    ground_min, ground_max = float(geo.terrain.min()), float(geo.terrain.max())
+    fluid, vel = np.zeros((0, 3)), None
+    tops, speeds = [], []
+    if cfg.drop is not None:
+        fluid, vel = drop_column(cfg, geo, dx, h)
+        tops.append(float(fluid[:, 2].max()))
+        speeds.append(math.sqrt(cfg.drop.speed**2 + 2 * g * (tops[-1] - ground_min)))
+    if cfg.rain.rate > 0:
+        tops.append(ground_max + cfg.rain.height)
+    for inf in cfg.inflows.values():
+        tops.append(ground_max + inf.height)
+        speeds.append(inf.discharge / max(math.pi * max(inf.radius, 0.5 * dx) ** 2, dx * dx))
+    fall = max(tops) - ground_min
+    speeds.append(math.sqrt(2 * g * max(fall, dx)))
+    if p.sound_speed <= 0:
+        p = p.model_copy(update={"sound_speed": max(cfg.scale.sound_factor * max(speeds), 1e-3)})
+    margin = 4.0 * h
+    lo = [r.x0 - margin, r.y0 - margin, ground_min - margin]
+    hi = [r.x0 + (r.nx - 1) * r.dx + margin, r.y0 + (r.ny - 1) * r.dy + margin, max(tops) + max(10 * h, 0.5 * fall)]
+    ground = HeightfieldGround(r, geo.terrain)
+    boundaries = [ground]
+    planes = terrain_kind._edge_planes(geo, cfg.edges.outflow)
+    if planes is not None:
+        boundaries.append(PlaneWalls(*planes))
+    boundaries.append(MudInertia(cfg.mud.solid_density))  # mud is heavier than water (sph/mud.py)
+    solver = SPHSolver(p, fluid, fluid_vel=vel, domain_lo=lo, domain_hi=hi, seed=cfg.seed, boundaries=boundaries)
+    return solver
+
+
+class SplashFrames(cb.ParticleFrames):
+    """Fluid frames with each particle's water share, mud concentration and mixture density, and the
+    ground particles' saturation (``particles/ground.pvd``)."""
+
+    def __init__(self, schedule, solver, wet: WetGround, folder: Path):
+        super().__init__(schedule, solver, folder)
+        from erosim.io.particles import FrameSeries
+
+        self.wet = wet
+        self.ground_series = FrameSeries(self.folder / "ground", name="ground")
+
+    def __call__(self, sim) -> None:
+        s, w = self.fluid, self.wet
+        fields = {
+            "velocity": s.fluid_velocities().astype(np.float32),
+            "water": s.fluid_field("water").astype(np.float32),
+            "mud": s.fluid_field("mud").astype(np.float32),
+            "mixture_density": s._fluid(w.mud_density()).astype(np.float32),
+        }
+        self.series.write(float(s.t), s.fluid_positions().astype(np.float32), fields)
+        g = w.ground
+        fields = {"saturation": g.theta.astype(np.float32), "porosity": g.porosity.astype(np.float32),
+                  "strength": g.strength(w.sigma_dry, w.sigma_wet).astype(np.float32)}  # fmt: skip
+        self.ground_series.write(float(s.t), g.pos.astype(np.float32), fields)
+
+    def state_dict(self) -> dict[str, Any]:
+        return {**super().state_dict(), "ground_frames": [list(f) for f in self.ground_series.frames]}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        from erosim.io.particles import FrameSeries
+
+        super().load_state_dict(state)
+        self.ground_series = FrameSeries(self.folder / "ground", name="ground", frames=state.get("ground_frames", []))
+
+
+class WetnessFrames(cb.Callback):
+    """``maps/frames/wetness_N.tif`` and ``height_N.tif`` (the DEM's grid) with ``frames.json``; small
+    copies of the wetness for the frames figure travel in the checkpoint."""
+
+    def __init__(self, schedule, geo, wet: WetGround, folder: Path):
+        super().__init__(schedule, name="wetness_frames")
+        self.geo, self.wet, self.folder = geo, wet, Path(folder)
+        self.times: list[float] = []
+        self.thumbs: list[np.ndarray] = []
+
+    def __call__(self, sim) -> None:
+        from erosim.core.atomic import write_text
+        from erosim.io import heightmaps as hio
+
+        k = len(self.times)
+        wet = self.wet.wetness()[::-1]
+        hio.write_raster(self.folder / f"wetness_{k:05d}.tif", wet.astype(np.float32), self.geo.dem)
+        hio.write(self.folder / f"height_{k:05d}.tif", np.ascontiguousarray(self.wet.terrain[::-1]), like=self.geo.dem)
+        self.times.append(float(self.wet.solver.t))
+        write_text(self.folder / "frames.json", json.dumps({"times": self.times}))
+        step = max(1, max(wet.shape) // 96)
+        self.thumbs.append(np.ascontiguousarray(wet[::step, ::step], dtype=np.float32))
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"times": np.array(self.times), "thumbs": np.array(self.thumbs, np.float32)}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.times = np.asarray(state.get("times", [])).tolist()
+        self.thumbs = list(np.asarray(state.get("thumbs", np.zeros((0, 1, 1), np.float32))))
+
+    def finalize(self, sim) -> dict[str, Any]:
+        if not self.thumbs:
+            return {}
+        from erosim.viz.splash import wetness_frames_figure
+
+        path = sim.out.figures / "wetness_frames.png"
+        wetness_frames_figure(path, self.thumbs, self.times)
+        figure = "figures/wetness_frames.png"
+        return {"wetness_frames": {"count": len(self.times), "folder": "maps/frames", "figure": figure}}
+
+
+class TimedRain(Rain):
+    """Rain that stops at ``until`` (s of simulated time)."""
+
+    def __init__(self, *args, until: float | None = None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.until = until
+
+    def __call__(self, sim=None) -> None:
+        if self.until is not None and float(self.solver.t) > self.until:
+            self.last_t = float(self.solver.t)
+            return
+        super().__call__(sim)
+
+
+def puddle_depth(z: np.ndarray) -> np.ndarray:
+    """Depth (m) of the closed hollows of ``z``: the surface filled to its spill level minus z."""
+    from skimage.morphology import reconstruction
+
+    seed = z.copy()
+    seed[1:-1, 1:-1] = z.max()
+    return reconstruction(seed, z, method="erosion") - z
+
+
+class SplashOutputs(cb.Callback):
+    """The final maps (the DEM's grid) and figures."""
+
+    def __init__(self, geo, wet: WetGround, grid: FluidGrid, drop: bool):
+        super().__init__(Schedule(), name="outputs")
+        self.geo, self.wet, self.grid, self.drop = geo, wet, grid, drop
+
+    def finalize(self, sim) -> dict[str, Any]:
+        from erosim.io import heightmaps as hio
+        from erosim.viz import splash as vs
+
+        out, g, w = sim.out, self.geo, self.wet
+        self.grid.bin(w.solver)
+        z = w.terrain
+        fields = {
+            "height": z,
+            "height_initial": g.initial,
+            "erosion": np.maximum(g.initial - z, 0.0),
+            "deposition": np.maximum(z - g.initial, 0.0),
+            "wetness": w.wetness(),
+            "puddles": puddle_depth(z),
+            "water_depth": self.grid.depth,
+        }
+        written = {}
+        for name, arr in fields.items():
+            mapped = np.ascontiguousarray(arr[::-1])
+            if name.startswith("height"):
+                hio.write(out.maps / f"{name}.tif", mapped, like=g.dem)
+            else:
+                hio.write_raster(out.maps / f"{name}.tif", mapped.astype(np.float32), g.dem)
+            written[name] = {"path": f"maps/{name}.tif", "min": float(mapped.min()), "max": float(mapped.max())}
+        info = hio.write(out.maps / "wetness.png", np.ascontiguousarray(fields["wetness"][::-1]), like=g.dem,
+                         height_range=(0.0, 1.0))  # fmt: skip
+        written["wetness_png16"] = {"path": "maps/wetness.png", "range": info.get("height_range", [0.0, 1.0])}
+        cell = g.raster.dx
+        from erosim.viz.plots import extent_of
+
+        box = None if self.drop else extent_of(g.dem.transform, g.initial.shape, cell)
+        vs.wetness_figure(out.figures / "wetness.png", fields["wetness"][::-1], cell, "Surface wetness θ", box)
+        from erosim.viz.plots import change_figure
+
+        change_figure(out.figures / "erosion_deposition.png", (z - g.initial)[::-1], cell, "Erosion and deposition",
+                      box)  # fmt: skip
+        figs = ["figures/wetness.png", "figures/erosion_deposition.png"]
+        if self.drop:
+            vs.crater_profile_figure(out.figures / "crater.png", g, z)
+            figs.append("figures/crater.png")
+        return {"outputs": {"maps": written, "figures": figs}}
+
+
+def crater_measure(geo, terrain: np.ndarray) -> dict[str, float]:
+    """Depth (m) of the deepest point below the initial ground, and the radius (m) of the circle of the
+    pit's area (nodes lowered by more than 1 % of that depth): the crater's a_p as measured."""
+    change = geo.initial - terrain
+    depth = float(change.max())
+    if depth <= 0:
+        return {"depth": 0.0, "radius": 0.0}
+    area = float((change > 0.01 * depth).sum()) * geo.raster.cell_area
+    return {"depth": depth, "radius": math.sqrt(area / math.pi)}
+
+
+def setup(scenario, out) -> Setup:
+    """The fluid, the porous ground, the sources and sinks and the outputs of a ``splash`` run."""
+    cfg: SplashScenario = scenario.config
+    geo, dx = geometry(cfg)
+    cfg, lam = froude_scaled(cfg, geo.raster.dx)
+    s_ground = ground_spacing(dx, cfg.ground)
+    r = geo.raster
+    span = min((r.nx - 1) * r.dx, (r.ny - 1) * r.dy)
+    if span < 2 * s_ground:
+        raise ConfigError(
+            f"The terrain is {span:g} m across, less than two ground spacings ({s_ground:g} m); use a larger terrain "
+            "or a smaller sph.spacing."
+        )
+    solver = build_solver(cfg, geo, dx)
+    gs = cfg.ground
+    columns = int(((r.nx - 1) * r.dx) // s_ground) * int(((r.ny - 1) * r.dy) // s_ground)
+    if columns * gs.layers > MAX_GROUND:
+        raise ConfigError(
+            f"The ground would need {columns * gs.layers:.3g} particles of {s_ground:g} m, more than the "
+            f"{MAX_GROUND:.0e} that fit in a laptop's memory (about 1 kB each with their pairs); raise "
+            "scale.spacing_cells (up to 2) or sph.spacing, or lower ground.layers."
+        )
+    ground = PorousGround(r, geo.terrain, s_ground, gs.layers, gs.porosity, gs.saturation, gs.density)
+    wet = WetGround(IterationInterval(cfg.run.every), solver, r, geo.terrain, ground, splash=cfg.splash,
+                    sigma_dry=gs.sigma_dry, sigma_wet=gs.sigma_wet, permeability=gs.permeability,
+                    diffusivity=gs.diffusivity, evaporation_mm_h=gs.evaporation, mud=cfg.mud,
+                    scour=cfg.scour)  # fmt: skip
+    callbacks: list = []
+    if cfg.edges.outflow:
+        callbacks.append(EdgeOutflow(IterationInterval(1), solver, r, cfg.edges.outflow))
+    grid = FluidGrid(r, 3, ground=geo.terrain, near=2.0 * solver.h)
+    warnings = list(geo.dem.notes) if geo.dem is not None and cfg.drop is None else []
+    if cfg.rain.rate > 0:
+        chance = terrain_kind._rain_map(cfg, geo)
+        height = cfg.rain.height
+        if height < 2.0 * solver.h:  # drops born inside the ground's reach would never strike it
+            height = 2.0 * solver.h
+            warnings.append(f"rain.height = {cfg.rain.height:g} m is within two kernel supports of the ground; the "
+                            f"drops start {height:.3g} m above it so that they strike it.")  # fmt: skip
+        callbacks.append(TimedRain(IterationInterval(cfg.rain.every), solver, r, geo.terrain, chance, cfg.rain.rate,
+                                   height, cfg.seed, grid=grid, until=cfg.run.rain_until))  # fmt: skip
+    for name, inf in cfg.inflows.items():
+        xy = geo.to_local(inf.position, f"inflows.{name}.position")
+        callbacks.append(PointInflow(IterationInterval(1), solver, r, geo.terrain, xy, inf.discharge,
+                                     inf.radius, inf.height, name))  # fmt: skip
+    callbacks.append(wet)
+    run = cfg.run
+    if run.output_interval > 0:
+        callbacks.append(SplashFrames(TimeInterval(run.output_interval), solver, wet, out.path / "particles"))
+    if run.wetness_frames > 0:
+        callbacks.append(WetnessFrames(TimeInterval(run.t_end / run.wetness_frames), geo, wet, out.maps / "frames"))
+    callbacks.append(SplashOutputs(geo, wet, grid, cfg.drop is not None))
+
+    def report(sim) -> dict[str, Any]:
+        rep = splash_report(cfg, geo, dx, solver, wet, sim)
+        rep["froude_scale"] = lam
+        return rep
+
+    def summary(sim, rep: dict) -> dict[str, Any]:
+        out = {
+            "status": sim.status,
+            "t": round(float(solver.t), 6),
+            "steps": int(solver.steps),
+            "fluid_particles": solver.n_fluid,
+            "impacts": rep["impacts"]["count"],
+            "water_closure_rel": rep["water_budget"]["closure_rel"],
+            "solid_closure_rel": rep["solid_budget"]["closure_rel"],
+        }
+        if "crater_depth_m" in rep:
+            out.update(crater_depth_m=rep["crater_depth_m"], crater_width_m=rep["crater_width_m"])
+        out["wall_time_s"] = round(sim.wall_time, 2)
+        return out
+
+    assumed = []
+    if lam != 1.0:
+        assumed.append(f"The scenario's values are for {cfg.scale.reference_cell:g} m cells; on these "
+                       f"{geo.raster.dx:g} m cells they are scaled by Froude similarity (λ = {lam:.4g}): lengths × λ, "
+                       f"times and speeds × √λ (t_end {run.t_end:.4g} s).")  # fmt: skip
+        warnings += assumed
+
+    return Setup(
+        models=[solver], callbacks=callbacks, stop_time=run.t_end, unit="s", report=report, summary=summary,
+        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings, assumed=assumed,
+    )  # fmt: skip
+
+
+def splash_report(cfg: SplashScenario, geo, dx: float, solver, wet: WetGround, sim) -> dict[str, Any]:
+    """The ``splash`` kind's entries of ``report.json``."""
+    imp = np.array(wet.impacts, np.float64).reshape(-1, 8)
+    rep: dict[str, Any] = {
+        "t": float(solver.t),
+        "t_end": cfg.run.t_end,
+        "steps": int(solver.steps),
+        "fluid_particles": solver.n_fluid,
+        "terrain": {
+            "shape": list(geo.terrain.shape),
+            "cell_size_m": geo.raster.dx,
+            "crs": geo.dem.crs if geo.dem is not None else None,
+        },  # fmt: skip
+        "resolution": {
+            "fluid_spacing_m": dx,
+            "particle_radius_m": wet.radius,
+            "ground_spacing_m": wet.ground.s,
+            "ground_particles": wet.ground.n,
+            "support_h_m": solver.h,
+            "sound_speed_m_s": solver.c,
+        },  # fmt: skip
+        "water_budget": wet.water_budget(),
+        "solid_budget": wet.solid_budget(),
+        "impacts": {
+            "count": wet.n_impacts,
+            "mean_speed_m_s": float(imp[:, 3].mean()) if len(imp) else None,
+            "mean_depth_m": float(imp[:, 6].mean()) if len(imp) else None,
+            "first": dict(
+                zip(("t", "x", "y", "speed", "theta", "sigma", "depth", "radius"), imp[0].tolist(), strict=True)
+            )
+            if len(imp)
+            else None,  # fmt: skip
+        },
+        "surface_wetness": {"mean": float(wet.wetness().mean()), "max": float(wet.wetness().max())},
+        "wall_cost": wet.costs(sim),
+        "couplings": wet.calls,
+        "removed": {k: v for k, v in solver.state.removed.items()},
+    }
+    if cfg.drop is not None:
+        d = cfg.drop
+        m = crater_measure(geo, wet.terrain)
+        theta = cfg.ground.saturation
+        sigma = float(strength(theta, cfg.ground.sigma_dry, cfg.ground.sigma_wet))
+        v_hit = float(imp[0, 3]) if len(imp) else d.speed
+        law_d = float(sp.crater_depth(d.radius, v_hit, solver.params.rho0, sigma))
+        rep["crater_depth_m"] = m["depth"]
+        rep["crater_width_m"] = m["radius"]
+        rep["crater_diameter_m"] = 2.0 * m["radius"]
+        rep["crater_law"] = {
+            "radius_m": d.radius,
+            "impact_speed_m_s": v_hit,
+            "saturation": theta,
+            "sigma_pa": sigma,
+            "depth_m": law_d,
+            "width_m": float(sp.crater_radius(d.radius, law_d)),
+            "note": "d_p = R v √(2ρ_f/(9σ_s)), a_p = √(2R d_p − d_p²) for the first drop; the measured crater "
+            "sums every drop's",
+        }
+    return rep

@@ -1,0 +1,65 @@
+"""Pictures of splash runs: surface wetness, wetness over time, a crater's profile (seed 003 figs. 6–9)."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from erosim.viz.plots import map_figure, save_figure  # noqa: E402
+
+WET = "YlGnBu"
+
+
+def wetness_figure(path, wetness: np.ndarray, cell_size: float, title: str, extent=None):
+    """Surface saturation θ (north-up array) on 0…1."""
+    bar = {"cmap": WET, "vmin": 0.0, "vmax": 1.0, "label": "surface saturation θ"}
+    return map_figure(path, np.asarray(wetness, np.float64), cell_size, title, colorbar=bar, extent=extent)
+
+
+def wetness_frames_figure(path, frames: list[np.ndarray], times: list[float], columns: int = 4):
+    """The wetness frames side by side (north up), each with its time."""
+    k = len(frames)
+    cols = min(columns, k)
+    rows = int(np.ceil(k / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(2.4 * cols, 2.4 * rows + 0.3), squeeze=False)
+    for n, ax in enumerate(axes.ravel()):
+        ax.set_axis_off()
+        if n < k:
+            im = ax.imshow(frames[n], cmap=WET, vmin=0.0, vmax=1.0, interpolation="nearest")
+            ax.set_title(f"t = {times[n]:.3g} s", fontsize=9)
+    fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8, label="surface saturation θ")
+    return save_figure(fig, path)
+
+
+def crater_profile_figure(path, geo, terrain: np.ndarray):
+    """The crater's section through its deepest point (mm), before and after."""
+    r = geo.raster
+    j, i = np.unravel_index(int(np.argmax(geo.initial - terrain)), terrain.shape)
+    x = (np.arange(r.nx) - i) * r.dx * 1e3
+    fig, ax = plt.subplots(figsize=(6.4, 3.0))
+    ax.plot(x, geo.initial[j] * 1e3, color="0.6", label="before")
+    ax.fill_between(x, terrain[j] * 1e3, terrain[j].min() * 1e3 - 1, color="#a0522d", alpha=0.6)
+    ax.plot(x, terrain[j] * 1e3, color="#6b3a1e", label="after")
+    ax.set_xlabel("distance from the crater's centre (mm)")
+    ax.set_ylabel("height (mm)")
+    ax.set_aspect("equal")
+    ax.legend(loc="lower right", fontsize=8)
+    return save_figure(fig, path)
+
+
+def craters_side_by_side(path, sections: list[tuple[str, np.ndarray, np.ndarray]], title: str):
+    """Crater sections (label, x mm, height mm) in one row: dry / partly wet / saturated."""
+    fig, axes = plt.subplots(1, len(sections), figsize=(3.2 * len(sections), 2.8), sharey=True)
+    low = min(float(z.min()) for _, _, z in sections)
+    for ax, (label, x, z) in zip(np.atleast_1d(axes), sections, strict=True):
+        ax.fill_between(x, z, low - 0.5, color="#a0522d", alpha=0.7)
+        ax.plot(x, z, color="#6b3a1e")
+        ax.set_title(label, fontsize=9)
+        ax.set_xlabel("mm")
+        ax.set_aspect("equal")
+    np.atleast_1d(axes)[0].set_ylabel("height (mm)")
+    fig.suptitle(title, fontsize=10)
+    return save_figure(fig, path)

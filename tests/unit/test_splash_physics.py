@@ -1,0 +1,112 @@
+"""The crater law (SP-1), wetness-weakened strength (SP-2), mud mixing and diffusion (SP-4)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from erosim.core.errors import ConfigError
+from erosim.coupling.raster import Raster
+from erosim.erosion.splash import crater_depth, crater_increment, crater_radius, crater_volume, imprint_depth
+from erosim.erosion.wet_strength import WetStrengthParams, strength, weakening
+from erosim.sph.mud import diffuse_concentration, mixture_acceleration, mixture_density, mixture_viscosity
+
+
+def test_crater_depth_is_the_formula_and_proportional_to_speed():
+    R, rho = 2e-3, 1000.0
+    for sigma in (4e3, 2e4):
+        for v in (1.0, 3.0, 7.5):
+            assert crater_depth(R, v, rho, sigma) == pytest.approx(R * v * math.sqrt(2 * rho / (9 * sigma)), rel=1e-14)
+        d = crater_depth(R, np.array([1.0, 2.0, 4.0]), rho, sigma)
+        np.testing.assert_allclose(d / d[0], [1.0, 2.0, 4.0], rtol=1e-14)  # d ∝ v at fixed σ
+
+
+def test_weaker_ground_gives_deeper_craters_and_chord_of_the_cap():
+    R = 2e-3
+    d_strong, d_weak = crater_depth(R, 4.0, 1000.0, 2e4), crater_depth(R, 4.0, 1000.0, 4e3)
+    assert d_weak > d_strong
+    assert d_weak / d_strong == pytest.approx(math.sqrt(5.0), rel=1e-12)  # d ∝ σ^(-1/2)
+    for d in (0.1 * R, 0.5 * R, R):
+        a = crater_radius(R, d)
+        assert a == pytest.approx(math.sqrt(2 * R * d - d * d), rel=1e-14)
+        # the opening lies on the sphere of radius R whose bottom is d deep: (R − d)² + a² = R²
+        assert (R - d) ** 2 + a**2 == pytest.approx(R * R, rel=1e-12)
+    assert crater_radius(R, 1.7 * R) == pytest.approx(R)  # deeper than R: the opening stays R
+
+
+def test_crater_volume_matches_the_imprint_integral():
+    R = 1.0
+    for d in (0.3, 1.0, 1.5):
+        r = np.linspace(0, R, 200001)
+        integral = np.trapezoid(2 * np.pi * r * imprint_depth(r, R, d), r)
+        # trapezoid error ~h^1.5 at the √(R²−r²) edge: 2e-6 here
+        assert integral == pytest.approx(float(crater_volume(R, d)), rel=1e-5)
+
+
+def test_crater_on_a_fine_heightmap_has_the_law_depth_and_volume():
+    R, d = 2e-3, 1.2e-3
+    cell = R / 20
+    r = Raster(0.0, 0.0, cell, cell, 161, 161)
+    dz = crater_increment(r, np.array([[80 * cell, 80 * cell]]), R, np.array([d]))
+    assert -dz.min() == pytest.approx(d, rel=1e-12)  # the node under the impact
+    # node sums converge to the cap volume (second order in the cell: ≈ 1 % at R/20)
+    assert -dz.sum() * r.cell_area == pytest.approx(float(crater_volume(R, d)), rel=0.02)
+    wet = np.argwhere(dz < 0)
+    reach = np.hypot(*(wet - 80).T).max() * cell
+    assert reach <= float(crater_radius(R, d)) + 1e-12
+
+
+def test_a_crater_smaller_than_a_cell_keeps_its_volume():
+    R, d = 1e-3, 5e-4
+    r = Raster(0.0, 0.0, 0.01, 0.01, 5, 5)
+    dz = crater_increment(r, np.array([[0.013, 0.027]]), R, np.array([d]))
+    assert -dz.sum() * r.cell_area == pytest.approx(float(crater_volume(R, d)), rel=1e-12)
+    assert (dz != 0).sum() == 4
+
+
+def test_strength_end_values_and_monotone():
+    s0, s1 = 2e4, 4e3
+    assert strength(0.0, s0, s1) == pytest.approx(s0, rel=1e-14)
+    assert strength(1.0, s0, s1) == pytest.approx(s1, rel=1e-14)
+    th = np.linspace(0, 1, 1001)
+    s = strength(th, s0, s1)
+    assert np.all(np.diff(s) < 0)
+    assert weakening(0.5) == pytest.approx((math.exp(0.25) - 1) / (math.e - 1), rel=1e-14)
+
+
+def test_wet_stronger_than_dry_is_refused():
+    with pytest.raises(ConfigError, match="sigma_wet = 30000 Pa is above ground.sigma_dry = 20000 Pa"):
+        WetStrengthParams(sigma_dry=2e4, sigma_wet=3e4)
+
+
+def test_mixture_density_and_viscosity():
+    assert mixture_density(0.0, 1000, 2650) == pytest.approx(1000)
+    assert mixture_density(0.3, 1000, 2650) == pytest.approx(0.3 * 2650 + 0.7 * 1000)
+    assert mixture_viscosity(1.0, 1e-3, 2.0) == pytest.approx(2.0)
+
+
+def test_a_blob_of_mud_spreads_and_keeps_its_solid():
+    dx = 0.01
+    ax = np.arange(12) * dx
+    pos = np.stack([g.ravel() for g in np.meshgrid(ax, ax, ax, indexing="ij")], axis=1)
+    c = np.where(np.linalg.norm(pos - 5.5 * dx, axis=1) < 2.2 * dx, 0.4, 0.0)
+    vol = dx**3
+    total0 = c.sum() * vol
+    var0 = (c * ((pos - pos.mean(0)) ** 2).sum(1)).sum() / c.sum()
+    steps = diffuse_concentration(pos, c, vol, 2.0 * dx, 1e-4, 0.2)
+    assert steps >= 1
+    assert abs(c.sum() * vol - total0) / total0 < 1e-12  # pairwise exchange: rounding only
+    assert c.min() >= 0.0 and c.max() <= 0.4  # no overshoot (sub-steps keep the maximum principle)
+    var1 = (c * ((pos - pos.mean(0)) ** 2).sum(1)).sum() / c.sum()
+    assert var1 > var0 * 1.2  # it spread
+
+
+def test_mud_sinks_through_still_water_and_falls_freely_in_air():
+    g = np.array([0.0, 0.0, -9.81])
+    c = np.array([0.0, 0.3, 0.5])
+    rho = mixture_density(c, 1000.0, 2650.0)
+    # in still water the pair forces hold the water up (a_water = 0): mud sinks at g(ρ − ρ_f)/ρ (buoyancy)
+    still = mixture_acceleration(np.zeros((3, 3)), g, c, 1000.0, 2650.0)
+    np.testing.assert_allclose(still[:, 2], -9.81 * (rho - 1000.0) / rho, rtol=1e-14)
+    # a free-falling particle (no forces: a_water = g) falls at g whatever it carries
+    np.testing.assert_allclose(mixture_acceleration(np.tile(g, (3, 1)), g, c, 1000.0, 2650.0), np.tile(g, (3, 1)))
