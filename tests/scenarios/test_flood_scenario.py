@@ -194,6 +194,12 @@ def test_the_3d_sph_flood_runs_on_the_same_set_up(tmp_path):
     rep = json.loads((out.path / "report.json").read_text())
     assert rep["status"] == "completed" and rep["solver"] == "sph3d"
     assert rep["particles"] > 300 and rep["water_budget"]["closure_rel"] == 0.0
+    # the particles hold the set-up's reservoir, Σ (level − z)·Δ² (1 210 m³), to within one particle
+    # of Δx³ = 1 m³: both solvers start from the same water
+    from erosim.scenarios.builders_flood import FloodSetUp
+
+    site = FloodSetUp(scenario.config)
+    assert rep["volume_initial_m3"] == pytest.approx(site.depth0.sum() * site.dem.cell_size**2, abs=1.0)
     # the column depths of the reservoir at t = 0 are about its depth at the dam (2 m), never far above
     assert 1.0 < rep["max_depth_m"] < 3.5
     with rasterio.open(out.path / "maps" / "hazard.tif") as ds:
