@@ -188,7 +188,7 @@ def test_the_3d_sph_flood_runs_on_the_same_set_up(tmp_path):
     from erosim.scenarios.runner import execute
     from erosim.validation.flood_solvers import SETS
 
-    scenario = loader.load("flood", [*SETS, "flood.solver=sph3d", "flood.spacing=1.0", "run.t_end=2.0"])
+    scenario = loader.load("flood", [*SETS, "flood.solver=sph3d", "flood.spacing=1.0", "run.t_end=0.5"])
     out = RunFolder(tmp_path / "run")
     execute(scenario, out, progress=False)
     rep = json.loads((out.path / "report.json").read_text())

@@ -53,16 +53,38 @@ def _run(solver: str, spacing: float, folder: Path, progress: bool):
     return depth, wall, out
 
 
-def run(resolution: str = "default", out: Path | None = None, progress: bool = True) -> dict:
-    """Both solvers on the small valley; writes ``validation.json`` and ``figures/flood_solvers.png``."""
-    import json
-
+def figure(path: Path, depth: dict, wet: dict, iou: float) -> None:
+    """Both solvers' maximum depths and where each flooded (``depth``, ``wet``: map arrays by solver)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from erosim.viz.plots import save_figure
+
+    union = wet["swe"] | wet["sph3d"]
+    fig, axes = plt.subplots(1, 3, figsize=(12, 4.4))
+    for ax, name in zip(axes[:2], ("swe", "sph3d"), strict=True):
+        im = ax.imshow(np.where(wet[name], depth[name], np.nan), cmap="Blues", origin="upper")
+        ax.set_title(f"{name}: maximum depth (m)", fontsize=10)
+        fig.colorbar(im, ax=ax, shrink=0.8)
+    both = np.zeros(union.shape + (3,))
+    both[wet["swe"] & wet["sph3d"]] = (0.2, 0.4, 0.8)
+    both[wet["swe"] & ~wet["sph3d"]] = (0.9, 0.6, 0.1)
+    both[~wet["swe"] & wet["sph3d"]] = (0.8, 0.1, 0.1)
+    both[~union] = 1.0
+    axes[2].imshow(both, origin="upper")
+    axes[2].set_title(f"flooded by both (blue), swe only (orange),\nsph3d only (red): IoU {iou:.2f}", fontsize=9)
+    for ax in axes:
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+def run(resolution: str = "default", out: Path | None = None, progress: bool = True) -> dict:
+    """Both solvers on the small valley; writes ``validation.json`` and ``figures/flood_solvers.png``."""
+    import json
 
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")
@@ -76,24 +98,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     wet = {k: v["depth"] >= runs[k]["report"]["wet_depth_m"] for k, v in runs.items()}
     union = wet["swe"] | wet["sph3d"]
     iou = float((wet["swe"] & wet["sph3d"]).sum() / max(union.sum(), 1))
-    fig, axes = plt.subplots(1, 3, figsize=(12, 4.2))
-    for ax, name in zip(axes[:2], ("swe", "sph3d"), strict=True):
-        im = ax.imshow(np.where(wet[name], runs[name]["depth"], np.nan), cmap="Blues", origin="upper")
-        ax.set_title(f"{name}: maximum depth (m)", fontsize=10)
-        fig.colorbar(im, ax=ax, shrink=0.8)
-    both = np.zeros(union.shape + (3,))
-    both[wet["swe"] & wet["sph3d"]] = (0.2, 0.4, 0.8)
-    both[wet["swe"] & ~wet["sph3d"]] = (0.9, 0.6, 0.1)
-    both[~wet["swe"] & wet["sph3d"]] = (0.8, 0.1, 0.1)
-    both[~union] = 1.0
-    axes[2].imshow(both, origin="upper")
-    axes[2].set_title(f"flooded by both (blue), swe only (orange), sph3d only (red): IoU {iou:.2f}", fontsize=9)
-    for ax in axes:
-        ax.set_xticks([])
-        ax.set_yticks([])
-    fig.tight_layout()
     path = folder.figures / "flood_solvers.png"
-    save_figure(fig, path)
+    figure(path, {k: v["depth"] for k, v in runs.items()}, wet, iou)
     result = {
         "case": "flood-solvers",
         "metric": "intersection over union of the flooded extents of the shallow-water and the 3-D SPH floods",
