@@ -113,6 +113,19 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
     hm = site.terrain
     fl = cfg.flood
     spacing = fl.spacing if fl.spacing is not None else 2.0 * hm.cell_size
+    manning: np.ndarray | float = fl.manning
+    if fl.manning_file:
+        from erosim.io.heightmaps import read
+
+        m = read(fl.manning_file).z
+        if m.shape != hm.shape:
+            raise InputError(
+                f"flood.manning_file '{fl.manning_file}' has shape {m.shape} but the DEM {hm.shape}; "
+                "give a map on the DEM's grid."
+            )
+        if not np.all(np.isfinite(m)) or m.min() < 0:
+            raise InputError(f"flood.manning_file '{fl.manning_file}' holds negative or missing values; fix the map.")
+        manning = m
     if fl.solver == "sph3d":
         from erosim.scenarios.flood_sph3d import SPHFlood
 
@@ -122,7 +135,7 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
                 f"The reservoir would need about {estimate:,.0f} particles of {spacing:g} m in 3-D; give a larger "
                 "flood.spacing or use flood.solver = 'swe'."
             )
-        return site, SPHFlood(site, spacing, tuple(cfg.outflow.edges), seed=cfg.seed)
+        return site, SPHFlood(site, spacing, tuple(cfg.outflow.edges), manning=manning, seed=cfg.seed)
     if spacing > 4.0 * hm.cell_size or spacing < 0.25 * hm.cell_size:
         raise InputError(
             f"flood.spacing = {spacing:g} m against {hm.cell_size:g} m DEM cells: give a spacing between a quarter "
@@ -146,19 +159,6 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
             f"No particle fits the reservoir at flood.spacing = {spacing:g} m; give a smaller spacing or raise "
             "reservoir.level."
         )
-    manning: np.ndarray | float = fl.manning
-    if fl.manning_file:
-        from erosim.io.heightmaps import read
-
-        m = read(fl.manning_file).z
-        if m.shape != hm.shape:
-            raise InputError(
-                f"flood.manning_file '{fl.manning_file}' has shape {m.shape} but the DEM {hm.shape}; "
-                "give a map on the DEM's grid."
-            )
-        if not np.all(np.isfinite(m)) or m.min() < 0:
-            raise InputError(f"flood.manning_file '{fl.manning_file}' holds negative or missing values; fix the map.")
-        manning = m
     solver = ShallowWaterSPH(
         site.dem.z, hm.cell_size, pos, vol, spacing, ShallowWaterParams(**params), manning=manning, wall=closed,
         open_edges=tuple(cfg.outflow.edges), surface=site.level,

@@ -63,7 +63,9 @@ class FloodSection(ShallowWaterParams):
         600, ge=0, unit="1", doc="the reservoir settles (damped, dam closed) for at most this many steps before t = 0"
     )
     settle_speed: float = param(0.05, gt=0, unit="m/s", doc="settling stops once no particle is faster than this")
-    manning: float = param(0.035, ge=0, le=1, unit="s/m^(1/3)", doc="Manning's n everywhere (see manning_file)")
+    manning: float = param(
+        0.035, ge=0, le=1, unit="s/m^(1/3)", doc="Manning's n everywhere, for both solvers (see manning_file)"
+    )
     manning_file: str | None = param(None, doc="a raster of Manning's n on the DEM's grid (replaces manning)")
     wet_depth: float = param(0.01, gt=0, unit="m", doc="cells shallower than this count as dry in the hazard maps")
 
