@@ -195,7 +195,9 @@ def shoot(ch: Chromium, path: Path) -> None:
     path.write_bytes(base64.b64decode(ch.page("Page.captureScreenshot", format="png")["data"]))
 
 
-def open_once(url: str, steps: int, n_frames: int, timeout: float = 120.0, shots: Path | None = None) -> dict:
+def open_once(
+    url: str, steps: int, n_frames: int, timeout: float = 120.0, shots: Path | None = None, release: bool = True
+) -> dict:
     prof = Path(tempfile.mkdtemp(prefix="erosim-bench-chromium-"))
     ch = Chromium(prof)
     try:
@@ -234,7 +236,7 @@ def open_once(url: str, steps: int, n_frames: int, timeout: float = 120.0, shots
             if shots and k == 1:
                 shoot(ch, shots / "sliding.png")
         out["steps_ms"] = step_ms
-        out["release_ms"] = ch.eval(f"({STEP})({len(step_ms)}, true)") if step_ms else None
+        out["release_ms"] = ch.eval(f"({STEP})({len(step_ms)}, true)") if step_ms and release else None
         out["release_ms"] = float("nan") if out["release_ms"] is None else out["release_ms"]
         return out
     finally:
@@ -250,6 +252,7 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=20, help="slider steps timed per repeat")
     ap.add_argument("--mode", choices=("server", "html"), default="server")
     ap.add_argument("--keep", type=Path, help="keep the run folder here (made once, reused)")
+    ap.add_argument("--no-release", action="store_true", help="skip timing the release (pages without one)")
     ap.add_argument("--shots", type=Path, help="save screenshots (first paint, all drawn, sliding) here")
     args = ap.parse_args()
 
@@ -274,7 +277,7 @@ def main() -> None:
         fps, plots, readies, steps, releases = [], [], [], [], []
         for r in range(args.repeats):
             load = os.getloadavg()[0]
-            res = open_once(url, args.steps, args.frames, shots=args.shots)
+            res = open_once(url, args.steps, args.frames, shots=args.shots, release=not args.no_release)
             fps.append(res["first_paint_s"])
             readies.append(res["ready_s"])
             plots.append(res["plot_s"])
@@ -291,6 +294,7 @@ def main() -> None:
               f"over {len(fps)} repeats (min {min(fps):.2f}, max {max(fps):.2f})")  # fmt: skip
         print(f"interactive (plotly) 3-D scene: median {statistics.median(plots):.2f} s; "
               f"all drawn: median {statistics.median(readies):.2f} s")  # fmt: skip
+        releases = [r for r in releases if r == r] or [float("nan")]  # NaN: not timed
         if steps:
             print(f"slider step: median {statistics.median(steps):.0f} ms over {len(steps)} steps "
                   f"(min {min(steps):.0f}, max {max(steps):.0f}); release (3-D redrawn): median "
