@@ -392,7 +392,7 @@
       const show = () => {
         const F = SLIDES[state.frame];
         lab.textContent = "t = " + F.t.toPrecision(4) + " " + META.time_unit + "  (" + (state.frame + 1) + "/" +
-          SLIDES.length + (F.n !== undefined ? ", " + F.n + " particles shown" : ", height and water") + ")" +
+          SLIDES.length + (F.n !== undefined ? ", " + F.n + " particles shown" : ", " + Object.keys(F.arrays).join(" and ")) + ")" +
           (!META.frames.length && META.map_frames_note ? " — " + META.map_frames_note : "");
       };
       show();
