@@ -17,6 +17,9 @@
   }
   // arrays inside the page are deflated byte planes (erosim.view.page.pack): inflate, then interleave
   async function unpack(buf, size) {
+    if (typeof DecompressionStream === "undefined")
+      throw new Error("this browser cannot unpack the page's data (no DecompressionStream: Chrome 80, Firefox " +
+                      "113, Safari 16.4 or later have it); serve the run with erosim view RUN instead");
     const z = new Blob([buf]).stream().pipeThrough(new DecompressionStream("deflate"));
     const planes = new Uint8Array(await new Response(z).arrayBuffer());
     if (size === 1) return planes.buffer;
