@@ -1,12 +1,13 @@
 """First paint of `erosim view`'s 3-D terrain and the time per step of its frame slider, in headless Chromium.
 
     PYTHONPATH=src python benchmarks/view_first_paint.py [--side 1024] [--frames 50] [--repeats 5]
-                                                          [--steps 20] [--mode server|html] [--keep DIR]
+        [--steps 20] [--mode server|html] [--keep DIR] [--particles N] [--shots DIR] [--no-release]
 
 What it does: writes a synthetic run folder (a hydrology run as ``erosim run`` leaves it: height, lake
 depth, streams, erosion, deposition, vegetation, and ``--frames`` map frames of height and lake depth
-under ``maps/frames/``), serves it with ``erosim view``'s own server (``--mode server``, what
-``erosim view RUN`` does) or writes the self-contained page (``--mode html``), and opens it
+under ``maps/frames/``; with ``--particles N`` instead an sph-terrain run: the same terrain and
+``--frames`` particle frames of N particles over it), serves it with ``erosim view``'s own server
+(``--mode server``, what ``erosim view RUN`` does) or writes the self-contained page (``--mode html``), and opens it
 ``--repeats`` times in a fresh headless Chromium (software WebGL: SwiftShader, as on a machine
 without a GPU), each with a new, empty profile (nothing cached).
 
@@ -195,6 +196,35 @@ def shoot(ch: Chromium, path: Path) -> None:
     path.write_bytes(base64.b64decode(ch.page("Page.captureScreenshot", format="png")["data"]))
 
 
+def make_particle_run(folder: Path, side: int, frames: int, n: int) -> None:
+    """An sph-terrain run folder: the terrain of :func:`make_run` (no map frames) and ``frames`` particle
+    frames of ``n`` particles a sheet of water sliding over it (velocity, pressure, density)."""
+    from erosim.io.particles import pvd_text, write_vtp
+
+    make_run(folder, side, 0)
+    from erosim.io import heightmaps
+
+    hm = heightmaps.read(folder / "maps" / "height.tif")
+    z, cell = hm.z, hm.cell_size
+    (folder / "particles").mkdir()
+    rng = np.random.default_rng(1)
+    col, row = rng.random(n) * 0.3 * (side - 1), rng.random(n) * (side - 1)
+    rows = []
+    for k in range(frames):
+        c = np.clip(col + k * 0.012 * side, 0, side - 1)
+        i = np.clip(np.rint(row).astype(int), 0, side - 1)
+        x, y = c * cell, (side - 1 - row) * cell
+        ground = z[i, np.rint(c).astype(int)]
+        pos = np.column_stack([x, y, ground + 1.0 + rng.random(n)])
+        vel = np.column_stack([np.full(n, 0.012 * side * cell), rng.normal(size=n), rng.normal(size=n) * 0.1])
+        name = f"frame_{k:05d}.vtp"
+        write_vtp(folder / "particles" / name, pos, {"velocity": vel, "pressure": rng.random(n) * 1e4,
+                                                     "density": 1000 + rng.random(n)}, time=float(k))  # fmt: skip
+        rows.append((float(k), name))
+    (folder / "particles" / "particles.pvd").write_text(pvd_text(rows))
+    (folder / "report.json").write_text(json.dumps({"kind": "sph-terrain", "status": "completed", "dim": 3}))
+
+
 def open_once(
     url: str, steps: int, n_frames: int, timeout: float = 120.0, shots: Path | None = None, release: bool = True
 ) -> dict:
@@ -252,6 +282,12 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=20, help="slider steps timed per repeat")
     ap.add_argument("--mode", choices=("server", "html"), default="server")
     ap.add_argument("--keep", type=Path, help="keep the run folder here (made once, reused)")
+    ap.add_argument(
+        "--particles",
+        type=int,
+        default=0,
+        help="instead of map frames: --frames particle frames of this many particles (sph-terrain)",
+    )
     ap.add_argument("--no-release", action="store_true", help="skip timing the release (pages without one)")
     ap.add_argument("--shots", type=Path, help="save screenshots (first paint, all drawn, sliding) here")
     args = ap.parse_args()
@@ -262,8 +298,14 @@ def main() -> None:
     run = args.keep or tmp / "run"
     if not (run / "report.json").exists():
         t = time.perf_counter()
-        make_run(run, args.side, args.frames)
-        print(f"run folder {run} ({args.side}², {args.frames} map frames) written in {time.perf_counter() - t:.1f} s")
+        if args.particles:
+            make_particle_run(run, args.side, args.frames, args.particles)
+        else:
+            make_run(run, args.side, args.frames)
+        what = f"{args.particles} particles" if args.particles else "map"
+        print(
+            f"run folder {run} ({args.side}², {args.frames} {what} frames) written in {time.perf_counter() - t:.1f} s"
+        )
     srv = None
     if args.mode == "server":
         t = time.perf_counter()

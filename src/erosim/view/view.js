@@ -322,19 +322,24 @@
       toPix = (x, y) => [((x - x0) / span) * 511, ((y1 - y) / span) * 511];
     }
     if (n !== slideN) return;
-    cv.width = nx; cv.height = ny;
-    const ctx = cv.getContext("2d");
-    if (img) ctx.putImageData(img, 0, 0); else { ctx.fillStyle = "#fff"; ctx.fillRect(0, 0, nx, ny); }
-    if (pos) {
-      const V = lut(VIRIDIS), [lo, hi] = META.field_ranges[state.colour] || [0, 1];
-      const r = Math.max(1, Math.round(Math.max(nx, ny) / 400));
+    if (!img) { img = new ImageData(nx, ny); img.data.fill(255); }
+    if (pos) { // particles as small squares written into the picture (one putImageData for all)
+      const V = lut(VIRIDIS), [lo, hi] = META.field_ranges[state.colour] || [0, 1], D = img.data;
+      const r = Math.max(1, Math.round(Math.max(nx, ny) / 400)), span = Math.max(hi - lo, 1e-30);
       for (let i = 0; i < pos.length / 3; i++) {
-        const q = Math.max(0, Math.min(255, ((col[i] - lo) / Math.max(hi - lo, 1e-30)) * 255)) | 0;
-        ctx.fillStyle = "rgb(" + V[3 * q] + "," + V[3 * q + 1] + "," + V[3 * q + 2] + ")";
+        const q = (Math.max(0, Math.min(255, ((col[i] - lo) / span) * 255)) | 0) * 3;
         const [px, py] = toPix(pos[3 * i], pos[3 * i + 1]);
-        ctx.fillRect(px - r / 2, py - r / 2, r, r);
+        const x0 = Math.max(0, Math.round(px - r / 2)), y0 = Math.max(0, Math.round(py - r / 2));
+        for (let y = y0; y < Math.min(ny, y0 + r); y++) {
+          for (let x = x0; x < Math.min(nx, x0 + r); x++) {
+            const o = 4 * (y * nx + x);
+            D[o] = V[q]; D[o + 1] = V[q + 1]; D[o + 2] = V[q + 2]; D[o + 3] = 255;
+          }
+        }
       }
     }
+    cv.width = nx; cv.height = ny;
+    cv.getContext("2d").putImageData(img, 0, 0);
     cv.style.display = "block";
     document.body.dataset.slides = (+(document.body.dataset.slides || 0) + 1).toString();
   }
