@@ -8,8 +8,11 @@ side (a larger map is read at a stride), and each particle frame thinned to ``ma
 plotly.js — the copy the ``plotly`` Python package ships in its wheel, so nothing comes from the
 network — draws, and ``view.js`` (beside this file) decides what: the terrain as a lit 3-D surface
 (strided in the browser to the chosen detail), the layers draped over it, particles, the time
-slider, the values under the cursor and the legends. The arrays are either inside the page
-(base64, ``--html``) or fetched from the local server (:mod:`erosim.view.server`).
+slider (a 2-D plan view while it moves), the values under the cursor and the legends. Before either
+is read, ``first.js`` draws the terrain's coarse copy (:func:`_first`, inside the page) in 3-D with
+plain WebGL, then runs them (both are kept in the page as text until then). The arrays are either
+inside the page (``--html``: packed by :func:`pack`, map frames thinned to
+:data:`INLINE_FRAME_BYTES`) or fetched from the local server (:mod:`erosim.view.server`).
 """
 
 from __future__ import annotations
