@@ -11,6 +11,9 @@
   const F = META.first;
 
   function load() { // plotly.js, then view.js: inside the page (text blocks) or from the local server
+    // this script runs before the page's data blocks are read (a self-contained page is tens of MB):
+    // plotly.js and view.js come after them, so wait for the whole page
+    if (document.readyState === "loading") return document.addEventListener("DOMContentLoaded", load);
     const add = (code, src, then) => {
       const s = document.createElement("script");
       if (src) { s.src = src; s.onload = then; } else { s.textContent = code; }

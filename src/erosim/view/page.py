@@ -380,7 +380,8 @@ def html(p: Payload, *, inline: bool) -> str:
         f"<tr><td>{htmllib.escape(k)}</td><td>{htmllib.escape(v)}</td></tr>" for k, v in p.meta["figures"]
     )
     first_tag = f'<script type="application/octet-stream" id="first-height">{first["b64"]}</script>' if first else ""
-    # first.js runs last: it draws the first picture, then runs plotly.js and view.js (kept as text till then)
+    # first.js runs before the data are read: it draws the first picture, then (the page read) runs plotly.js
+    # and view.js, kept as text till then
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>erosim view: {title}</title><style>{CSS}</style>
 </head>
@@ -397,7 +398,7 @@ vertical <select id="exag-select"><option value="0">auto</option><option value="
 <div id="time">frame <input type="range" id="frame" min="0" max="0" value="0"> <span id="frame-label"></span>
 <span id="colour-box">colour <select id="colour"></select></span></div></div>
 <script type="application/json" id="erosim-meta">{meta}</script>
-{data}{first_tag}{plotly_tag}<script type="text/plain" id="view-code">{view_js()}</script>
-<script>{first_js()}</script>
+{first_tag}<script>{first_js()}</script>
+{data}{plotly_tag}<script type="text/plain" id="view-code">{view_js()}</script>
 </body></html>
 """
