@@ -92,6 +92,29 @@ def test_a_flood_writes_its_maps_on_the_dems_grid(flood_run):
         assert (result.path / "figures" / fig).stat().st_size > least, fig
 
 
+def test_map_frames_hold_the_depth_over_time(flood_run):
+    """run.map_frames=2 over 120 s: depth frames from t = 0 to the end on the DEM's grid; the first holds
+    the water behind the dam only, the last is the final depth map."""
+    from erosim.io.heightmaps import read
+    from erosim.io.results import open_run
+
+    result, _ = flood_run
+    frames = open_run(result.path).map_frames
+    times = [t for t, _ in frames]
+    assert times[0] == 0.0 and times[-1] >= 120.0 and len(frames) >= 3 and np.all(np.diff(times) > 0)
+    assert all(list(files) == ["water_depth"] for _, files in frames)
+    first, last = (read(frames[k][1]["water_depth"]).z for k in (0, -1))
+    final = read(result.path / "maps" / "depth_final.tif").z
+    assert first.shape == final.shape == (128, 128)
+    np.testing.assert_array_equal(last, final)
+    # the barrier runs along y0 + 900 m: row (2560 − 900)/20 = 83 from the north edge; before the breach
+    # nothing north of it (rows above 80) is wet by the run's own threshold (the particles' kernels reach
+    # a few cells past the water's edge as a film of millimetres), at the end the flood has passed it
+    wet = result.report["wet_depth_m"]
+    assert np.nanmax(first[:80]) < wet and np.nanmax(first[85:]) > 1.0
+    assert np.nanmax(last[:80]) > wet
+
+
 def test_the_water_budget_closes_and_water_leaves_by_the_open_edge(flood_run):
     rep = flood_run[0].report
     b = rep["water_budget"]

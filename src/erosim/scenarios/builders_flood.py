@@ -16,6 +16,8 @@ hazard maxima (:mod:`erosim.analysis.hazard`) on the DEM's grid. A run leaves
   — the DEM's grid, CRS and transform;
 * ``figures/``: flood_maps.png (the three maxima), hazard.png (six-colour legend and area table),
   depth_NNN frames in flood.gif;
+* ``maps/frames/water_depth_NNNNN.tif`` at the same ``run.map_frames`` times and the end
+  (:mod:`erosim.io.map_frames`; ``erosim view``'s time slider);
 * ``gauges.csv`` (t, eta_<name>, depth_<name>, speed_<name>) when ``gauges.file`` is given;
 * ``report.json``: flooded_area_m2, hazard_share (H1…H6, fractions of the flooded area),
   hazard_area_m2, volume_initial_m3, volume_out_m3, water_budget (closure_rel), gauges_summary.
@@ -318,6 +320,8 @@ def setup(scenario, out) -> Setup:
             cb.Animation(TimeInterval(cfg.run.t_end / cfg.run.map_frames), _depth_picture(site, solver),
                          out.figures / "flood.gif")
         )  # fmt: skip
+        callbacks.append(cb.MapFrames(TimeInterval(cfg.run.t_end / cfg.run.map_frames),
+                                      lambda sim: {"water_depth": solver.depth_grid()}, hm, "s"))  # fmt: skip
     callbacks.append(FloodOutputs(site, solver, maps, inside))
 
     def report(sim) -> dict[str, Any]:

@@ -83,7 +83,7 @@ class GaugesSection(Section):
 class FloodRun(Section):
     t_end: float = param(600.0, gt=0, unit="s", doc="simulated time to reach")
     sample_interval: float = param(5.0, gt=0, unit="s", doc="gauges sampled every this long")
-    map_frames: int = param(12, ge=0, le=200, unit="1", doc="depth pictures over the run (figures, GIF)")
+    map_frames: int = param(12, ge=0, le=200, unit="1", doc="depth frames over the run (figures, GIF; maps/frames/)")
     output_interval: float = param(0.0, ge=0, unit="s", doc="particle frames (.vtp) every this long; 0: none")
     checkpoint_wall_s: float = param(300.0, gt=0, unit="s", doc="wall-clock time between checkpoints")
 
