@@ -8,7 +8,7 @@ import pytest
 from erosim.validation import voxel_at_rest as var
 
 
-@pytest.mark.slow  # about 35 s of stepping on a shared 2-core machine, 90 s with the first compilation
+@pytest.mark.slow  # 44 s measured on the shared 2-core machine (another run beside it), about 90 s when compiling
 def test_coarse_voxel_tank_at_rest(tmp_path):
     """Δx = 2 cm (762 particles), 1.5 s of settling, heads averaged over the last 0.3 s. Held to the issue's
     bounds where they are met: density within 1 % of ρ₀ next to the walls (measured 0.6 %; a missing wall
