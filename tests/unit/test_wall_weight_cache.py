@@ -10,6 +10,7 @@ def test_cache_reused_and_rebuilt_when_the_kernel_changes(tmp_path, monkeypatch)
     first = ww.bake_cached(*args, folder=tmp_path)
     fresh = ww.bake(*args)
     assert np.array_equal(first.table, fresh.table) and first.dl == fresh.dl and first.approach_only
+    assert first.table.shape[0] == ww.ROWS and np.any(first.table[ww.ATT] < 0)  # the attraction curve is baked too
     files = sorted(tmp_path.glob("*.npz"))
     assert len(files) == 1 and files[0].name.startswith("wendland-3d-artificial-")
 
@@ -30,6 +31,11 @@ def test_cache_reused_and_rebuilt_when_the_kernel_changes(tmp_path, monkeypatch)
     monkeypatch.setattr(ww, "_sources_hash", lambda: "edited")
     ww.bake_cached(*args, folder=tmp_path)
     assert len(list(tmp_path.glob("*.npz"))) == 5
+    monkeypatch.undo()
+    # and so does the set of curves: a cache written before the attraction row has another key
+    key = ww.cache_key(*args)
+    monkeypatch.setattr(ww, "ROWS", 7)
+    assert ww.cache_key(*args) != key
 
 
 def test_a_broken_or_unwritable_cache_is_ignored(tmp_path):

@@ -8,15 +8,18 @@ density: ρ += Z(l)), ``_forces_pass`` (pressure, viscosity and continuity terms
 velocity that points into it) — and the arguments that locate its wall (``_geometry()``). This
 class bakes the curves for the solver's kernel, spacing and viscosity when it is bound (or reads
 them from the on-disk cache, :func:`~erosim.sph.boundaries.wall_weight_harada2007.bake_cached`), and
-wires the passes to the solver's hooks.
+wires the passes to the solver's hooks. The attribute ``attraction`` (ρ₁ of SPEC VX-5 in kg/m³,
+``"seed"`` for the seed's ρ₀ + m W(0), or None for no attraction, the default) sets the density below
+which the wall's pressure blends towards the attraction curve.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from erosim.core.errors import ConfigError
 from erosim.sph.boundaries.base import Boundary
-from erosim.sph.boundaries.wall_weight_harada2007 import bake_cached
+from erosim.sph.boundaries.wall_weight_harada2007 import bake_cached, seed_rho1
 
 #: a particle put back on a wall sits this fraction of Δx above it
 GAP = 1e-3
@@ -26,6 +29,8 @@ class DistanceWall(Boundary):
     """Base of walls given by a distance function (see the module docstring)."""
 
     name = "distance_wall"
+    #: ρ₁ of the wall attraction (VX-5): kg/m³, "seed", or None (off)
+    attraction: float | str | None = None
 
     def bind(self, solver) -> None:
         prm = solver.params
@@ -35,13 +40,27 @@ class DistanceWall(Boundary):
         self.wcsph = prm.pressure_form == "wcsph"
         self.cvisc = solver.kv * solver.m if prm.viscosity == "artificial" else -prm.mu * solver.m
         self.gap = GAP * prm.spacing
+        self.rho1 = self._rho1(prm.kernel, solver.dim, prm.spacing, solver.h, prm.rho0)
+        self.c2 = float(solver.c) ** 2
         if solver.summation:
             self.density = self._density
         self._summation = solver.summation
 
+    def _rho1(self, kernel, dim, spacing, support, rho0) -> float:
+        a = self.attraction
+        if a is None:
+            return 0.0
+        if isinstance(a, str):
+            if a != "seed":
+                raise ConfigError(f"Unknown wall attraction {a!r}; give ρ₁ in kg/m³, 'seed' or none.")
+            return seed_rho1(kernel, dim, spacing, support, rho0)
+        if not a > 0:
+            raise ConfigError(f"The wall attraction's ρ₁ must be a positive density in kg/m³, not {a!r}.")
+        return float(a)
+
     def _curve_args(self):
         c = self.curves
-        return c.table, c.dl, c.approach_only
+        return c.table, c.dl, c.approach_only, self.rho1, self.c2
 
     def _density(self, solver) -> None:
         st = solver.state

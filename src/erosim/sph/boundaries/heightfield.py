@@ -58,7 +58,7 @@ def node_slopes(z: np.ndarray, dx: float, dy: float) -> tuple[np.ndarray, np.nda
 
 @njit(parallel=True, cache=True)
 def heightfield_forces(pos, vel, rho, p, acc, drho, n_fluid, z, sx, sy, x0, y0, inv_dx, inv_dy, table, dl,
-                       approach_only, m, rho0, gvec, wcsph, cvisc, summation):  # fmt: skip
+                       approach_only, rho1, c2, m, rho0, gvec, wcsph, cvisc, summation):  # fmt: skip
     d = pos.shape[1]
     support = dl * (table.shape[1] - 1)
     for i in prange(n_fluid):
@@ -70,8 +70,8 @@ def heightfield_forces(pos, vel, rho, p, acc, drho, n_fluid, z, sx, sy, x0, y0, 
             n0, n1, n2 = nx, ny, nz
         else:
             n0, n1, n2 = nx, nz, 0.0
-        wall_rates(table, dl, approach_only, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, wcsph, cvisc,
-                   summation, acc, drho)  # fmt: skip
+        wall_rates(table, dl, approach_only, rho1, c2, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, wcsph,
+                   cvisc, summation, acc, drho)  # fmt: skip
 
 
 @njit(parallel=True, cache=True)

@@ -22,8 +22,8 @@ def distance(pos, i, points, normals, k):
 
 
 @njit(parallel=True, cache=True)
-def plane_forces(pos, vel, rho, p, acc, drho, n_fluid, points, normals, table, dl, approach_only, m, rho0, gvec,
-                 wcsph, cvisc, summation):  # fmt: skip
+def plane_forces(pos, vel, rho, p, acc, drho, n_fluid, points, normals, table, dl, approach_only, rho1, c2, m,
+                 rho0, gvec, wcsph, cvisc, summation):  # fmt: skip
     d = pos.shape[1]
     support = dl * (table.shape[1] - 1)
     for i in prange(n_fluid):
@@ -32,8 +32,8 @@ def plane_forces(pos, vel, rho, p, acc, drho, n_fluid, points, normals, table, d
             if l >= support:
                 continue
             n2 = normals[k, 2] if d == 3 else 0.0
-            wall_rates(table, dl, approach_only, i, l, normals[k, 0], normals[k, 1], n2, vel, rho, p, m, rho0,
-                       gvec, wcsph, cvisc, summation, acc, drho)  # fmt: skip
+            wall_rates(table, dl, approach_only, rho1, c2, i, l, normals[k, 0], normals[k, 1], n2, vel, rho, p, m,
+                       rho0, gvec, wcsph, cvisc, summation, acc, drho)  # fmt: skip
 
 
 @njit(parallel=True, cache=True)

@@ -11,7 +11,9 @@ costs one interpolation in each of the boundary's three passes and no neighbour 
 * ``density`` (summation density): ρ_i += Z(l);
 * ``forces``: pressure (repulsion with the hydrostatic wall pressure), viscous friction and the
   continuity term of the curves, as for :class:`~erosim.sph.boundaries.heightfield.HeightfieldGround`
-  (the :class:`~erosim.sph.boundaries.distance_wall.DistanceWall` pattern);
+  (the :class:`~erosim.sph.boundaries.distance_wall.DistanceWall` pattern); with ``attraction`` = ρ₁
+  (kg/m³ or ``"seed"``) the pressure of a particle below ρ₁ blends towards the wall's attraction
+  curve (VX-5), so water follows the wall into scoured hollows;
 * ``constrain`` after the drift: a particle found in the solid (l < 0) is moved along n by −l plus a
   gap of 10⁻³Δx, up to four Newton steps (l is first-order away from the ramp's linear part), and
   loses the velocity component into the wall; a particle so deep that the field is flat there (no
@@ -37,15 +39,15 @@ from erosim.sph.boundaries.wall_weight_harada2007 import wall_density, wall_rate
 
 
 @njit(parallel=True, cache=True)
-def voxel_forces(pos, vel, rho, p, acc, drho, n_fluid, dens, ox, oy, oz, inv, iso, table, dl, approach_only, m,
-                 rho0, gvec, wcsph, cvisc, summation):  # fmt: skip
+def voxel_forces(pos, vel, rho, p, acc, drho, n_fluid, dens, ox, oy, oz, inv, iso, table, dl, approach_only, rho1,
+                 c2, m, rho0, gvec, wcsph, cvisc, summation):  # fmt: skip
     support = dl * (table.shape[1] - 1)
     for i in prange(n_fluid):
         l, n0, n1, n2, _ = distance_normal(dens, ox, oy, oz, inv, iso, pos[i, 0], pos[i, 1], pos[i, 2])
         if l >= support:
             continue
-        wall_rates(table, dl, approach_only, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, wcsph, cvisc,
-                   summation, acc, drho)  # fmt: skip
+        wall_rates(table, dl, approach_only, rho1, c2, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, wcsph,
+                   cvisc, summation, acc, drho)  # fmt: skip
 
 
 @njit(parallel=True, cache=True)
@@ -106,8 +108,9 @@ class VoxelWall(DistanceWall):
 
     name = "voxel"
 
-    def __init__(self, terrain):
+    def __init__(self, terrain, *, attraction: float | str | None = None):
         self.terrain = terrain
+        self.attraction = attraction  # ρ₁ of VX-5 (DistanceWall); None: repulsion only
         self._density_pass = voxel_density
         self._forces_pass = voxel_forces
         self._constrain_pass = voxel_constrain

@@ -26,6 +26,17 @@ pressure p_w = p_i − ρ₀ g·(r_i − r_w) (Adami et al. 2012), the curves an
   a_i += m k_v/(ρ_i + ρ₀) [min(v_n, 0) A n + B v_t + C |v_t| n];
   laminar (SPH-6a): A = B = Σ_w L(r_iw), C = 0, a_i += −μ m/(ρ̄ ρ₀) (A v_n n + B v_t).
 
+* attraction (SPEC VX-5, seed 001 §4.3): a second pressure curve that keeps only the attractive part,
+  the force a lone probe particle feels from the wall when its density is its own share plus the
+  wall's, ρ_c(l) = m W(0) + Z(l), and its pressure the linearised law p_c = c²(ρ_c − ρ₀):
+  F(l) = −m min(0, ρ_c − ρ₀)(1/ρ_c² + 1/ρ₀²) G(l) ≤ 0 (per c², towards the wall; from the averaged
+  Z and G). For a particle below ρ₁ the pressure's normal part blends the two,
+  a_n = (ρ_i/ρ₁) a_repul + (1 − ρ_i/ρ₁) c² F(l), and is a_repul from ρ₁ up; the hydrostatic wall
+  pressure (H, T) and the viscous terms are not blended. ρ₁ is a tunable of the wall
+  (``attraction``: off by default; ``"seed"`` is the seed's ρ₀ + m W(0), one particle's own share
+  above rest density); the seed measured its curves on a pressure law that allows tension, so the
+  lone-probe curve is defined here on the linearised law at the solver's own c, for any EOS.
+
 with ∇_i W_iw = f(r) r_iw (f < 0, so G, H < 0 and the pressure pushes out of the wall). The sums
 are averaged over the particle's position across one lattice cell of the wall, which makes the
 curves smooth and the tangential sums exact halves of the full ones.
@@ -60,12 +71,14 @@ from erosim.kernels import sph_kernels
 from erosim.kernels.sph_kernels import kernel_f, kernel_lap, kernel_w
 
 # rows of WallCurves.table
-Z, G, H, T, VN, VT, VTN = range(7)
+Z, G, H, T, VN, VT, VTN, ATT = range(8)
+ROWS = 8
 
 
 @dataclass(frozen=True)
 class WallCurves:
-    """Baked wall sums on l = k·dl, k = 0 … n−1 (dl = h/(n−1)); ``table`` rows Z, G, H, T, A, B, C."""
+    """Baked wall sums on l = k·dl, k = 0 … n−1 (dl = h/(n−1)); ``table`` rows Z, G, H, T, A, B, C, F
+    (F the attraction curve per c²)."""
 
     table: np.ndarray
     dl: float
@@ -73,7 +86,7 @@ class WallCurves:
     approach_only: bool  # artificial viscosity acts only on approach (SPH-6b); laminar always
 
     def at(self, l: float) -> np.ndarray:
-        """The seven curves at distance ``l`` (linear interpolation; 0 beyond the support)."""
+        """The eight curves at distance ``l`` (linear interpolation; 0 beyond the support)."""
         return np.array(lookup(self.table, self.dl, float(l)))
 
 
@@ -96,9 +109,9 @@ def bake(kernel: str, dim: int, spacing: float, support: float, rho0: float, vis
     ls = np.linspace(0.0, support, n)
     offs = (np.arange(lateral) + 0.5) / lateral * spacing
     lateral_pts = np.stack([g.ravel() for g in np.meshgrid(*([offs] * (dim - 1)), indexing="ij")], axis=1)
-    table = np.zeros((7, n))
+    table = np.zeros((ROWS, n))
     for k, l in enumerate(ls):
-        acc = np.zeros(7)
+        acc = np.zeros(ROWS)
         for off in lateral_pts:
             probe = np.concatenate([off, [l]])
             r = probe - wall  # r_iw
@@ -123,7 +136,21 @@ def bake(kernel: str, dim: int, spacing: float, support: float, rho0: float, vis
                 acc[VT] += (fr * x * x / den)[ahead].sum()
                 acc[VTN] += (fr * x * nz / den)[ahead].sum()
         table[:, k] = acc / len(lateral_pts)
+    table[ATT] = attraction_curve(table[Z], table[G], m * float(kernel_w(np.zeros(1), support, dim, kernel)[0]),
+                                  m, rho0)  # fmt: skip
     return WallCurves(table=table, dl=ls[1] - ls[0], support=support, approach_only=viscosity != "laminar")
+
+
+def attraction_curve(z, g, self_density, m, rho0):
+    """F(l) = −m min(0, ρ_c − ρ₀)(1/ρ_c² + 1/ρ₀²) G(l), ρ_c = m W(0) + Z(l): the attraction a lone probe
+    feels from the wall per c² of the linearised pressure law (module docstring; ≤ 0, towards the wall)."""
+    rho_c = self_density + np.asarray(z, np.float64)
+    return -m * np.minimum(0.0, rho_c - rho0) * (1.0 / rho_c**2 + 1.0 / rho0**2) * np.asarray(g, np.float64)
+
+
+def seed_rho1(kernel: str, dim: int, spacing: float, support: float, rho0: float) -> float:
+    """The seed's ρ₁ = ρ₀ + m W(0): rest density plus one particle's own share."""
+    return rho0 + rho0 * spacing**dim * float(kernel_w(np.zeros(1), support, dim, kernel)[0])
 
 
 def _sources_hash() -> str:
@@ -141,7 +168,7 @@ def cache_dir() -> Path:
 def cache_key(kernel: str, dim: int, spacing: float, support: float, rho0: float, viscosity: str, n: int = 256,
               lateral: int = 4) -> str:  # fmt: skip
     """The file stem of these curves in the cache (readable parameters, then a hash of them and the sources)."""
-    spec = f"{kernel}|{dim}|{float(spacing)!r}|{float(support)!r}|{float(rho0)!r}|{viscosity}|{n}|{lateral}"
+    spec = f"{kernel}|{dim}|{float(spacing)!r}|{float(support)!r}|{float(rho0)!r}|{viscosity}|{n}|{lateral}|rows{ROWS}"
     digest = hashlib.sha256((spec + "|" + _sources_hash()).encode()).hexdigest()[:20]
     return f"{kernel}-{dim}d-{viscosity}-{digest}"
 
@@ -168,13 +195,13 @@ def bake_cached(kernel: str, dim: int, spacing: float, support: float, rho0: flo
 
 @njit(inline="always", cache=True)
 def lookup(table, dl, l):
-    """The seven curves at distance l (clamped to 0 below the wall, zero beyond the table), as a tuple."""
+    """The eight curves at distance l (clamped to 0 below the wall, zero beyond the table), as a tuple."""
     if l < 0.0:
         l = 0.0
     x = l / dl
     k = int(x)
     if k >= table.shape[1] - 1:
-        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     t = x - k
     u = 1.0 - t
     return (
@@ -185,20 +212,24 @@ def lookup(table, dl, l):
         u * table[4, k] + t * table[4, k + 1],
         u * table[5, k] + t * table[5, k + 1],
         u * table[6, k] + t * table[6, k + 1],
+        u * table[7, k] + t * table[7, k + 1],
     )
 
 
 @njit(inline="always", cache=True)
-def wall_rates(table, dl, approach_only, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, wcsph, cvisc, summation,
-               acc, drho):  # fmt: skip
+def wall_rates(table, dl, approach_only, rho1, c2, i, l, n0, n1, n2, vel, rho, p, m, rho0, gvec, wcsph, cvisc,
+               summation, acc, drho):  # fmt: skip
     """Add the wall's contribution to particle i's acceleration and (continuity) density rate.
+
+    Below ``rho1`` (0: never) the pressure's normal part blends towards ``c2`` times the attraction
+    curve F(l) (VX-5, module docstring); ``c2`` is the squared sound speed of the solver.
 
     (n0, n1[, n2]) is the unit normal into the fluid (2-D: (n0, n1)), ``l`` the distance, ``gvec``
     gravity, ``wcsph`` the pressure form (else symmetric), ``cvisc`` the viscous coefficient (k_v m for
     artificial, −μ m for laminar; divided here by ρ_i + ρ₀ or ρ̄ρ₀); with ``summation`` the density is
     not touched here (see :func:`wall_density`).
     """
-    _, cg, ch, ctt, cvn, cvt, cvtn = lookup(table, dl, l)
+    _, cg, ch, ctt, cvn, cvt, cvtn, catt = lookup(table, dl, l)
     d = vel.shape[1]
     rhoi = rho[i]
     rbar = max(rhoi, rho0)
@@ -220,7 +251,11 @@ def wall_rates(table, dl, approach_only, i, l, n0, n1, n2, vel, rho, p, m, rho0,
         cp = p[i] / (rhoi * rho0)
         chyd = 0.5 / rbar
     # a = −m [cp G n + chyd (g⊥ H n − T g_t)], g⊥ = −gn, g_t = g − gn n
-    an = -m * (cp * cg - chyd * gn * ch)
+    arep = -m * cp * cg
+    if rhoi < rho1:  # VX-5: (ρ/ρ₁) F_repul + (1 − ρ/ρ₁) F_attract
+        w = rhoi / rho1
+        arep = w * arep + (1.0 - w) * c2 * catt
+    an = arep + m * chyd * gn * ch
     cgt = m * chyd * ctt
     if approach_only:
         cv = cvisc / (rhoi + rho0)

@@ -1,0 +1,51 @@
+"""Water at rest in a voxel tank (a vertical wall, a 45° wall and a spherical bowl), every wall the voxel
+field through the wall weights (issue 10, `erosim validate voxel-at-rest`)."""
+
+import json
+
+import pytest
+
+from erosim.validation import voxel_at_rest as var
+
+
+@pytest.mark.slow  # 44 s measured on the shared 2-core machine (another run beside it), about 90 s when compiling
+def test_coarse_voxel_tank_at_rest(tmp_path):
+    """Δx = 2 cm (762 particles), 1.5 s of settling, heads averaged over the last 0.3 s. Held to the issue's
+    bounds where they are met: density within 1 % of ρ₀ next to the walls (measured 0.6 %; a missing wall
+    term leaves about half of ρ₀ there) and no particle inside the solid after any step. The pressure's
+    RMS against hydrostatic is held below 8 % of ρ₀gH: measured 6.2 % (2026-11-25), above the issue's 3 %
+    target — at this resolution three quarters of the particles are within h of a wall and the head
+    grows with depth (+15 % of H at the bowl's bottom, −2 % near the surface; docs/voxel.md) — so the
+    result is reported as not passed, which this test checks too, and the bound catches a regression."""
+    result = var.run("coarse", tmp_path / "v", progress=False)
+    saved = json.loads((tmp_path / "v" / "validation.json").read_text())
+    assert saved["value"] == result["value"]
+    assert (tmp_path / "v" / "pressure.png").is_file()
+    assert result["boundary_particles"] == 0 and result["near_wall_particles"] > result["fluid_particles"] // 2
+    assert result["near_wall_density_dev"] < var.RHO_THRESHOLD
+    assert result["particles_inside_max"] == 0
+    assert result["pressure_rms_rel"] < 0.08
+    assert result["passed"] == (result["pressure_rms_rel"] < var.P_THRESHOLD)
+
+
+def test_the_tank_has_its_walls():
+    """The solid of the case: the wall distance (positive in the water) at points 1 cm from the bowl's bottom,
+    the 45° wall, the vertical wall x = 0 and the floor, to within the field's error on curved or tilted
+    surfaces (1 mm on 1 cm voxels, docs/voxel.md), and the CLI knows the case."""
+    import numpy as np
+
+    from erosim.cli import VALIDATION_CASES
+
+    vt = var.tank(0.01)
+    s = np.sqrt(0.5)
+    pts = np.array(
+        [
+            [var.XB, 0.5 * var.W, -var.SINK + 0.01],  # above the bowl's bottom
+            [var.X45 + 0.05 - 0.01 * s, 0.5 * var.W, 0.05 + 0.01 * s],  # off the 45° wall
+            [0.01, 0.5 * var.W, 0.12],  # off the wall x = 0
+            [var.XB + var.R + 0.02, 0.5 * var.W, 0.01],  # over the floor between the bowl and the slope
+        ]
+    )
+    l, _ = vt.distance(pts)
+    assert np.allclose(l, 0.01, atol=1e-3), l
+    assert "voxel-at-rest" in VALIDATION_CASES
