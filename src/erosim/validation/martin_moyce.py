@@ -64,6 +64,11 @@ def front_error(
 GROUNDS = ("box", "heightfield")
 
 
+def gate_speed_default(g: float) -> float:
+    """U = √(g·2a/2): the gate clears the column's height 2a in √(2·2a/g) (module docstring)."""
+    return float(np.sqrt(g * 2 * A / 2))
+
+
 def _heightfield_scenario(n_a: int, t_end: float, sample_dt: float):
     """The column on a flat heightmap floor between two plane walls (module docstring)."""
     dx = A / n_a
@@ -84,6 +89,7 @@ def run(
     progress: bool = True,
     ground: str = "box",
     device: str = "cpu",
+    gate_speed: float | None = None,
 ) -> dict:
     """Run the case; writes ``validation.json`` and ``figures/front_vs_experiment.png`` in the run folder.
 
@@ -101,6 +107,8 @@ def run(
     ref = reference_csv(MARTIN_MOYCE_SURGE)
     n_a = RESOLUTIONS[resolution]
     g = 9.81
+    if gate_speed is None:
+        gate_speed = 0.0
     t_end = float(T_END / np.sqrt(2 * g / A))
     sample_dt = float(0.02 / np.sqrt(2 * g / A))  # every ΔT = 0.02
     if ground == "heightfield":
@@ -114,6 +122,7 @@ def run(
             "run.snapshots=2",
             "run.checkpoint_wall_s=600.0",
             f"run.device={device}",
+            f"gate.speed={gate_speed!r}",
         ]
         scenario = loader.load("dam-break-2d", overrides)
     g = abs(scenario.config.sph.gravity_vector()[-1])
