@@ -92,6 +92,29 @@ def test_a_flood_writes_its_maps_on_the_dems_grid(flood_run):
         assert (result.path / "figures" / fig).stat().st_size > least, fig
 
 
+def test_map_frames_hold_the_depth_over_time(flood_run):
+    """run.map_frames=2 over 120 s: depth frames from t = 0 to the end on the DEM's grid; the first holds
+    the water behind the dam only, the last is the final depth map."""
+    from erosim.io.heightmaps import read
+    from erosim.io.results import open_run
+
+    result, _ = flood_run
+    frames = open_run(result.path).map_frames
+    times = [t for t, _ in frames]
+    assert times[0] == 0.0 and times[-1] >= 120.0 and len(frames) >= 3 and np.all(np.diff(times) > 0)
+    assert all(list(files) == ["water_depth"] for _, files in frames)
+    first, last = (read(frames[k][1]["water_depth"]).z for k in (0, -1))
+    final = read(result.path / "maps" / "depth_final.tif").z
+    assert first.shape == final.shape == (128, 128)
+    np.testing.assert_array_equal(last, final)
+    # the barrier runs along y0 + 900 m: row (2560 − 900)/20 = 83 from the north edge; before the breach
+    # nothing north of it (rows above 80) is wet by the run's own threshold (the particles' kernels reach
+    # a few cells past the water's edge as a film of millimetres), at the end the flood has passed it
+    wet = result.report["wet_depth_m"]
+    assert np.nanmax(first[:80]) < wet and np.nanmax(first[85:]) > 1.0
+    assert np.nanmax(last[:80]) > wet
+
+
 def test_the_water_budget_closes_and_water_leaves_by_the_open_edge(flood_run):
     rep = flood_run[0].report
     b = rep["water_budget"]
@@ -188,12 +211,18 @@ def test_the_3d_sph_flood_runs_on_the_same_set_up(tmp_path):
     from erosim.scenarios.runner import execute
     from erosim.validation.flood_solvers import SETS
 
-    scenario = loader.load("flood", [*SETS, "flood.solver=sph3d", "flood.spacing=1.0", "run.t_end=2.0"])
+    scenario = loader.load("flood", [*SETS, "flood.solver=sph3d", "flood.spacing=1.0", "run.t_end=0.5"])
     out = RunFolder(tmp_path / "run")
     execute(scenario, out, progress=False)
     rep = json.loads((out.path / "report.json").read_text())
     assert rep["status"] == "completed" and rep["solver"] == "sph3d"
     assert rep["particles"] > 300 and rep["water_budget"]["closure_rel"] == 0.0
+    # the particles hold the set-up's reservoir, Σ (level − z)·Δ² (1 210 m³), to within one particle
+    # of Δx³ = 1 m³: both solvers start from the same water
+    from erosim.scenarios.builders_flood import FloodSetUp
+
+    site = FloodSetUp(scenario.config)
+    assert rep["volume_initial_m3"] == pytest.approx(site.depth0.sum() * site.dem.cell_size**2, abs=1.0)
     # the column depths of the reservoir at t = 0 are about its depth at the dam (2 m), never far above
     assert 1.0 < rep["max_depth_m"] < 3.5
     with rasterio.open(out.path / "maps" / "hazard.tif") as ds:
@@ -212,3 +241,29 @@ def test_a_users_dem_drops_the_library_valleys_dam_breach_and_edges():
     cfg = load("flood", [*mine, "reservoir.barrier=[[0.0, 1.0], [5.0, 1.0]]", "outflow.edges=['east']"]).config
     assert cfg.reservoir.barrier == [[0.0, 1.0], [5.0, 1.0]] and cfg.outflow.edges == ["east"] and cfg.breach is None
     assert load("flood").config.breach is not None  # the library's own valley keeps them
+
+
+def test_the_3d_sph_flood_resumes_bit_identically():
+    """The Manning columns keep no state of their own: a 3-D flood restored from its state equals the
+    uninterrupted one bit for bit."""
+    import copy
+
+    from erosim.scenarios import loader
+    from erosim.scenarios.builders_flood import build
+    from erosim.validation.flood_solvers import SETS
+
+    cfg = loader.load("flood", [*SETS, "flood.solver=sph3d", "flood.spacing=1.0"]).config
+    _, a = build(cfg)
+    for _ in range(15):
+        a.advance()
+    state = copy.deepcopy(a.state_dict())
+    for _ in range(15):
+        a.advance()
+    _, b = build(cfg)
+    b.load_state_dict(state)
+    for _ in range(15):
+        b.advance()
+    sa, sb = a.solver.state, b.solver.state
+    assert a.steps == b.steps == 30 and a.t == b.t
+    assert np.array_equal(sa.pos[: sa.n_fluid], sb.pos[: sb.n_fluid])
+    assert np.array_equal(sa.vel[: sa.n_fluid], sb.vel[: sb.n_fluid])

@@ -46,6 +46,21 @@ def test_run_folder_holds_every_output(folder):
     assert (folder / "scenario.toml").is_file() and (folder / "checkpoint" / "state.npz").is_file()
 
 
+def test_map_frames_follow_the_run(folder):
+    """run.frames=3 over 6 cycles: frames at cycles 0, 2, 4 and the end; the last is the final state."""
+    from erosim.io.results import open_run
+
+    frames = open_run(folder).map_frames
+    assert [t for t, _ in frames] == [0.0, 2.0, 4.0, 6.0]
+    assert all(sorted(files) == ["height", "lake_depth"] for _, files in frames)
+    final = hio.read(folder / "maps" / "height.tif").z
+    assert np.array_equal(hio.read(frames[-1][1]["height"]).z, final)  # both float32 of the same state
+    assert np.array_equal(hio.read(frames[-1][1]["lake_depth"]).z, hio.read(folder / "maps" / "lake_depth.tif").z)
+    first = hio.read(frames[0][1]["height"]).z
+    assert np.array_equal(first, hio.read(folder / "maps" / "height_initial.tif").z)  # before any droplet
+    assert not np.array_equal(first, final)  # the terrain changed between the first and the last frame
+
+
 def test_report_budgets_and_ranges(folder):
     rep = json.loads((folder / "report.json").read_text())
     wb, sb = rep["water_budget"], rep["sediment_budget"]

@@ -221,3 +221,17 @@ def test_describe_names_every_setting_whole(cli_runner, name):
     assert set(keys) <= first_cells  # no name cut short or folded
     assert max(len(ln) for ln in result.output.splitlines()) <= 120
     assert len(result.output.splitlines()) < 2 * len(keys) + 20  # a line or two a setting (was 3.5 at 80 columns)
+
+
+def test_python_dash_m_erosim_is_the_command(tmp_path):
+    """`python -m erosim` is the same program as `erosim`: a bad scenario gets the same one sentence."""
+    import subprocess
+    import sys
+
+    run = subprocess.run(
+        [sys.executable, "-m", "erosim", "run", "no-such-scenario", "--out", str(tmp_path / "r")],
+        capture_output=True, text=True, cwd=tmp_path, timeout=120,
+    )
+    assert run.returncode == 2, run.stdout + run.stderr
+    assert "no-such-scenario" in run.stdout + run.stderr
+    assert not (tmp_path / "r").exists()

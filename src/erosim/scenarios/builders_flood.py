@@ -16,6 +16,8 @@ hazard maxima (:mod:`erosim.analysis.hazard`) on the DEM's grid. A run leaves
   — the DEM's grid, CRS and transform;
 * ``figures/``: flood_maps.png (the three maxima), hazard.png (six-colour legend and area table),
   depth_NNN frames in flood.gif;
+* ``maps/frames/water_depth_NNNNN.tif`` at the same ``run.map_frames`` times and the end
+  (:mod:`erosim.io.map_frames`; ``erosim view``'s time slider);
 * ``gauges.csv`` (t, eta_<name>, depth_<name>, speed_<name>) when ``gauges.file`` is given;
 * ``report.json``: flooded_area_m2, hazard_share (H1…H6, fractions of the flooded area),
   hazard_area_m2, volume_initial_m3, volume_out_m3, water_budget (closure_rel), gauges_summary.
@@ -113,6 +115,19 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
     hm = site.terrain
     fl = cfg.flood
     spacing = fl.spacing if fl.spacing is not None else 2.0 * hm.cell_size
+    manning: np.ndarray | float = fl.manning
+    if fl.manning_file:
+        from erosim.io.heightmaps import read
+
+        m = read(fl.manning_file).z
+        if m.shape != hm.shape:
+            raise InputError(
+                f"flood.manning_file '{fl.manning_file}' has shape {m.shape} but the DEM {hm.shape}; "
+                "give a map on the DEM's grid."
+            )
+        if not np.all(np.isfinite(m)) or m.min() < 0:
+            raise InputError(f"flood.manning_file '{fl.manning_file}' holds negative or missing values; fix the map.")
+        manning = m
     if fl.solver == "sph3d":
         from erosim.scenarios.flood_sph3d import SPHFlood
 
@@ -122,7 +137,7 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
                 f"The reservoir would need about {estimate:,.0f} particles of {spacing:g} m in 3-D; give a larger "
                 "flood.spacing or use flood.solver = 'swe'."
             )
-        return site, SPHFlood(site, spacing, tuple(cfg.outflow.edges), seed=cfg.seed)
+        return site, SPHFlood(site, spacing, tuple(cfg.outflow.edges), manning=manning, seed=cfg.seed)
     if spacing > 4.0 * hm.cell_size or spacing < 0.25 * hm.cell_size:
         raise InputError(
             f"flood.spacing = {spacing:g} m against {hm.cell_size:g} m DEM cells: give a spacing between a quarter "
@@ -146,19 +161,6 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
             f"No particle fits the reservoir at flood.spacing = {spacing:g} m; give a smaller spacing or raise "
             "reservoir.level."
         )
-    manning: np.ndarray | float = fl.manning
-    if fl.manning_file:
-        from erosim.io.heightmaps import read
-
-        m = read(fl.manning_file).z
-        if m.shape != hm.shape:
-            raise InputError(
-                f"flood.manning_file '{fl.manning_file}' has shape {m.shape} but the DEM {hm.shape}; "
-                "give a map on the DEM's grid."
-            )
-        if not np.all(np.isfinite(m)) or m.min() < 0:
-            raise InputError(f"flood.manning_file '{fl.manning_file}' holds negative or missing values; fix the map.")
-        manning = m
     solver = ShallowWaterSPH(
         site.dem.z, hm.cell_size, pos, vol, spacing, ShallowWaterParams(**params), manning=manning, wall=closed,
         open_edges=tuple(cfg.outflow.edges), surface=site.level,
@@ -318,6 +320,8 @@ def setup(scenario, out) -> Setup:
             cb.Animation(TimeInterval(cfg.run.t_end / cfg.run.map_frames), _depth_picture(site, solver),
                          out.figures / "flood.gif")
         )  # fmt: skip
+        callbacks.append(cb.MapFrames(TimeInterval(cfg.run.t_end / cfg.run.map_frames),
+                                      lambda sim: {"water_depth": solver.depth_grid()}, hm, "s"))  # fmt: skip
     callbacks.append(FloodOutputs(site, solver, maps, inside))
 
     def report(sim) -> dict[str, Any]:

@@ -10,6 +10,8 @@ A run cycles :class:`erosim.hydrology.model.HydrologyModel` ``run.cycles`` times
 * ``figures/``: hillshade_before.png, hillshade_after.png, hydrology.png (HY-9: light blue streams,
   dark blue lakes, green forest; legend), erosion_deposition.png (diverging scale in metres), each
   with axes in the DEM's coordinates and a scale bar; evolution.gif (``run.frames`` pictures);
+* ``maps/frames/``: height_NNNNN.tif and lake_depth_NNNNN.tif at the same times and the end
+  (:mod:`erosim.io.map_frames`; ``erosim view``'s time slider);
 * ``report.json``: water_budget, sediment_budget, statistics, output list and ranges.
 """
 
@@ -24,7 +26,7 @@ import numpy as np
 from erosim.core.errors import ConfigError
 from erosim.scenarios.schema_common import build_terrain, terrain_facts
 from erosim.scenarios.setup import Setup
-from erosim.simulation.callbacks import Animation, BudgetCheck, Callback
+from erosim.simulation.callbacks import Animation, BudgetCheck, Callback, MapFrames
 from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
 
 MAPS = ("height_initial", "height", "lake_depth", "stream", "erosion", "deposition", "vegetation")
@@ -64,6 +66,11 @@ def _thumbnail(model, size: int = 256):
     pic = picture(model)
     step = max(1, pic.shape[0] // size, pic.shape[1] // size)
     return pic[::step, ::step]
+
+
+def _frame_maps(model) -> dict:
+    """What a map frame holds (``maps/frames/``, the view's time slider): the height and the lakes."""
+    return {"height": model.z, "lake_depth": model.lake_depth()}
 
 
 def write_outputs(model, terrain, folder) -> dict:
@@ -151,6 +158,7 @@ def setup(scenario, out) -> Setup:
         callbacks.append(
             Animation(TimeInterval(interval), lambda sim: _thumbnail(model), out.path / "figures" / "evolution.gif")
         )
+        callbacks.append(MapFrames(TimeInterval(interval), lambda sim: _frame_maps(model), terrain, "cycles"))
     callbacks.append(
         BudgetCheck(
             IterationInterval(16), model.z, model.sediment_in_transit, model.cell_size**2, "The hydrology model"

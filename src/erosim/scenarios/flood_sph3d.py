@@ -33,10 +33,10 @@ class SPHFlood:
 
     name = "sph3d"
 
-    def __init__(self, site, spacing: float, open_edges, *, every: int = 5, seed: int = 1):
-        from erosim.coupling.binning import FluidGrid
+    def __init__(self, site, spacing: float, open_edges, *, manning=0.0, every: int = 5, seed: int = 1):
         from erosim.coupling.raster import Raster
         from erosim.sph.boundaries.heightfield import HeightfieldGround
+        from erosim.sph.boundaries.manning_columns import ManningColumns
         from erosim.sph.boundaries.planes import PlaneWalls
         from erosim.sph.params import SPHParams
         from erosim.sph.solver import SPHSolver
@@ -67,7 +67,10 @@ class SPHFlood:
         walls = {"west": ([0, 0, 0], [1, 0, 0]), "east": ([(nx - 1) * cs, 0, 0], [-1, 0, 0]),
                  "south": ([0, 0, 0], [0, 1, 0]), "north": ([0, (ny - 1) * cs, 0], [0, -1, 0])}  # fmt: skip
         closed = [w for name, w in walls.items() if name not in open_edges]
-        boundaries = [HeightfieldGround(self.raster, ground)]
+        self._col_shape = (int(math.ceil((ny - 1) * cs / spacing)), int(math.ceil((nx - 1) * cs / spacing)))
+        n_map = manning if np.isscalar(manning) else np.asarray(manning, np.float64)[::-1]
+        boundaries = [HeightfieldGround(self.raster, ground, slip=True),
+                      ManningColumns(n_map, spacing, self._col_shape, cs, g)]  # fmt: skip
         if closed:
             boundaries.append(PlaneWalls([p for p, _ in closed], [n for _, n in closed]))
         self.solver = SPHSolver(params, fluid, domain_lo=lo, domain_hi=hi, seed=seed, boundaries=boundaries)
@@ -75,12 +78,20 @@ class SPHFlood:
         from erosim.coupling.sources import EdgeOutflow
 
         self._outflow = EdgeOutflow(None, self.solver, self.raster, self.open_edges)
-        self.grid = FluidGrid(self.raster, 3)
         self.volume_initial = self.budget()["volume_initial_m3"]
         self.settle_steps = 0
 
     def _reservoir(self, ground: np.ndarray) -> np.ndarray:
-        """Lattice points over the reservoir's cells, from 0.5Δx above the ground to the level."""
+        """Columns of particles over the reservoir, stacked from the ground up, holding its volume.
+
+        A square lattice of spacing Δx over the reservoir's cells gives the columns; column c of depth
+        D_c = level − z(x_c) gets n_c particles at z(x_c) + (k + ½)Δx, k < n_c (each particle the cube
+        of water Δx³ it stands for, the lowest resting on the ground as the wall weights hold it).
+        The counts follow D_c/Δx by error diffusion along the columns, scaled so that Σ n_c Δx³ is the
+        set-up's reservoir volume Σ (level − z)·Δ² to within one particle — the same water the
+        shallow-water solver starts with. (A lattice of fixed levels kept only the points more than
+        0.4 Δx above the ground: it lost 0.4 Δx of every column, half the water of a shallow reservoir.)
+        """
         from erosim.coupling.sampling import sample
 
         s, cs = self.spacing, self.cell
@@ -93,12 +104,15 @@ class SPHFlood:
         inside = self.site.depth0[::-1][row, col] > 0
         X, Y = X[inside], Y[inside]
         z0 = sample(self.raster, ground, np.column_stack([X, Y, np.zeros_like(X)]))
-        pts = []
-        zs = np.arange(float(z0.min()) + 0.5 * s, self.site.level, s)
-        for z in zs:
-            above = z > z0 + 0.4 * s
-            pts.append(np.column_stack([X[above], Y[above], np.full(int(above.sum()), z)]))
-        return np.concatenate(pts) if pts else np.zeros((0, 3))
+        depth = np.maximum(self.site.level - z0, 0.0)
+        volume = float(self.site.depth0.sum()) * cs * cs
+        if depth.sum() <= 0.0:
+            return np.zeros((0, 3))
+        cum = np.cumsum(depth) * (volume / (float(depth.sum()) * s**3))
+        counts = np.diff(np.concatenate([[0], np.floor(cum + 0.5).astype(np.int64)]))
+        k = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+        Xr, Yr, Zr = (np.repeat(a, counts) for a in (X, Y, z0))
+        return np.column_stack([Xr, Yr, Zr + (k + 0.5) * s])
 
     # ------------------------------------------------------------------ the model protocol
 
@@ -130,28 +144,60 @@ class SPHFlood:
 
     # ------------------------------------------------------------------ what the flood kind reads
 
-    def _binned(self) -> tuple[np.ndarray, np.ndarray]:
-        """(depth, speed) on the DEM's nodes, map order (row 0 north)."""
-        self.grid.bin(self.solver)
-        return self.grid.depth[::-1].copy(), self.grid.speed[::-1].copy()
+    def _columns(self):
+        """The water column under every particle (:func:`erosim.sph.depth_columns.column_fields`)."""
+        from erosim.sph.depth_columns import column_fields
+
+        st = self.solver.state
+        n = st.n_fluid
+        return column_fields(st.pos[:n], st.vel[:n], self.solver.m / st.rho[:n], self.spacing, self._col_shape)
 
     def update_maxima(self, maps, wet: float) -> None:
+        """Each particle marks the DEM cell under it with its column's depth and velocity, by the rule
+        of the shallow-water solver (:func:`erosim.kernels.swe_sph.footprint_maxima`)."""
         if self.solver.steps % self.every:
             return
-        depth, speed = self._binned()
-        maps.update(self.solver.t, depth, speed, valid=self.site.terrain.valid)
+        from erosim.kernels.swe_sph import footprint_maxima
+
+        n = self.solver.n_fluid
+        d_i, u_i, _, _ = self._columns()
+        st = self.solver.state
+        ny = self.site.terrain.shape[0]
+        # the SPH frame (y north from the south-west node) → the cell frame (y = row·Δ, row 0 north)
+        pos = np.column_stack([st.pos[:n, 0], (ny - 1) * self.cell - st.pos[:n, 1]])
+        vel = np.column_stack([u_i[:, 0], -u_i[:, 1]])
+        vol = self.solver.m / st.rho[:n]
+        footprint_maxima(
+            np.ascontiguousarray(pos), np.ascontiguousarray(vel), np.ascontiguousarray(vol), np.ascontiguousarray(d_i),
+            n, 1.0 / self.cell, self.solver.t, wet, maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
+        )  # fmt: skip
+
+    def _at_nodes(self) -> tuple[np.ndarray, np.ndarray]:
+        """(depth, speed) of the smoothed columns at the DEM's nodes, map order (row 0 north)."""
+        _, _, (depth, ux, uy), _ = self._columns()
+        ny, nx = self.site.terrain.shape
+        s = self.spacing
+        col = np.clip(np.floor(np.arange(nx) * self.cell / s).astype(np.int64), 0, depth.shape[1] - 1)
+        row = np.clip(np.floor(np.arange(ny) * self.cell / s).astype(np.int64), 0, depth.shape[0] - 1)
+        d = depth[np.ix_(row, col)]
+        v = np.hypot(ux, uy)[np.ix_(row, col)]
+        return d[::-1].copy(), v[::-1].copy()
 
     def depth_grid(self) -> np.ndarray:
-        return self._binned()[0]
+        return self._at_nodes()[0]
 
     def sample(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(surface, depth, speed) of the binned column holding each point (points in the SWE cell frame)."""
-        depth, speed = self._binned()
+        """(surface, depth, speed) of the smoothed column at each point (points in the SWE cell frame)."""
+        _, _, (depth, ux, uy), _ = self._columns()
         pts = np.asarray(points, np.float64).reshape(-1, 2)
-        col = np.clip(np.floor(pts[:, 0] / self.cell + 0.5).astype(np.int64), 0, depth.shape[1] - 1)
-        row = np.clip(np.floor(pts[:, 1] / self.cell + 0.5).astype(np.int64), 0, depth.shape[0] - 1)
-        d = depth[row, col]
-        return self.site.terrain.z[row, col] + d, d, speed[row, col]
+        ny = self.site.terrain.shape[0]
+        x, y = pts[:, 0], (ny - 1) * self.cell - pts[:, 1]
+        ix = np.clip(np.floor(x / self.spacing).astype(np.int64), 0, depth.shape[1] - 1)
+        iy = np.clip(np.floor(y / self.spacing).astype(np.int64), 0, depth.shape[0] - 1)
+        d = depth[iy, ix]
+        col = np.clip(np.floor(pts[:, 0] / self.cell + 0.5).astype(np.int64), 0, self.site.terrain.shape[1] - 1)
+        row = np.clip(np.floor(pts[:, 1] / self.cell + 0.5).astype(np.int64), 0, ny - 1)
+        return self.site.terrain.z[row, col] + d, d, np.hypot(ux, uy)[iy, ix]
 
     def budget(self) -> dict:
         """Water at rest (m³, mass/ρ₀): initial = in the flow + out through open edges (particle counts,

@@ -63,7 +63,9 @@ class FloodSection(ShallowWaterParams):
         600, ge=0, unit="1", doc="the reservoir settles (damped, dam closed) for at most this many steps before t = 0"
     )
     settle_speed: float = param(0.05, gt=0, unit="m/s", doc="settling stops once no particle is faster than this")
-    manning: float = param(0.035, ge=0, le=1, unit="s/m^(1/3)", doc="Manning's n everywhere (see manning_file)")
+    manning: float = param(
+        0.035, ge=0, le=1, unit="s/m^(1/3)", doc="Manning's n everywhere, for both solvers (see manning_file)"
+    )
     manning_file: str | None = param(None, doc="a raster of Manning's n on the DEM's grid (replaces manning)")
     wet_depth: float = param(0.01, gt=0, unit="m", doc="cells shallower than this count as dry in the hazard maps")
 
@@ -81,7 +83,7 @@ class GaugesSection(Section):
 class FloodRun(Section):
     t_end: float = param(600.0, gt=0, unit="s", doc="simulated time to reach")
     sample_interval: float = param(5.0, gt=0, unit="s", doc="gauges sampled every this long")
-    map_frames: int = param(12, ge=0, le=200, unit="1", doc="depth pictures over the run (figures, GIF)")
+    map_frames: int = param(12, ge=0, le=200, unit="1", doc="depth frames over the run (figures, GIF; maps/frames/)")
     output_interval: float = param(0.0, ge=0, unit="s", doc="particle frames (.vtp) every this long; 0: none")
     checkpoint_wall_s: float = param(300.0, gt=0, unit="s", doc="wall-clock time between checkpoints")
 

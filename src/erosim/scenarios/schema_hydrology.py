@@ -28,7 +28,7 @@ class Inputs(Section):
 
 class HydrologyRun(Section):
     cycles: int = param(640, ge=1, unit="1", doc="hydrology cycles (droplet batches) to run")
-    frames: int = param(24, ge=0, unit="1", doc="frames of figures/evolution.gif (0 = none)")
+    frames: int = param(24, ge=0, unit="1", doc="frames of figures/evolution.gif and maps/frames/ (0 = none)")
     checkpoint_interval: float = param(300.0, gt=0, unit="s", doc="wall time between checkpoints")
 
 

@@ -13,6 +13,7 @@ completes (``finalize``). The fluid callbacks read a particle model through its 
 * :class:`Probes` — pressure probes and water-level gauges → ``gauges.csv``;
 * :class:`FrontTracker` — the surge front → ``front.csv`` (and its figure against an experiment);
 * :class:`Animation` — pictures of a map over time → an animated GIF;
+* :class:`MapFrames` — maps (height, water) over time → ``maps/frames/`` (``erosim view``'s slider);
 * :class:`BudgetCheck` — a terrain changed in place must change by what its model says it moved;
 * :class:`Callback` — any function of the simulation.
 """
@@ -273,6 +274,41 @@ class Animation(Callback):
 
         save_animation(self.path, [*self.frames, self.picture(sim)], fps=self.fps)  # the state stays as it was
         return {"animation": str(self.path.relative_to(sim.out.path))}
+
+
+class MapFrames(Callback):
+    """Maps of the run's state (``maps(sim)`` → name → array on ``like``'s grid) written as a frame
+    each time the schedule fires and once more at the end (:mod:`erosim.io.map_frames`).
+
+    Only the frames' times travel in the checkpoint: a resumed run writes the frames after it again,
+    numbered on from there, so its folder holds the uninterrupted run's frames.
+    """
+
+    def __init__(self, schedule: Schedule, maps: Callable, like, unit: str):
+        super().__init__(schedule, name="map_frames")
+        self.maps, self.like, self.unit = maps, like, unit
+        self.times: list[float] = []
+
+    def _write(self, sim) -> None:
+        from erosim.io import map_frames
+
+        map_frames.write_frame(sim.out.path, len(self.times), self.maps(sim), self.like)
+        self.times.append(float(sim.time))
+        map_frames.write_times(sim.out.path, self.times, self.unit)
+
+    def __call__(self, sim) -> None:
+        self._write(sim)
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"times": list(self.times)}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.times = [float(t) for t in state.get("times", [])]
+
+    def finalize(self, sim) -> dict[str, Any]:
+        if not self.times or float(sim.time) > self.times[-1]:
+            self._write(sim)
+        return {"map_frames": len(self.times)}
 
 
 class BudgetCheck(Callback):

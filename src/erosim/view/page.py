@@ -8,8 +8,11 @@ side (a larger map is read at a stride), and each particle frame thinned to ``ma
 plotly.js — the copy the ``plotly`` Python package ships in its wheel, so nothing comes from the
 network — draws, and ``view.js`` (beside this file) decides what: the terrain as a lit 3-D surface
 (strided in the browser to the chosen detail), the layers draped over it, particles, the time
-slider, the values under the cursor and the legends. The arrays are either inside the page
-(base64, ``--html``) or fetched from the local server (:mod:`erosim.view.server`).
+slider (a 2-D plan view while it moves), the values under the cursor and the legends. Before either
+is read, ``first.js`` draws the terrain's coarse copy (:func:`_first`, inside the page) in 3-D with
+plain WebGL, then runs them (both are kept in the page as text until then). The arrays are either
+inside the page (``--html``: packed by :func:`pack`, map frames thinned to
+:data:`INLINE_FRAME_BYTES`) or fetched from the local server (:mod:`erosim.view.server`).
 """
 
 from __future__ import annotations
@@ -147,12 +150,26 @@ def payload(run: Run, max_side: int = MAX_SIDE, max_particles: int = MAX_PARTICL
         if "stream" not in present:
             _change_layer(meta, present)
         meta["preview"] = _preview(z, hm.cell_size * step, present)
+        meta["first"] = _first(z, hm.cell_size * step)
         _map_frames(p, run, step, (ny0, nx0), present.get("water"))
     _frames(p, run, max_particles, ground)
     meta["arrays"] = {
         k: {"dtype": "u1" if a.dtype == np.uint8 else "f4", "n": int(a.size)} for k, a in p.arrays.items()
     }
     return p
+
+
+FIRST_SIDE = 128
+
+
+def _first(z: np.ndarray, cell: float) -> dict:
+    """The terrain's coarse copy (≤ :data:`FIRST_SIDE` a side, float32 base64) that ``first.js`` draws
+    in 3-D before plotly.js is read."""
+    s = max(1, int(np.ceil(max(z.shape) / FIRST_SIDE)))
+    zs = np.ascontiguousarray(np.nan_to_num(z[::s, ::s], nan=float(np.nanmin(z))), dtype=np.float32)
+    return {"ny": zs.shape[0], "nx": zs.shape[1], "cell": cell * s, "colorscale": TERRAIN,
+            "z_range": [float(np.nanmin(z)), float(np.nanmax(z))],
+            "b64": base64.b64encode(zs.tobytes()).decode("ascii")}  # fmt: skip
 
 
 def _preview(z: np.ndarray, cell: float, present: dict) -> str:
@@ -262,12 +279,56 @@ def _frames(p: Payload, run: Run, max_particles: int, ground) -> None:
 
 
 # ------------------------------------------------------------------------------------------ HTML
+INLINE_FRAME_BYTES = 6_000_000  # the map frames a self-contained page keeps (base64, after packing)
+
+
+def pack(a: np.ndarray) -> str:
+    """An array for the self-contained page: its bytes shuffled into planes (every value's first
+    byte, then every second byte, …: the high bytes of smooth float32 maps repeat, so they compress),
+    deflated (zlib) and base64-encoded; the page undoes it with the browser's DecompressionStream."""
+    import zlib
+
+    b = np.ascontiguousarray(a)
+    planes = b.view(np.uint8).reshape(-1, b.itemsize).T.tobytes()
+    return base64.b64encode(zlib.compress(planes, 6)).decode("ascii")
+
+
+def _fit_frames(p: Payload, packed: dict[str, str]) -> dict:
+    """The meta of a self-contained page whose map frames fit :data:`INLINE_FRAME_BYTES`: evenly spaced
+    frames (the first and last kept) are dropped from the page until they do; the rest say so."""
+    frames = p.meta.get("map_frames", [])
+    size = [sum(len(packed[n]) for n in f["arrays"].values()) for f in frames]
+    if sum(size) <= INLINE_FRAME_BYTES:
+        return p.meta
+    keep = len(frames)
+    while keep > 2:
+        keep -= 1
+        pick = sorted({int(round(i)) for i in np.linspace(0, len(frames) - 1, keep)})
+        if sum(size[i] for i in pick) <= INLINE_FRAME_BYTES:
+            break
+    pick = sorted({int(round(i)) for i in np.linspace(0, len(frames) - 1, keep)})
+    for i, f in enumerate(frames):
+        if i not in pick:
+            for n in f["arrays"].values():
+                packed.pop(n, None)
+    meta = dict(p.meta)
+    meta["map_frames"] = [frames[i] for i in pick]
+    meta["map_frames_note"] = (f"{len(pick)} of the run's {len(frames)} map frames in this file "
+                               "(erosim view RUN serves them all)")  # fmt: skip
+    meta["arrays"] = {k: v for k, v in p.meta["arrays"].items() if k in packed}
+    return meta
+
+
 def plotly_js() -> bytes:
     """plotly.min.js from the installed ``plotly`` package (it ships in the wheel)."""
     import plotly
 
     path = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
     return path.read_bytes()
+
+
+def first_js() -> str:
+    return resources.files("erosim.view").joinpath("first.js").read_text(encoding="utf-8")
 
 
 def view_js() -> str:
@@ -280,6 +341,10 @@ body{margin:0;font:13px system-ui,sans-serif;display:flex;height:100vh;color:#22
 #main{flex:1;display:flex;flex-direction:column;min-width:0}
 #plot{flex:1;min-height:0;height:calc(100vh - 40px)}
 #preview{display:block;width:100%;height:100%;object-fit:contain}
+#first3d{position:absolute;left:0;top:0}
+#plot{position:relative}
+#slide{position:absolute;left:0;top:0;width:100%;height:100%;object-fit:contain;background:#fafafa;z-index:10;
+display:none;image-rendering:auto}
 h1{font-size:15px;margin:0 0 8px} h2{font-size:13px;margin:12px 0 4px;color:#555}
 #layers label{display:block;margin:2px 0} .legend{margin:6px 0} .bar{height:10px;border:1px solid #ccc}
 .sw{display:inline-block;width:12px;height:12px;margin:0 2px 0 6px;vertical-align:middle;border:1px solid #999}
@@ -292,23 +357,31 @@ table{border-collapse:collapse;width:100%} td{padding:1px 4px;border-bottom:1px 
 def html(p: Payload, *, inline: bool) -> str:
     """The page; ``inline``: plotly.js and every array inside it (one file that works offline)."""
     preview = p.meta.get("preview")
-    meta = json.dumps({k: v for k, v in p.meta.items() if k != "preview"}, allow_nan=False, default=float)
-    meta = meta.replace("</", "<\\/")
+    meta = p.meta
     if inline:
-        plotly_tag = "<script>" + plotly_js().decode("utf-8") + "</script>"
+        plotly_tag = '<script type="text/plain" id="plotly-code">' + plotly_js().decode("utf-8") + "</script>"
+        packed = {k: pack(a) for k, a in p.arrays.items()}
+        meta = _fit_frames(p, packed)
         data = "".join(
-            f'<script type="application/octet-stream" id="a-{k}">{base64.b64encode(a.tobytes()).decode("ascii")}'
-            "</script>\n"
-            for k, a in p.arrays.items()
+            f'<script type="application/octet-stream" data-pack="shuffle-deflate" id="a-{k}">{text}</script>\n'
+            for k, text in packed.items()
         )
     else:
-        plotly_tag = '<script src="plotly.min.js"></script>'
+        plotly_tag = ""  # first.js loads plotly.min.js from the server
         data = ""
+    first = meta.get("first")
+    meta = {k: v for k, v in meta.items() if k != "preview"}
+    if first:
+        meta["first"] = {k: v for k, v in first.items() if k != "b64"}
+    meta = json.dumps(meta, allow_nan=False, default=float)
+    meta = meta.replace("</", "<\\/")
     title = htmllib.escape(p.meta["title"])
     figures = "".join(
         f"<tr><td>{htmllib.escape(k)}</td><td>{htmllib.escape(v)}</td></tr>" for k, v in p.meta["figures"]
     )
-    # plotly.js comes last: the side panel (report, controls) shows while the browser reads it
+    first_tag = f'<script type="application/octet-stream" id="first-height">{first["b64"]}</script>' if first else ""
+    # first.js runs before the data are read: it draws the first picture, then (the page read) runs plotly.js
+    # and view.js, kept as text till then
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>erosim view: {title}</title><style>{CSS}</style>
 </head>
@@ -325,6 +398,7 @@ vertical <select id="exag-select"><option value="0">auto</option><option value="
 <div id="time">frame <input type="range" id="frame" min="0" max="0" value="0"> <span id="frame-label"></span>
 <span id="colour-box">colour <select id="colour"></select></span></div></div>
 <script type="application/json" id="erosim-meta">{meta}</script>
-{data}{plotly_tag}<script>{view_js()}</script>
+{first_tag}<script>{first_js()}</script>
+{data}{plotly_tag}<script type="text/plain" id="view-code">{view_js()}</script>
 </body></html>
 """

@@ -15,12 +15,24 @@
     for (let i = 0; i < bin.length; i++) u[i] = bin.charCodeAt(i);
     return u.buffer;
   }
+  // arrays inside the page are deflated byte planes (erosim.view.page.pack): inflate, then interleave
+  async function unpack(buf, size) {
+    if (typeof DecompressionStream === "undefined")
+      throw new Error("this browser cannot unpack the page's data (no DecompressionStream: Chrome 80, Firefox " +
+                      "113, Safari 16.4 or later have it); serve the run with erosim view RUN instead");
+    const z = new Blob([buf]).stream().pipeThrough(new DecompressionStream("deflate"));
+    const planes = new Uint8Array(await new Response(z).arrayBuffer());
+    if (size === 1) return planes.buffer;
+    const n = planes.length / size, out = new Uint8Array(planes.length);
+    for (let b = 0; b < size; b++) for (let i = 0, o = b; i < n; i++, o += size) out[o] = planes[b * n + i];
+    return out.buffer;
+  }
   function arr(name) {
     if (!cache[name]) {
       const spec = META.arrays[name];
       const tag = document.getElementById("a-" + name);
       const buf = tag
-        ? Promise.resolve(b64(tag.textContent.trim()))
+        ? unpack(b64(tag.textContent.trim()), spec.dtype === "u1" ? 1 : 4)
         : fetch("data/" + encodeURIComponent(name)).then((r) => {
             if (!r.ok) throw new Error("cannot load " + name + ": HTTP " + r.status);
             return r.arrayBuffer();
@@ -163,9 +175,17 @@
     return traceCache[key];
   }
 
-  function layout() {
+  function layout(first) {
     const box = { height: gd.clientHeight || 600, width: gd.clientWidth || 800 };
-    return Object.assign(baseLayout(), box);
+    const L = Object.assign(baseLayout(), box);
+    if (first && L.scene) {
+      // the first picture goes without tick labels and axis titles: plotly.js turns every label into
+      // triangles (drawing it on a canvas and reading the pixels back), which costs most of a second
+      // with software WebGL; they come with the layers, one draw later
+      for (const a of ["xaxis", "yaxis", "zaxis"])
+        L.scene[a] = Object.assign({}, L.scene[a] || {}, { tickvals: [], ticktext: [], title: { text: "" } });
+    }
+    return L;
   }
   function baseLayout() {
     if (!G) {
@@ -188,6 +208,10 @@
   }
 
   const gd = document.getElementById("plot");
+  // plotly draws its WebGL scenes at twice the screen's pixels by default; software WebGL (a machine
+  // without a GPU) pays for every pixel, so draw at the screen's own density
+  const CONFIG = { responsive: true, displaylogo: false,
+                   plotGlPixelRatio: Math.min(2, Math.max(1, window.devicePixelRatio || 1)) };
   let drawing = Promise.resolve();
   const times = (window.erosimTimes = { script: t0 });
   // first: the terrain alone at a coarse stride (the first picture comes fast), then what is chosen
@@ -201,9 +225,11 @@
     const p = await particleTrace();
     if (p) data.push(p);
     times.traces = times.traces || performance.now();
-    await Plotly.react(gd, data, layout(), { responsive: true, displaylogo: false });
+    await Plotly.react(gd, data, layout(first), CONFIG);
     const preview = document.getElementById("preview");
     if (preview) preview.remove(); // the plan-view picture shown while plotly.js loaded
+    const firstPicture = document.getElementById("first3d");
+    if (firstPicture) firstPicture.remove(); // and first.js's 3-D picture
     times.plot = times.plot || performance.now();
     document.body.dataset.draws = (+(document.body.dataset.draws || 0) + 1).toString();
     legends();
@@ -219,6 +245,107 @@
       .then(() => { if (!first) queued = false; return draw(first); })
       .catch((e) => { document.getElementById("status").textContent = String(e); });
     return drawing;
+  }
+
+
+  // ------------------------------------------------------------------- the view while sliding
+  // Redrawing the 3-D scene costs a second or more in software WebGL, so while the slider moves the
+  // frame shows on a plan view drawn into a 2-D canvas (shaded relief coloured by height, the water
+  // and the particles), and the 3-D scene is drawn again when the slider is let go.
+  function hexRGB(h) { return [1, 3, 5].map((i) => parseInt(h.slice(i, i + 2), 16)); }
+  function lut(cs) { // 256 colours along a plotly colour scale
+    const out = new Uint8ClampedArray(256 * 3);
+    for (let i = 0; i < 256; i++) {
+      const t = i / 255;
+      let k = 0;
+      while (k < cs.length - 2 && t > cs[k + 1][0]) k++;
+      const [t0, c0] = cs[k], [t1, c1] = cs[k + 1], a = hexRGB(c0), b = hexRGB(c1);
+      const f = t1 > t0 ? Math.min(1, Math.max(0, (t - t0) / (t1 - t0))) : 0;
+      for (let c = 0; c < 3; c++) out[3 * i + c] = a[c] + f * (b[c] - a[c]);
+    }
+    return out;
+  }
+  const VIRIDIS = [[0, "#440154"], [0.25, "#3b528b"], [0.5, "#21918c"], [0.75, "#5ec962"], [1, "#fde725"]];
+  let slideBox = null; // particle bounds of runs without a terrain, grown as frames are seen
+  let slideN = 0;
+  async function slide2d() {
+    const n = ++slideN;
+    let cv = document.getElementById("slide");
+    if (!cv) {
+      cv = document.createElement("canvas");
+      cv.id = "slide";
+      gd.appendChild(cv);
+    }
+    const W = gd.clientWidth || 800, H = gd.clientHeight || 600;
+    const F = META.frames[state.frame];
+    const pos = F ? await arr(F.arrays.pos) : null;
+    const col = F ? await arr(F.arrays[state.colour]) : null;
+    let s = 1, nx, ny, img = null, toPix;
+    if (G) {
+      s = Math.max(1, Math.ceil(Math.max(G.ny, G.nx) / 512));
+      nx = Math.ceil(G.nx / s); ny = Math.ceil(G.ny / s);
+      const z = await arr(heightName());
+      const wL = META.layers.find((L) => L.key === "water");
+      const w = wL && state.layers.has("water") ? await arr(valuesName(wL)) : null;
+      if (n !== slideN) return; // a newer frame is on its way
+      img = new ImageData(nx, ny);
+      const T = lut(META.terrain_colorscale), B = wL ? lut(wL.colorscale) : null;
+      const z0 = G.z_range[0], dz = Math.max(G.z_range[1] - z0, 1e-9), d = 2 * G.cell * s, ex = exaggeration();
+      for (let i = 0; i < ny; i++) {
+        const r = i * s, up = Math.max(r - s, 0) * G.nx, dn = Math.min(r + s, G.ny - 1) * G.nx;
+        for (let j = 0; j < nx; j++) {
+          const c = j * s, k = r * G.nx + c, o = 4 * (i * nx + j);
+          const gx = (z[r * G.nx + Math.min(c + s, G.nx - 1)] - z[r * G.nx + Math.max(c - s, 0)]) * ex / d;
+          const gy = (z[up + c] - z[dn + c]) * ex / d; // north minus south
+          // light from the north-west, 45° up (Lambert): n·l with n ∝ (−gx, −gy, 1)
+          const shade = Math.max(0.25, (gx * -0.5 + gy * 0.5 + 0.7071) / Math.sqrt(1 + gx * gx + gy * gy) * 1.2);
+          let q = Math.max(0, Math.min(255, ((z[k] - z0) / dz) * 255)) | 0;
+          let rgb = [T[3 * q], T[3 * q + 1], T[3 * q + 2]];
+          if (w && w[k] > wL.hide_below) {
+            q = Math.max(0, Math.min(255, (w[k] / Math.max(wL.cmax, 1e-9)) * 255)) | 0;
+            rgb = [B[3 * q], B[3 * q + 1], B[3 * q + 2]];
+          }
+          img.data[o] = rgb[0] * shade; img.data[o + 1] = rgb[1] * shade; img.data[o + 2] = rgb[2] * shade;
+          img.data[o + 3] = 255;
+        }
+      }
+      toPix = (x, y) => [x / (G.cell * s), (G.y_top - y) / (G.cell * s)];
+    } else {
+      if (!pos) return;
+      let [x0, x1, y0, y1] = slideBox || [Infinity, -Infinity, Infinity, -Infinity];
+      for (let i = 0; i < pos.length; i += 3) {
+        x0 = Math.min(x0, pos[i]); x1 = Math.max(x1, pos[i]); y0 = Math.min(y0, pos[i + 1]); y1 = Math.max(y1, pos[i + 1]);
+      }
+      slideBox = [x0, x1, y0, y1];
+      const span = Math.max(x1 - x0, y1 - y0, 1e-9);
+      nx = Math.max(2, Math.round((512 * (x1 - x0)) / span)); ny = Math.max(2, Math.round((512 * (y1 - y0)) / span));
+      toPix = (x, y) => [((x - x0) / span) * 511, ((y1 - y) / span) * 511];
+    }
+    if (n !== slideN) return;
+    if (!img) { img = new ImageData(nx, ny); img.data.fill(255); }
+    if (pos) { // particles as small squares written into the picture (one putImageData for all)
+      const V = lut(VIRIDIS), [lo, hi] = META.field_ranges[state.colour] || [0, 1], D = img.data;
+      const r = Math.max(1, Math.round(Math.max(nx, ny) / 400)), span = Math.max(hi - lo, 1e-30);
+      for (let i = 0; i < pos.length / 3; i++) {
+        const q = (Math.max(0, Math.min(255, ((col[i] - lo) / span) * 255)) | 0) * 3;
+        const [px, py] = toPix(pos[3 * i], pos[3 * i + 1]);
+        const x0 = Math.max(0, Math.round(px - r / 2)), y0 = Math.max(0, Math.round(py - r / 2));
+        for (let y = y0; y < Math.min(ny, y0 + r); y++) {
+          for (let x = x0; x < Math.min(nx, x0 + r); x++) {
+            const o = 4 * (y * nx + x);
+            D[o] = V[q]; D[o + 1] = V[q + 1]; D[o + 2] = V[q + 2]; D[o + 3] = 255;
+          }
+        }
+      }
+    }
+    cv.width = nx; cv.height = ny;
+    cv.getContext("2d").putImageData(img, 0, 0);
+    cv.style.display = "block";
+    document.body.dataset.slides = (+(document.body.dataset.slides || 0) + 1).toString();
+  }
+  function hideSlide() {
+    const cv = document.getElementById("slide");
+    if (cv) cv.style.display = "none";
   }
 
   // ------------------------------------------------------------------------------- controls
@@ -273,10 +400,13 @@
       const show = () => {
         const F = SLIDES[state.frame];
         lab.textContent = "t = " + F.t.toPrecision(4) + " " + META.time_unit + "  (" + (state.frame + 1) + "/" +
-          SLIDES.length + (F.n !== undefined ? ", " + F.n + " particles shown" : ", height and water") + ")";
+          SLIDES.length + (F.n !== undefined ? ", " + F.n + " particles shown" : ", " + Object.keys(F.arrays).join(" and ")) + ")" +
+          (!META.frames.length && META.map_frames_note ? " — " + META.map_frames_note : "");
       };
       show();
-      sl.addEventListener("input", () => { state.frame = +sl.value; show(); redraw(); });
+      // while sliding: the plan view of the frame (fast); let go (or a key step): the 3-D scene again
+      sl.addEventListener("input", () => { state.frame = +sl.value; show(); slide2d(); });
+      sl.addEventListener("change", () => { state.frame = +sl.value; show(); redraw().then(() => { if (!queued) hideSlide(); }); });
       const col = document.getElementById("colour");
       if (META.frames.length) {
         for (const f of META.frame_fields) col.add(new Option(f, f));
@@ -322,19 +452,29 @@
   }
 
   controls();
-  if (G) redraw(true).then(() => {
-    const ms = performance.now(); // since the page was requested (navigation start)
-    document.body.setAttribute("data-first-paint-ms", ms.toFixed(0));
-  });
+  // times since the page was requested (navigation start): data-first-paint-ms is the first picture
+  // (first.js's, or this file's first plotly draw), data-plot-ms the first interactive plotly scene
+  const painted = () => {
+    const ms = performance.now().toFixed(0);
+    if (!document.body.hasAttribute("data-plot-ms")) document.body.setAttribute("data-plot-ms", ms);
+    if (!document.body.hasAttribute("data-first-paint-ms")) document.body.setAttribute("data-first-paint-ms", ms);
+  };
+  // with first.js's picture on the screen, plotly sets up one scene (terrain, layers, axes) instead of a
+  // coarse one first: everything is drawn about a second and a half sooner
+  if (G && !document.getElementById("first3d")) redraw(true).then(painted);
   redraw().then(() => {
+    painted();
     const ms = performance.now();
-    if (!G) document.body.setAttribute("data-first-paint-ms", ms.toFixed(0));
     document.body.setAttribute("data-ready-ms", ms.toFixed(0));
-    document.getElementById("status").textContent = "first picture " +
-      (+document.body.getAttribute("data-first-paint-ms") / 1000).toFixed(2) + " s, all drawn " +
-      (ms / 1000).toFixed(2) + " s after opening";
+    const at = (a) => (+document.body.getAttribute(a) / 1000).toFixed(2);
+    document.getElementById("status").textContent = "first picture " + at("data-first-paint-ms") +
+      " s, interactive " + at("data-plot-ms") + " s, all drawn " + (ms / 1000).toFixed(2) + " s after opening";
     gd.on("plotly_hover", hover);
     window.addEventListener("resize", () => redraw());
+    if (hash.has("slide") && SLIDES.length) { // #slide=k: the plan view shown while sliding, at frame k
+      state.frame = Math.max(0, Math.min(+hash.get("slide"), SLIDES.length - 1));
+      slide2d();
+    }
     if (hash.has("probe") && G) {  // #probe=row,col: show the values of that cell (for tests and links)
       const [i, j] = hash.get("probe").split(",").map(Number);
       hover({ points: [{ x: j * G.cell, y: G.y_top - i * G.cell, data: { name: "terrain" } }] }).then(() =>

@@ -136,7 +136,7 @@ class HeightfieldGround(DistanceWall):
 
     name = "ground"
 
-    def __init__(self, raster, terrain: np.ndarray):
+    def __init__(self, raster, terrain: np.ndarray, *, slip: bool = False):
         if terrain.shape != raster.shape:
             raise ValueError(f"terrain shape {terrain.shape} does not match the raster {raster.shape}")
         self.raster = raster
@@ -145,6 +145,20 @@ class HeightfieldGround(DistanceWall):
         self._density_pass = heightfield_density
         self._forces_pass = heightfield_forces
         self._constrain_pass = heightfield_constrain
+        self.slip = bool(slip)
+
+    def bind(self, solver) -> None:
+        """As every distance wall; with ``slip`` the tangential viscous curves (B, C) are zero: a
+        free-slip ground, whose shear a friction law gives instead (the 3-D flood's Manning columns)."""
+        super().bind(solver)
+        if self.slip:
+            from dataclasses import replace
+
+            from erosim.sph.boundaries.wall_weight_harada2007 import VT, VTN
+
+            table = self.curves.table.copy()
+            table[[VT, VTN]] = 0.0
+            self.curves = replace(self.curves, table=table)
 
     def _geometry(self):
         r = self.raster
