@@ -63,12 +63,13 @@ def test_data_scatter_is_what_the_regression_bound_says():
 def test_coarse_column_collapse(tmp_path):
     """a/10 (200 particles, seconds) with the gate lifted at √(g a): the front lags the experiment
     (the coarse run's numerical dissipation; released at once its lag and the missing gate's delay
-    cancelled to 3.1 %). Held, as a regression bound, to the measured value plus the data's scatter;
-    the issue's 10 % pass criterion is for the default resolution (below)."""
+    cancelled to 3.1 %). Held, as a regression bound, to the measured value within the data's
+    scatter on either side (a change that speeds the front, e.g. less dissipation, shows as a smaller
+    error here); the issue's 10 % pass criterion is for the default resolution (below)."""
     result = mm.run("coarse", tmp_path / "mm", progress=False)
     _check(result, tmp_path / "mm")
     assert result["gate_speed_m_s"] == pytest.approx(np.sqrt(G * mm.A))
-    assert result["value"] <= COARSE_MEASURED + DATA_SCATTER, result
+    assert abs(result["value"] - COARSE_MEASURED) <= DATA_SCATTER, result
 
 
 @pytest.mark.slow
