@@ -332,13 +332,22 @@ VALIDATION_CASES = {
     default=None,
     help="martin-moyce only: the tank floor as boundary particles (box, default) or a flat heightmap.",
 )
+@click.option(
+    "--gate-speed",
+    type=click.FloatRange(min=0.0),
+    default=None,
+    help="martin-moyce only: lift the column's gate at this speed (m/s); 0 releases the column at once "
+    "(default: sqrt(g*a) = 0.75 m/s on the box ground, no gate on the heightmap floor or cuda).",
+)
 @_device_option("martin-moyce and hydrostatic: where the SPH steps run")
-def validate(case, resolution, out, as_json, ground, device):
+def validate(case, resolution, out, as_json, ground, gate_speed, device):
     """Run a validation CASE against published experimental or analytic data."""
     from erosim.scenarios.kinds import resolve
 
     if ground is not None and case != "martin-moyce":
         _fail(ErosimError(f"--ground applies to martin-moyce only, not '{case}'; leave it out."))
+    if gate_speed is not None and case != "martin-moyce":
+        _fail(ErosimError(f"--gate-speed applies to martin-moyce only, not '{case}'; leave it out."))
     if device is not None and case not in DEVICE_CASES:
         _fail(ErosimError(f"--device applies to {' and '.join(DEVICE_CASES)} only, not '{case}'; leave it out."))
     _require_device(device)
@@ -346,6 +355,8 @@ def validate(case, resolution, out, as_json, ground, device):
     extra = {"ground": ground} if ground else {}
     if device is not None:
         extra["device"] = device
+    if gate_speed is not None:
+        extra["gate_speed"] = gate_speed
     result = _guard(fn, resolution, Path(out) if out else None, not (STATE.quiet or as_json), **extra)
     _print_result(result, as_json)
     if not result.get("passed", False):

@@ -41,10 +41,10 @@ def _check(result, out):
         assert json.loads((out / "report.json").read_text())["column_width"] == pytest.approx(mm.A)
 
 
-#: measured error of the coarse collapse (2026-11-23) and the data's own scatter: the two
-#: digitisations of the experiment shipped (the table, and PySPH's of fig. 3) differ by 1.36 % on
-#: average at the tabulated T ≤ 3
-COARSE_MEASURED, DATA_SCATTER = 0.0312, 0.0136
+#: measured error of the coarse collapse with the lifted gate (2026-11-25; 3.12 % released at once)
+#: and the data's own scatter: the two digitisations of the experiment shipped (the table, and
+#: PySPH's of fig. 3) differ by 1.36 % on average at the tabulated T ≤ 3
+COARSE_MEASURED, DATA_SCATTER = 0.119, 0.0136
 
 
 def test_data_scatter_is_what_the_regression_bound_says():
@@ -61,14 +61,25 @@ def test_data_scatter_is_what_the_regression_bound_says():
 
 
 def test_coarse_column_collapse(tmp_path):
-    """a/10 (200 particles, seconds). Held to the issue's own 10 % bound (measured 3.1 %; a/25 gives
-    7.8 %, a/50 10.7 %: finer runs dissipate less and lead the experiment more, whose gate opened in
-    a finite time) and, as a regression bound, to the measured value plus the data's scatter:
-    without artificial viscosity, say, the front errs by 6.6 % — inside 10 %, not inside this."""
+    """a/10 (200 particles, seconds) with the gate lifted at √(g a): the front lags the experiment
+    (the coarse run's numerical dissipation; released at once its lag and the missing gate's delay
+    cancelled to 3.1 %). Held, as a regression bound, to the measured value within the data's
+    scatter on either side (a change that speeds the front, e.g. less dissipation, shows as a smaller
+    error here); the issue's 10 % pass criterion is for the default resolution (below)."""
     result = mm.run("coarse", tmp_path / "mm", progress=False)
     _check(result, tmp_path / "mm")
-    assert result["value"] <= 0.10, result
-    assert result["value"] <= COARSE_MEASURED + DATA_SCATTER, result
+    assert result["gate_speed_m_s"] == pytest.approx(np.sqrt(G * mm.A))
+    assert abs(result["value"] - COARSE_MEASURED) <= DATA_SCATTER, result
+
+
+@pytest.mark.slow
+def test_gate_makes_the_error_shrink_from_coarse_to_default(tmp_path):
+    """With the gate the error falls from a/10 to a/25 (measured 11.9 % → 5.2 %; released at once it
+    grew, 3.1 % → 7.8 %). It does not keep falling (a/50 8.4 %, a/100 12.6 %, docs/sph.md), so only
+    this step is asserted, by more than the data's scatter."""
+    coarse = mm.run("coarse", tmp_path / "c", progress=False)["value"]
+    default = mm.run("default", tmp_path / "d", progress=False)["value"]
+    assert default < coarse - DATA_SCATTER, (coarse, default)
 
 
 @pytest.mark.slow

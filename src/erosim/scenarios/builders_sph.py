@@ -105,6 +105,16 @@ def build(cfg: SPHScenario) -> Built:
         from erosim.sph.solver import SPHSolver  # Numba import only when a run starts
 
     pos, vel = fluid_particles(cfg)
+    boundaries = []
+    if cfg.gate.speed > 0:
+        if cfg.run.device == "cuda":
+            raise ConfigError("A lifted gate runs on device 'cpu' only; run with --device cpu or set gate.speed = 0.")
+        from erosim.sph.boundaries.lifted_gate import LiftedGate
+
+        boundaries.append(
+            LiftedGate(cfg.gate_face(), cfg.gate_side(), cfg.domain.lo, cfg.domain.hi, cfg.sph.spacing,
+                       cfg.sph.layers(), cfg.gate.speed)
+        )  # fmt: skip
     solver = SPHSolver(
         cfg.sph,
         pos,
@@ -114,6 +124,7 @@ def build(cfg: SPHScenario) -> Built:
         obstacles=[(np.asarray(o.lo, float), np.asarray(o.hi, float)) for o in cfg.obstacles],
         fluid_vel=vel,
         seed=cfg.seed,
+        boundaries=boundaries,
     )
     return Built(solver=solver, fluid_pos=pos, info=derivation(cfg, len(pos)))
 

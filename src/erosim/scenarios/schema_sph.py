@@ -12,6 +12,7 @@
     [[probes]]       pressure probes: name, position
     [[gauges]]       water-level gauges: name, horizontal position
     [measure]        surge front on/off and its origin (the column's back wall)
+    [gate]           optional dam-break gate lifted at a constant speed (speed, x)
 
 Geometry is checked here (a fluid block outside the domain, mixed dimensions, …): each problem is
 one :class:`~erosim.core.errors.ConfigError` sentence naming the block and the fix.
@@ -79,6 +80,19 @@ class Gauge(Section):
     position: list[float] = param(..., unit="m", doc="horizontal position of the vertical gauge line (x[, y])")
 
 
+class Gate(Section):
+    speed: float = param(
+        0.0,
+        ge=0,
+        unit="m/s",
+        doc="lift the dam-break gate at this speed from t = 0 (a plate of boundary particles at gate.x; "
+        "0: no gate, the column is released at once)",
+    )
+    x: float | None = param(
+        None, unit="m", doc="the gate's face towards the water (default: the fluid's face towards the longer tank part)"
+    )
+
+
 class Measure(Section):
     front: bool = param(False, doc="record the surge front (furthest wetted x) to front.csv")
     front_origin: float | None = param(
@@ -115,6 +129,7 @@ class SPHScenario(Section):
     probes: list[Probe] = []
     gauges: list[Gauge] = []
     measure: Measure = Measure()
+    gate: Gate = Gate()
 
     @property
     def dim(self) -> int:
@@ -178,6 +193,12 @@ class SPHScenario(Section):
         for p in self.probes:
             if len(p.position) != dim:
                 raise ConfigError(f"probe '{p.name}' position has {len(p.position)} coordinates; give {dim}.")
+        if self.gate.speed > 0:
+            self.gate_side()
+            if self.sph.walls != "particles":
+                raise ConfigError(
+                    "A lifted gate is made of boundary particles; set sph.walls = 'particles' or gate.speed = 0."
+                )
         for g in self.gauges:
             if len(g.position) != dim - 1:
                 raise ConfigError(
@@ -185,3 +206,28 @@ class SPHScenario(Section):
                     "horizontal one(s) of its vertical line."
                 )
         return self
+
+    def gate_face(self) -> float:
+        """x of the gate's face: ``gate.x`` or the fluid's face towards the longer part of the tank."""
+        if self.gate.x is not None:
+            return float(self.gate.x)
+        lo_f = min(b.lo[0] for b in self.fluid)
+        hi_f = max(b.hi[0] for b in self.fluid)
+        return hi_f if self.domain.hi[0] - hi_f >= lo_f - self.domain.lo[0] else lo_f
+
+    def gate_side(self) -> int:
+        """+1 when the water stands at smaller x than the gate (the plate lies at larger x), else −1."""
+        x = self.gate_face()
+        if not self.domain.lo[0] < x < self.domain.hi[0]:
+            raise ConfigError(
+                f"gate.x = {x:g} m lies outside the domain's x range {self.domain.lo[0]:g}–{self.domain.hi[0]:g} m; "
+                "put the gate inside the tank."
+            )
+        if all(b.hi[0] <= x + 1e-12 for b in self.fluid):
+            return 1
+        if all(b.lo[0] >= x - 1e-12 for b in self.fluid):
+            return -1
+        raise ConfigError(
+            f"The gate at x = {x:g} m cuts through a fluid block; put gate.x at the column's face so all the "
+            "water starts on one side."
+        )

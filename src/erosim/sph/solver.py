@@ -225,6 +225,7 @@ class SPHSolver:
         self._density = [b.density for b in bs if b.density is not None]
         self._forces = [b.forces for b in bs if b.forces is not None]
         self._correct = [b.correct for b in bs if b.correct is not None]
+        self._moved = [b.moved for b in bs if b.moved is not None]
 
     def _workspace(self) -> None:
         """Neighbour-list buffers sized for the current particle counts (after particles come or go)."""
@@ -356,11 +357,15 @@ class SPHSolver:
         self.active = nb.transpose_boundary(nf, n, self.start, self.mid, self.nbr, self._tcount)
         st.ref[:] = src[:nf]
         self.rebuilds += 1
+        for bd in self.boundaries:
+            bd.lists_built(self)
 
     def _maybe_rebuild(self) -> None:
         integrators.max_displacement(self.state.pos, self.state.ref, self.state.n_fluid, self._disp2)
         half = 0.5 * (self.rc - self.h)
-        if float(self._disp2.max()) >= half * half:
+        # a pair's distance changes by at most the two particles' displacements: each below half the skin
+        moved = max((fn(self) for fn in self._moved), default=0.0)
+        if float(self._disp2.max()) >= half * half or moved >= half:
             self._rebuild(reorder=(self.rebuilds % self.params.reorder_every) == 0)
 
     # ------------------------------------------------------------------ sources and sinks
@@ -591,6 +596,8 @@ class SPHSolver:
         rebuilds = self.rebuilds
         src = self.state.pos.copy()
         src[: self.state.n_fluid] = self.state.ref
+        for bd in self.boundaries:
+            bd.listed_positions(self, src)
         self._rebuild(reorder=False, source=src)
         self.rebuilds = rebuilds
         self._disp2[:] = 0.0

@@ -19,6 +19,10 @@ A boundary model may
      wall-weight boundary, acts here);
   5. ``correct(solver, dt)`` after the pair pass: the corrector of its own state;
 
+* if its particles **move** (a lifted gate), say how far since the neighbour lists were last built
+  (``moved(solver)``, so the solver rebuilds them in time), hear when they are built
+  (``lists_built(solver)``) and, on resuming, put where they were then into the rebuild's positions
+  (``listed_positions(solver, src)``);
 * **refresh** itself when the terrain it represents changes (``refresh(solver, **changed)``);
 * keep **checkpoint state** (``state_dict`` / ``load_state_dict``).
 
@@ -43,6 +47,7 @@ class Boundary:
     density = None
     forces = None
     correct = None
+    moved = None
 
     def particles(self) -> np.ndarray | None:
         """Fixed particles (m, dim) to add after the fluid, or None."""
@@ -50,6 +55,12 @@ class Boundary:
 
     def bind(self, solver) -> None:
         """Called once the solver's arrays exist (before the first evaluation)."""
+
+    def lists_built(self, solver) -> None:
+        """The solver has just built its neighbour lists (moving boundaries note where they were)."""
+
+    def listed_positions(self, solver, src: np.ndarray) -> None:
+        """Resuming: write this boundary's particles into ``src`` as they were at the last list build."""
 
     def refresh(self, solver, **changed) -> None:
         """The terrain this boundary stands for has changed (``changed`` says how)."""
