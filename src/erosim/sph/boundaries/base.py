@@ -19,6 +19,8 @@ A boundary model may
      wall-weight boundary, acts here);
   5. ``correct(solver, dt)`` after the pair pass: the corrector of its own state;
 
+* bound the **time step** (``step_limit(solver) -> float``, s): the adaptive step is the smallest of
+  the solver's limits and these (e.g. the viscous limit of a more viscous mixture);
 * **refresh** itself when the terrain it represents changes (``refresh(solver, **changed)``);
 * keep **checkpoint state** (``state_dict`` / ``load_state_dict``).
 
@@ -43,6 +45,7 @@ class Boundary:
     density = None
     forces = None
     correct = None
+    step_limit = None
 
     def particles(self) -> np.ndarray | None:
         """Fixed particles (m, dim) to add after the fluid, or None."""
