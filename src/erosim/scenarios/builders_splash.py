@@ -332,6 +332,9 @@ class SplashOutputs(cb.Callback):
         change_figure(out.figures / "erosion_deposition.png", (z - g.initial)[::-1], cell, "Erosion and deposition",
                       box)  # fmt: skip
         figs = ["figures/wetness.png", "figures/erosion_deposition.png"]
+        if not self.drop:
+            vs.puddles_figure(out.figures / "puddles.png", puddles[::-1], cell, box)
+            figs.append("figures/puddles.png")
         if self.drop:
             vs.crater_profile_figure(out.figures / "crater.png", g, z)
             figs.append("figures/crater.png")
