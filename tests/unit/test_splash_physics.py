@@ -110,3 +110,23 @@ def test_mud_sinks_through_still_water_and_falls_freely_in_air():
     np.testing.assert_allclose(still[:, 2], -9.81 * (rho - 1000.0) / rho, rtol=1e-14)
     # a free-falling particle (no forces: a_water = g) falls at g whatever it carries
     np.testing.assert_allclose(mixture_acceleration(np.tile(g, (3, 1)), g, c, 1000.0, 2650.0), np.tile(g, (3, 1)))
+
+
+def test_puddles_are_the_water_standing_in_closed_hollows():
+    from types import SimpleNamespace
+
+    from erosim.scenarios.builders_splash import hollow_depth, standing_water
+
+    r = Raster(0.0, 0.0, 0.1, 0.1, 9, 9)
+    x, y = np.meshgrid(np.arange(9) * 0.1, np.arange(9) * 0.1)
+    z = 0.5 * x.copy()  # a plane sloping towards x = 0 (open: water runs off) ...
+    z[3:6, 5:8] -= 0.2  # ... with a closed hollow dug into it
+    hollows = hollow_depth(z)
+    assert hollows[4, 6] > 0 and hollows[4, 1] == 0
+    pos = np.array([[0.6, 0.4, 0.0], [0.6, 0.4, 0.01], [0.1, 0.4, 0.05]])  # two in the hollow, one on the slope
+    water = np.array([1.0, 0.25, 1.0])  # the second has given three quarters of its water to the ground
+    state = SimpleNamespace(n_fluid=3, pos=pos, water=water)
+    wet = SimpleNamespace(solver=SimpleNamespace(state=state), vp=1e-6)
+    puddles = standing_water(wet, r, hollows)
+    assert puddles[4, 6] == pytest.approx(1.25e-6 / r.cell_area, rel=1e-12)  # the water held, over the cell
+    assert puddles.sum() * r.cell_area == pytest.approx(1.25e-6, rel=1e-12)  # the slope's water is not a puddle

@@ -105,3 +105,33 @@ def test_evaporation_takes_from_the_surface_only():
     assert gone == pytest.approx(g.ncol * 1e-5 * g.area * 10.0)
     assert g.water() == pytest.approx(before - gone, rel=1e-14)
     assert np.all(g.theta[~g.surface] == 0.5)
+
+
+def test_seepage_stops_when_the_ground_below_is_saturated():
+    """A puddle over ground whose lower layers are saturated (a perched water table over the closed
+    bottom of the ground, like a less permeable layer below): the surface takes K(1 − θ)AΔt while it
+    has room; diffusion spreads the deficit through the column (the saturated layers give moisture up
+    to the drier surface), so the rate falls as the column's pore space fills, and seepage stops when
+    it is full: never more than the free pore volume goes in, and the rest of the puddle stands."""
+    g = _flat(4, 0.01, 4, saturation=1.0)
+    g.theta[g.surface] = 0.2  # only the surface layer has room: 0.8 φV per column
+    room = float(((1.0 - g.theta) * g.pore).sum())
+    w = g.weights(1e-4)
+    water = np.full(g.ncol, 2e-6)  # 2 cm³ over each column, more than its room (0.8·0.4·1 cm³)
+    contact = np.arange(g.ncol)
+    total0 = water.sum() + g.water()
+    rates = []
+    for _ in range(600):
+        taken, gained = absorb(water, contact, g.theta, g.pore, g.area, 1e-2, 1e-2)
+        water -= taken
+        g.theta += gained / g.pore
+        diffuse(g.theta, g.pore, g.i, g.j, w, 1e-2)
+        rates.append(taken.sum())
+    assert rates[0] == pytest.approx(1e-2 * 0.8 * g.area * 1e-2 * g.ncol, rel=1e-12)  # K(1 − θ)AΔt at first
+    assert np.all(np.diff(rates) <= 1e-12 * rates[0])  # it only slows down as the pores fill
+    assert rates[-1] < 1e-2 * rates[0]  # 4·10⁻³ after 6 s: nearly stopped
+    absorbed = g.ncol * 2e-6 - water.sum()
+    # 93 % of the room after 6 s (the last of it goes in ever more slowly); never more than the room
+    assert 0.9 * room < absorbed <= room * (1 + 1e-12)
+    assert g.theta.max() <= 1.0
+    assert abs(water.sum() + g.water() - total0) / total0 < 1e-12

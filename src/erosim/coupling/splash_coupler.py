@@ -39,6 +39,23 @@ Per fluid particle the registered fields are ``water`` (the share of its volume 
 state of step 1). The water budget (fluid + ground + evaporated + left through the edges) and the
 solid budget (ground lost = mud in the water + mud gone through the edges + thrown clear) close to
 rounding and are reported with their ``closure_rel``.
+
+Why not the house :class:`~erosim.coupling.coupler.Coupler`. Both make the terrain change an
+:class:`~erosim.core.increments.Increment`, check it with ``check_budget`` and apply it once, then
+refresh the solver's boundaries; but the Coupler's eroder contract is ``increments(terrain, grid,
+dt)`` over the binned :class:`~erosim.coupling.binning.FluidGrid` (its ``needs`` checked against
+``FluidGrid.FIELDS``), and this exchange is per particle, not per cell: (a) a strike's speed is the
+particle's approach speed remembered between calls (the registered ``approach``/``touching``
+fields), and several strikes may land in one cell; (b) it writes particle fields (``mud``,
+``water``) and removes spent particles through the solver's sinks; (c) after the terrain changes,
+the ground particles' columns follow their surface and only then does moisture diffuse among them,
+a step after the apply that the Coupler has no hook for; (d) the Coupler bins the whole fluid on
+every call, which this exchange does not use. Routing it through the Coupler would mean an eroder
+that holds the solver (defeating ``needs``), the porous ground made a boundary model so that its
+``refresh`` moves the columns, the solid budget mapped onto the Coupler's four terms (suspended =
+mud, carried off = thrown clear + mud gone through the edges) and a new checkpoint layout — more than
+a small change, so the exchange keeps its own callback and shares the Increment/``check_budget``
+contract instead.
 """
 
 from __future__ import annotations

@@ -47,7 +47,7 @@ LAYERS = (
     Layer("vegetation", ("vegetation",), "Vegetation (tree density)", "0–1"),
     Layer("hazard", ("hazard",), "Hazard class", "class 1–6"),
     Layer("wetness", ("wetness",), "Wetness", "0–1"),
-    Layer("puddles", ("puddles",), "Puddles (hollows' depth)", "m"),
+    Layer("puddles", ("puddles",), "Puddles (standing water)", "m"),
     Layer("speed", ("max_speed",), "Largest speed", "m/s"),
     Layer("dv", ("max_dv",), "Largest depth × speed", "m²/s"),
     Layer("arrival", ("arrival_time",), "Arrival time", "s"),

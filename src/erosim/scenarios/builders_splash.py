@@ -13,7 +13,7 @@ drop's radius; the fluid spacing is R·(4π/3)^{1/3}; the patch's cells are R/``
 the drops start one kernel support above the ground, at ``drop.speed`` downward.
 
 It leaves ``maps/`` (the DEM's grid): height.tif, height_initial.tif, erosion.tif, deposition.tif,
-wetness.tif (surface saturation θ, 0…1), puddles.tif (depth of the closed hollows water stands in),
+wetness.tif (surface saturation θ, 0…1), puddles.tif (depth of the water standing in closed hollows at the end),
 water_depth.tif, and wetness.png (16-bit: 0…65535 for θ = 0…1); ``maps/frames/`` wetness and height
 over time (``run.wetness_frames``); ``figures/`` (wetness, erosion and deposition, the wetness frames,
 a crater's profile for drop runs); particle frames with each particle's water share, mud
@@ -46,7 +46,7 @@ from erosim.scenarios.schema_splash import SplashScenario, ground_spacing
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
 from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
-from erosim.sph.mud import MudInertia
+from erosim.sph.mud import MudMixture
 
 #: the most porous ground particles a run lays (each holds about 1 kB with its diffusion pairs)
 MAX_GROUND = 2_000_000
@@ -164,7 +164,7 @@ def build_solver(cfg: SplashScenario, geo, dx: float):
     planes = terrain_kind._edge_planes(geo, cfg.edges.outflow)
     if planes is not None:
         boundaries.append(PlaneWalls(*planes))
-    boundaries.append(MudInertia(cfg.mud.solid_density))  # mud is heavier than water (sph/mud.py)
+    boundaries.append(MudMixture(cfg.mud.solid_density, cfg.mud.solid_viscosity))  # mud's mass and viscosity
     solver = SPHSolver(p, fluid, fluid_vel=vel, domain_lo=lo, domain_hi=hi, seed=cfg.seed, boundaries=boundaries)
     return solver
 
@@ -259,13 +259,32 @@ class TimedRain(Rain):
         super().__call__(sim)
 
 
-def puddle_depth(z: np.ndarray) -> np.ndarray:
+def hollow_depth(z: np.ndarray) -> np.ndarray:
     """Depth (m) of the closed hollows of ``z``: the surface filled to its spill level minus z."""
     from skimage.morphology import reconstruction
 
     seed = z.copy()
     seed[1:-1, 1:-1] = z.max()
     return reconstruction(seed, z, method="erosion") - z
+
+
+def standing_water(wet: WetGround, raster, hollows: np.ndarray) -> np.ndarray:
+    """Puddles (m): the water the fluid particles still hold (V_p times their ``water`` share) over each
+    node's cell, at the nodes of closed hollows (``hollows`` > 0) — water that stands because it
+    cannot run off; water elsewhere is on its way down the slope and not counted."""
+    st = wet.solver.state
+    nf = st.n_fluid
+    depth = np.zeros(hollows.shape)
+    if nf == 0:
+        return depth
+    pos = st.pos[:nf].astype(np.float64)
+    ix = np.floor((pos[:, 0] - raster.x0) / raster.dx + 0.5).astype(np.int64)
+    iy = np.floor((pos[:, 1] - raster.y0) / raster.dy + 0.5).astype(np.int64)
+    inside = (ix >= 0) & (ix < raster.nx) & (iy >= 0) & (iy < raster.ny)
+    vol = st.water[:nf][inside] * wet.vp
+    flat = np.bincount(iy[inside] * raster.nx + ix[inside], vol, raster.nx * raster.ny)
+    depth = flat.reshape(raster.ny, raster.nx) / raster.cell_area
+    return np.where(hollows > 0, depth, 0.0)
 
 
 class SplashOutputs(cb.Callback):
@@ -282,13 +301,14 @@ class SplashOutputs(cb.Callback):
         out, g, w = sim.out, self.geo, self.wet
         self.grid.bin(w.solver)
         z = w.terrain
+        puddles = standing_water(w, g.raster, hollow_depth(z))
         fields = {
             "height": z,
             "height_initial": g.initial,
             "erosion": np.maximum(g.initial - z, 0.0),
             "deposition": np.maximum(z - g.initial, 0.0),
             "wetness": w.wetness(),
-            "puddles": puddle_depth(z),
+            "puddles": puddles,
             "water_depth": self.grid.depth,
         }
         written = {}
@@ -312,10 +332,18 @@ class SplashOutputs(cb.Callback):
         change_figure(out.figures / "erosion_deposition.png", (z - g.initial)[::-1], cell, "Erosion and deposition",
                       box)  # fmt: skip
         figs = ["figures/wetness.png", "figures/erosion_deposition.png"]
+        if not self.drop:
+            vs.puddles_figure(out.figures / "puddles.png", puddles[::-1], cell, box)
+            figs.append("figures/puddles.png")
         if self.drop:
             vs.crater_profile_figure(out.figures / "crater.png", g, z)
             figs.append("figures/crater.png")
-        return {"outputs": {"maps": written, "figures": figs}}
+        standing = {
+            "volume_m3": float(puddles.sum() * g.raster.cell_area),
+            "area_m2": float((puddles > 0).sum() * g.raster.cell_area),
+            "max_depth_m": float(puddles.max()),
+        }
+        return {"outputs": {"maps": written, "figures": figs}, "puddles": standing}
 
 
 def crater_measure(geo, terrain: np.ndarray) -> dict[str, float]:

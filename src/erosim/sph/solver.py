@@ -226,6 +226,7 @@ class SPHSolver:
         self._forces = [b.forces for b in bs if b.forces is not None]
         self._correct = [b.correct for b in bs if b.correct is not None]
         self._moved = [b.moved for b in bs if b.moved is not None]
+        self._step_limits = [b.step_limit for b in bs if b.step_limit is not None]
 
     def _workspace(self) -> None:
         """Neighbour-list buffers sized for the current particle counts (after particles come or go)."""
@@ -438,8 +439,12 @@ class SPHSolver:
         self.amax = math.sqrt(float(self._a2.max()))
 
     def dt_limit(self) -> float:
-        """Largest stable step now: min(C h_s/(c+|v|max), C sqrt(h_s/|a|max), 0.125 h_s²/ν)."""
-        return integrators.step_limit(self.params.cfl, self.hs, self.c, self.vmax, self.amax, self.nu)
+        """Largest stable step now: min(C h_s/(c+|v|max), C sqrt(h_s/|a|max), 0.125 h_s²/ν, the boundary
+        models' own limits)."""
+        lim = integrators.step_limit(self.params.cfl, self.hs, self.c, self.vmax, self.amax, self.nu)
+        for fn in self._step_limits:
+            lim = min(lim, fn(self))
+        return lim
 
     @property
     def time(self) -> float:

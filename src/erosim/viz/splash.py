@@ -19,6 +19,14 @@ def wetness_figure(path, wetness: np.ndarray, cell_size: float, title: str, exte
     return map_figure(path, np.asarray(wetness, np.float64), cell_size, title, colorbar=bar, extent=extent)
 
 
+def puddles_figure(path, puddles: np.ndarray, cell_size: float, extent=None):
+    """The standing water's depth (mm, north-up array; blank where none stands)."""
+    depth = np.where(puddles > 0, puddles * 1e3, np.nan)
+    top = float(np.nanmax(depth)) if np.isfinite(depth).any() else 1.0
+    bar = {"cmap": "Blues", "vmin": 0.0, "vmax": top, "label": "standing water (mm)"}
+    return map_figure(path, depth, cell_size, "Puddles at the end", colorbar=bar, extent=extent)
+
+
 def wetness_frames_figure(path, frames: list[np.ndarray], times: list[float], columns: int = 4):
     """The wetness frames side by side (north up), each with its time."""
     k = len(frames)

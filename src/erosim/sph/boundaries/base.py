@@ -23,6 +23,8 @@ A boundary model may
   (``moved(solver)``, so the solver rebuilds them in time), hear when they are built
   (``lists_built(solver)``) and, on resuming, put where they were then into the rebuild's positions
   (``listed_positions(solver, src)``);
+* bound the **time step** (``step_limit(solver) -> float``, s): the adaptive step is the smallest of
+  the solver's limits and these (e.g. the viscous limit of a more viscous mixture);
 * **refresh** itself when the terrain it represents changes (``refresh(solver, **changed)``);
 * keep **checkpoint state** (``state_dict`` / ``load_state_dict``).
 
@@ -48,6 +50,7 @@ class Boundary:
     forces = None
     correct = None
     moved = None
+    step_limit = None
 
     def particles(self) -> np.ndarray | None:
         """Fixed particles (m, dim) to add after the fluid, or None."""
