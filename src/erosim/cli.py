@@ -315,6 +315,7 @@ VALIDATION_CASES = {
     "lake-at-rest": "erosim.validation.lake_at_rest:run",
     "flood-solvers": "erosim.validation.flood_solvers:run",
     "splash-wetness": "erosim.validation.splash_wetness:run",
+    "overtopping": "erosim.validation.overtopping:run",
 }
 
 

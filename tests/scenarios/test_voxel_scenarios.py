@@ -128,3 +128,15 @@ def test_bad_input_is_one_sentence_and_leaves_no_run_folder(tmp_path, sets, word
     assert code != 0
     assert words in " ".join(text.split()), text
     assert not out.exists()
+
+
+@pytest.mark.slow
+def test_validate_overtopping_default_resolution(tmp_path):
+    """The seed's observations at the library's resolution (both presets, 60 s each): see
+    erosim.validation.overtopping for the criteria."""
+    from erosim.validation.overtopping import run as validate
+
+    res = validate("default", tmp_path / "v", progress=False)
+    assert res["runs"]["partial"]["particles_inside_solid"] == 0
+    assert res["runs"]["full"]["particles_inside_solid"] == 0
+    assert res["passed"], res

@@ -12,8 +12,8 @@ Each time its schedule fires (an ``IterationInterval`` of ``erosion.every`` step
    field takes exactly the eroder's new values);
 4. refreshes every boundary of the solver (``refresh(solver, terrain=density)``: the wall's distance is
    read from the changed field and particles left inside the solid are pushed out), and adds the
-   terms to the run's budget; the first transfer's time and place (the removal-weighted centroid of
-   the nodes it lowered) is kept as the *first erosion*.
+   terms to the run's budget; the first transfer's time and place (the node it lowered most) is kept
+   as the *first erosion*.
 
 Before ``start`` (s) the coupler does nothing: a fluid laid on a lattice settles in its first moments
 (particles slide into the corners of the terrain at speeds no still reservoir has), and that motion
@@ -77,14 +77,11 @@ class VoxelCoupler:
             return
         t.density += dd  # float32 += exact float64 differences of float32 values
         if np.isnan(self.first[0]):
-            w = np.where(dd < 0, -dd, 0.0)
-            kz, ky, kx = np.nonzero(w)
-            ww = w[kz, ky, kx]
+            kz, ky, kx = np.unravel_index(int(np.argmin(dd)), dd.shape)  # the node lowered most (first in C order)
             ox, oy, oz = t.origin
             c = t.cell_size
-            self.first[:] = (float(s.t), ox + c * float((kx * ww).sum() / ww.sum()),
-                             oz + c * float((kz * ww).sum() / ww.sum()))  # fmt: skip
-            self.first_y = oy + c * float((ky * ww).sum() / ww.sum())
+            self.first[:] = (float(s.t), ox + c * kx, oz + c * kz)
+            self.first_y = oy + c * ky
         for b in s.boundaries:
             b.refresh(s, terrain=t.density, changed=changed)
 

@@ -3,7 +3,8 @@
 The terrain is a :class:`~erosim.terrain.voxel.VoxelTerrain` (a flume's floor, an optional plinth and a
 trapezoidal embankment, :mod:`erosim.terrain.voxel`) felt by the fluid through the wall-weight
 boundary :class:`~erosim.sph.boundaries.voxel_wall.VoxelWall`; the flume's side walls and upstream
-end are analytic planes; water leaving past the downstream end is removed and counted. Every
+end are analytic planes; water enters through the upstream wall (``[inflow]``); water leaving past
+the downstream end is removed and counted. Every
 ``erosion.every`` steps the :class:`~erosim.coupling.voxel_coupler.VoxelCoupler` applies the
 shear-stress erosion of :mod:`erosim.erosion.shear_stress_kristof2009` to the field.
 
@@ -16,7 +17,7 @@ A run leaves
   embankment's upstream toe, every ``run.profile_interval``; ``figures/profiles.png`` with the
   profiles every ``run.figure_interval`` (and the last);
 * ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y} of the
-  first transfer to the field, the ``budget`` (m³: eroded = carried off; pending, unmet, the field's
+  node the first transfer lowered most, the ``budget`` (m³: eroded = carried off; pending, unmet, the field's
   change, closure), ``particles_inside_solid`` (the most seen after any coupling; 0) and the timings.
 """
 
@@ -107,22 +108,21 @@ class Outflow(cb.Callback):
 
 
 class Inflow(cb.Callback):
-    """Water falling on the reservoir: a layer of particles on the rectangle ``x0…x1`` × the flume's
-    width at ``height``, moving down at Q/A, added each time the last layer has moved one spacing."""
+    """Water entering through the upstream wall (x = 0): a layer of particles at x = ½Δx over the width
+    and z = ½Δx … ``depth``, moving downstream at Q/A, added each time the last layer has moved one spacing."""
 
-    def __init__(self, solver, x0: float, x1: float, width: float, height: float, discharge: float):
+    def __init__(self, solver, width: float, depth: float, discharge: float):
         super().__init__(IterationInterval(1), name="inflow")
         dx = solver.params.spacing
-        xs = (np.arange(math.ceil(x0 / dx - 0.5), math.floor(x1 / dx - 0.5) + 1) + 0.5) * dx
         ys = (np.arange(0, math.floor(width / dx - 0.5) + 1) + 0.5) * dx
-        ys = ys[ys < width - 0.25 * dx]
-        gx, gy = np.meshgrid(xs, ys, indexing="ij")
-        self.layer = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, height)])
+        zs = (np.arange(0, math.floor(depth / dx - 0.5) + 1) + 0.5) * dx
+        gy, gz = np.meshgrid(ys[ys < width], zs[zs < depth], indexing="ij")
+        self.layer = np.column_stack([np.full(gy.size, 0.5 * dx), gy.ravel(), gz.ravel()])
         area = len(self.layer) * dx * dx
         self.speed = discharge / area
         self.period = dx / self.speed
         self.vel = np.zeros_like(self.layer)
-        self.vel[:, 2] = -self.speed
+        self.vel[:, 0] = self.speed
         self.solver = solver
         self.carry, self.last_t, self.events = 0.0, float(solver.t), 0
 
@@ -260,13 +260,16 @@ def build_solver(cfg: VoxelScenario, terrain):
                                      below=cfg.water.level)  # fmt: skip
     if len(fluid) == 0 and cfg.inflow.discharge <= 0:
         raise ConfigError("The scenario has no water: give water.level above the floor or inflow.discharge > 0.")
-    top = max([cfg.water.level] + ([cfg.inflow.height] if cfg.inflow.discharge > 0 else []))
+    top = max(cfg.water.level, cfg.inflow.depth, e.base + e.height)
     derived = {}
     if p.sound_speed <= 0:
         g = math.sqrt(sum(x * x for x in p.gravity_vector()))
         c = 10.0 * math.sqrt(2.0 * g * max(top, dx))
         p = p.model_copy(update={"sound_speed": c})
-        derived = {"sound_speed": c, "rule": "c = 10·sqrt(2 g H), H the highest water above the floor"}
+        derived = {
+            "sound_speed": c,
+            "rule": "c = 10·sqrt(2 g H), H the highest of the water level, the inflow and the crest",
+        }
     h = p.support()
     lo = [-4.0 * h, -4.0 * h, terrain.lo[2]]
     hi = [f.length + 4.0 * h, f.width + 4.0 * h, f.top + max(top, 0.5 * f.top)]
@@ -290,7 +293,7 @@ def setup(scenario, out) -> Setup:
     callbacks: list = []
     if cfg.inflow.discharge > 0:
         i = cfg.inflow
-        callbacks.append(Inflow(solver, i.x0, i.x1, cfg.terrain.width, i.height, i.discharge))
+        callbacks.append(Inflow(solver, cfg.terrain.width, i.depth if i.depth > 0 else cfg.water.level, i.discharge))
     callbacks += [Outflow(solver, cfg.terrain.length), coupler]
     inside = Inside(IterationInterval(e.every), solver, wall)
     profiles = Profiles(TimeInterval(run.profile_interval), terrain, solver, 0.5 * cfg.terrain.width,

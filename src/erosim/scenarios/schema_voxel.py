@@ -9,7 +9,7 @@
     [voxels]       cell size and the density ramp's half-width (0: the narrowest the wall allows)
     [sph]          solver parameters (erosim.sph.params.SPHParams); the walls are the field and the planes
     [water]        the reservoir at rest upstream of the embankment: its level
-    [inflow]       water added over the reservoir: discharge (m³/s) over x0…x1, dropped from ``height``
+    [inflow]       water entering through the upstream wall: discharge (m³/s) over the depth 0…depth
     [erosion]      shear-stress erosion (erosion.shear_stress_kristof2009) every ``every`` steps
     [run]          t_end, output interval (meshes, field, particle frames), profile interval and formats
 
@@ -58,10 +58,12 @@ class WaterSection(Section):
 
 
 class InflowSection(Section):
-    discharge: float = param(0.0, ge=0, unit="m3/s", doc="water added per second over the reservoir (0: none)")
-    x0: float = param(0.0, ge=0, unit="m", doc="upstream end of the area the water falls on")
-    x1: float = param(0.2, gt=0, unit="m", doc="downstream end of that area")
-    height: float = param(0.35, gt=0, unit="m", doc="height the water is released at")
+    discharge: float = param(
+        0.0, ge=0, unit="m3/s", doc="water entering through the upstream wall per second (0: none)"
+    )
+    depth: float = param(
+        0.0, ge=0, unit="m", doc="the inflow enters over z = 0…depth, across the width; 0: water.level"
+    )
 
 
 class VoxelErosion(ShearStressParams):
@@ -124,10 +126,8 @@ class VoxelScenario(Section):
             raise ConfigError(
                 f"The embankment's crest ({e.base + e.height:g} m) is above terrain.top; raise terrain.top."
             )
-        if self.inflow.discharge > 0 and not (self.inflow.x0 < self.inflow.x1 <= f.length):
-            raise ConfigError(
-                "inflow.x0 < inflow.x1 ≤ terrain.length is needed; give the inflow's area inside the flume."
-            )
+        if self.inflow.discharge > 0 and max(self.inflow.depth, self.water.level) < self.sph.spacing:
+            raise ConfigError("The inflow has no depth; give inflow.depth (m) or water.level of at least sph.spacing.")
         if self.sph.spacing > f.width / 2:
             raise ConfigError(
                 f"sph.spacing = {self.sph.spacing:g} m leaves fewer than two particles across the {f.width:g} m "
