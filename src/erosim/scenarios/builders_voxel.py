@@ -48,17 +48,40 @@ def band_for(cfg: VoxelScenario) -> float:
 
 
 def build_terrain(cfg: VoxelScenario):
-    """The flume's floor (z < 0), the plinth (z < ``embankment.base``) and the embankment as a voxel field."""
+    """The scenario's voxel field: a saved field (``terrain.voxels_file``), a heightmap with its caves, or
+    the flume's floor (z < 0), the plinth (z < ``embankment.base``) and the embankment."""
     from erosim.terrain.voxel import Box, Embankment, HalfSpace, VoxelTerrain
 
     f, e, v = cfg.terrain, cfg.embankment, cfg.voxels
     h = cfg.sph.support()
+    if f.voxels_file:
+        t = VoxelTerrain.load(f.voxels_file)
+        if t.cell_size > h:
+            raise ConfigError(
+                f"The saved field's voxels of {t.cell_size:g} m are too coarse for the particle spacing "
+                f"{cfg.sph.spacing:g} m (kernel support h = {h:g} m); use sph.spacing ≥ "
+                f"{t.cell_size / cfg.sph.h_factor:g} m."
+            )
+        return t
     if v.cell_size > h:
         raise ConfigError(
             f"Voxels of {v.cell_size:g} m are too coarse for the particle spacing {cfg.sph.spacing:g} m: the wall "
             f"distance needs cells no larger than the kernel support h = {h:g} m; set voxels.cell_size ≤ {h:g}."
         )
     band = band_for(cfg)
+    if f.shape == "heightmap":
+        from erosim.scenarios.schema_common import build_terrain as heightmap
+
+        hm = heightmap(cfg.heightmap, cfg.seed)
+        top = float(np.nanmax(hm.z)) + cfg.rain.height + band + 2 * v.cell_size
+        bottom = float(np.nanmin(hm.z)) - max(band + 2 * v.cell_size, v.depth)
+        t = VoxelTerrain.from_heightmap(hm, v.cell_size, bottom=bottom, top=top, band=band, iso=v.iso,
+                                        max_bytes=v.max_bytes)  # fmt: skip
+        c = cfg.caves
+        if c.wavelength > 0:
+            t = t.carve_caves(wavelength=c.wavelength, threshold=c.threshold, seed=cfg.seed, octaves=c.octaves,
+                              below=c.below)  # fmt: skip
+        return t
     c = v.cell_size
     shapes = [HalfSpace((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
               Embankment(e.x_toe, e.height, e.crest_width, e.upstream, e.downstream, base=e.base)]  # fmt: skip
@@ -93,18 +116,59 @@ def surface_profile(terrain, y: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 class Outflow(cb.Callback):
-    """Removes the particles past the flume's open downstream end (x > ``x_end``), every step."""
+    """Removes the particles that left the box ``lo``–``hi`` in x and y (open edges), every step."""
 
-    def __init__(self, solver, x_end: float):
+    def __init__(self, solver, lo, hi):
         super().__init__(IterationInterval(1), name="outflow")
-        self.solver, self.x_end = solver, x_end
+        self.solver, self.lo, self.hi = solver, np.asarray(lo, np.float64), np.asarray(hi, np.float64)
 
     def __call__(self, sim) -> None:
         s = self.solver
         st = s.state
-        mask = st.pos[: st.n_fluid, 0] > self.x_end
+        xy = st.pos[: st.n_fluid, :2]
+        mask = np.any((xy < self.lo) | (xy > self.hi), axis=1)
         if mask.any():
-            s.remove_fluid(mask, sink="edge:downstream")
+            s.remove_fluid(mask, sink="edge")
+
+
+class RainDrops(cb.Callback):
+    """Rain as drops of 5 particles (a centre and its four horizontal neighbours at Δx; SPEC VX-8) at
+    random places over the map at ``z``, falling at rest; the drops due at ``rate`` (mm/h) are added every
+    ``every`` steps. Places come from a generator keyed by (seed, shower), so a resumed run rains the same."""
+
+    SHAPE = np.array([[0, 0, 0], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], np.float64)
+
+    def __init__(self, schedule, solver, lo, hi, z: float, rate_mm_h: float, seed: int):
+        super().__init__(schedule, name="rain")
+        dx = solver.params.spacing
+        self.solver, self.lo, self.hi, self.z, self.seed = solver, np.asarray(lo), np.asarray(hi), z, seed
+        area = float(np.prod(self.hi - self.lo))
+        self.per_s = rate_mm_h / 3.6e6 * area / (5 * dx**3)  # drops per second
+        self.carry, self.last_t, self.events, self.drops = 0.0, float(solver.t), 0, 0
+
+    def __call__(self, sim) -> None:
+        s = self.solver
+        due = self.carry + (float(s.t) - self.last_t) * self.per_s
+        self.last_t = float(s.t)
+        n = int(due)
+        self.carry = due - n
+        if n == 0:
+            return
+        dx = s.params.spacing
+        rng = np.random.default_rng([self.seed, 0xD409, self.events])
+        self.events += 1
+        centres = np.column_stack([rng.uniform(self.lo[0] + dx, self.hi[0] - dx, n),
+                                   rng.uniform(self.lo[1] + dx, self.hi[1] - dx, n), np.full(n, self.z)])  # fmt: skip
+        pts = (centres[:, None, :] + dx * self.SHAPE[None]).reshape(-1, 3)
+        s.add_fluid(pts, np.zeros_like(pts), source="rain")
+        self.drops += n
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"carry": self.carry, "last_t": self.last_t, "events": self.events, "drops": self.drops}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.carry, self.last_t = float(state["carry"]), float(state["last_t"])
+        self.events, self.drops = int(state["events"]), int(state["drops"])
 
 
 class Inflow(cb.Callback):
@@ -190,6 +254,8 @@ class VoxelOutputs(cb.Callback):
         self.terrain, self.solver, self.out, self.cfg = terrain, solver, out, cfg
         self.count = 0
         self.last_t = -math.inf
+        self.initial = terrain.density.copy()  # the surface at the start, dashed in the sections
+        self.cfg_name = "voxel terrain"
         self.frames = cb.ParticleFrames(Schedule(), solver, out.path / "particles") if cfg.run.particle_frames else None
 
     def __call__(self, sim) -> None:
@@ -209,6 +275,11 @@ class VoxelOutputs(cb.Callback):
             self.terrain.write_vti(root / "fields" / f"density_{tag}.vti")
         if self.frames is not None:
             self.frames(sim)
+        if run.sections:
+            ref = self.terrain.like(self.initial)
+            self.terrain.cross_section(root / "figures" / f"section_{tag}.png", axis=run.section_axis,
+                                       at=run.section_at, title=f"{self.cfg_name}  t = {t:.3g} s",
+                                       reference=ref)  # fmt: skip
         self.count += 1
 
     def state_dict(self) -> dict[str, Any]:
@@ -246,37 +317,61 @@ class Inside(cb.Callback):
         self.most = int(state.get("most", 0))
 
 
+def rain_height(cfg: VoxelScenario, terrain) -> float:
+    """z at which rain drops appear: ``rain.height`` above the highest solid node of the field."""
+    solid = (terrain.density > terrain.iso).any(axis=(1, 2))
+    z_top = terrain.axes()[2][np.nonzero(solid)[0].max()] if solid.any() else terrain.lo[2]
+    return float(min(z_top + cfg.rain.height, terrain.hi[2]))
+
+
 def build_solver(cfg: VoxelScenario, terrain):
-    """The fluid (the reservoir at rest), its voxel wall and the flume's planes; c from the highest fall."""
+    """The fluid (a reservoir or lakes at rest), its voxel wall and, in a flume, the planes of its side and
+    upstream walls; the sound speed from the highest fall the water can take."""
     from erosim.sph.boundaries.planes import PlaneWalls
     from erosim.sph.boundaries.voxel_wall import VoxelWall
     from erosim.sph.solver import SPHSolver
 
     p, f, e = cfg.sph, cfg.terrain, cfg.embankment
     dx = p.spacing
+    flume = f.shape == "flume"
+    level = cfg.water.level
     fluid = np.zeros((0, 3))
-    if cfg.water.level > 0:
-        fluid = terrain.fluid_points(dx, lo=(0.0, 0.0, 0.0), hi=(e.x_toe + e.height * e.upstream, f.width, f.top),
-                                     below=cfg.water.level)  # fmt: skip
-    if len(fluid) == 0 and cfg.inflow.discharge <= 0:
-        raise ConfigError("The scenario has no water: give water.level above the floor or inflow.discharge > 0.")
-    top = max(cfg.water.level, cfg.inflow.depth, e.base + e.height)
+    if level is not None:
+        if flume:
+            fluid = terrain.fluid_points(dx, lo=(0.0, 0.0, 0.0), hi=(e.x_toe + e.height * e.upstream, f.width, f.top),
+                                         below=level)  # fmt: skip
+        else:
+            fluid = terrain.fluid_points(dx, below=level)
+    if flume:
+        if len(fluid) == 0 and cfg.inflow.discharge <= 0:
+            raise ConfigError("The scenario has no water: give water.level above the floor or inflow.discharge > 0.")
+        top, floor = max(level or 0.0, cfg.inflow.depth, e.base + e.height), 0.0
+        what = "the water level, the inflow and the crest above the floor"
+    else:
+        if len(fluid) == 0 and cfg.rain.rate <= 0:
+            raise ConfigError("The scenario has no water: give water.level above some ground or rain.rate > 0.")
+        top = max([float(fluid[:, 2].max()) if len(fluid) else -np.inf]
+                  + ([rain_height(cfg, terrain)] if cfg.rain.rate > 0 else []))  # fmt: skip
+        floor = float(terrain.lo[2])
+        what = "the highest water or rain drop above the field's bottom"
     derived = {}
     if p.sound_speed <= 0:
         g = math.sqrt(sum(x * x for x in p.gravity_vector()))
-        c = 10.0 * math.sqrt(2.0 * g * max(top, dx))
+        c = 10.0 * math.sqrt(2.0 * g * max(top - floor, dx))
         p = p.model_copy(update={"sound_speed": c})
-        derived = {
-            "sound_speed": c,
-            "rule": "c = 10·sqrt(2 g H), H the highest of the water level, the inflow and the crest",
-        }
+        derived = {"sound_speed": c, "rule": f"c = 10·sqrt(2 g H), H from {what}"}
     h = p.support()
-    lo = [-4.0 * h, -4.0 * h, terrain.lo[2]]
-    hi = [f.length + 4.0 * h, f.width + 4.0 * h, f.top + max(top, 0.5 * f.top)]
-    walls = PlaneWalls([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, f.width, 0.0]],
-                       [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0]])  # fmt: skip
+    if flume:
+        lo = [-4.0 * h, -4.0 * h, terrain.lo[2]]
+        hi = [f.length + 4.0 * h, f.width + 4.0 * h, f.top + max(top, 0.5 * f.top)]
+        planes = [PlaneWalls([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, f.width, 0.0]],
+                             [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0]])]  # fmt: skip
+    else:
+        lo = [terrain.lo[0] - 4.0 * h, terrain.lo[1] - 4.0 * h, terrain.lo[2]]
+        hi = [terrain.hi[0] + 4.0 * h, terrain.hi[1] + 4.0 * h, max(terrain.hi[2], top) + 10.0 * h]
+        planes = []
     wall = VoxelWall(terrain)
-    solver = SPHSolver(p, fluid, domain_lo=lo, domain_hi=hi, seed=cfg.seed, boundaries=[wall, walls])
+    solver = SPHSolver(p, fluid, domain_lo=lo, domain_hi=hi, seed=cfg.seed, boundaries=[wall, *planes])
     return solver, wall, derived
 
 
@@ -294,15 +389,26 @@ def setup(scenario, out) -> Setup:
     if cfg.inflow.discharge > 0:
         i = cfg.inflow
         callbacks.append(Inflow(solver, cfg.terrain.width, i.depth if i.depth > 0 else cfg.water.level, i.discharge))
-    callbacks += [Outflow(solver, cfg.terrain.length), coupler]
+    flume = cfg.terrain.shape == "flume"
+    if flume:
+        callbacks.append(Outflow(solver, (-np.inf, -np.inf), (cfg.terrain.length, np.inf)))
+    else:
+        callbacks.append(Outflow(solver, terrain.lo[:2], terrain.hi[:2]))
+        if cfg.rain.rate > 0:
+            callbacks.append(RainDrops(IterationInterval(cfg.rain.every), solver, terrain.lo[:2], terrain.hi[:2],
+                                       rain_height(cfg, terrain), cfg.rain.rate, cfg.seed))  # fmt: skip
+    callbacks.append(coupler)
     inside = Inside(IterationInterval(e.every), solver, wall)
-    profiles = Profiles(TimeInterval(run.profile_interval), terrain, solver, 0.5 * cfg.terrain.width,
-                        cfg.embankment.x_toe, out.path / "profiles.csv")  # fmt: skip
+    x0 = cfg.embankment.x_toe if flume else 0.0
+    y_mid = 0.5 * cfg.terrain.width if flume else 0.5 * (terrain.lo[1] + terrain.hi[1])
+    profiles = Profiles(TimeInterval(run.profile_interval), terrain, solver, y_mid, x0,
+                        out.path / "profiles.csv")  # fmt: skip
     outputs = VoxelOutputs(TimeInterval(run.output_interval if run.output_interval > 0 else run.t_end), terrain,
                            solver, out, cfg)  # fmt: skip
     profiles.figure = lambda p: _profile_figure(cfg, p, out)
+    outputs.cfg_name = scenario.name
     callbacks += [inside, profiles, outputs]
-    report_fn = _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, out)
+    report_fn = _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x0, flume)
 
     def summary(sim, rep: dict) -> dict[str, Any]:
         return {
@@ -322,7 +428,7 @@ def setup(scenario, out) -> Setup:
     )  # fmt: skip
 
 
-def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, out):
+def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x0, flume):
     def report(sim) -> dict[str, Any]:
         from erosim.terrain.voxel import memory_bytes
 
@@ -340,8 +446,9 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
             "resolution": {"spacing": cfg.sph.spacing, "support_h": solver.h, **derived},
             "eroded_volume_m3": coupler.totals["eroded"],
             "first_erosion": None if math.isnan(first[0]) else {
-                "t": float(first[0]), "x": float(first[1]) - cfg.embankment.x_toe, "z": float(first[2]),
-                "y": float(coupler.first_y), "x_frame": "from the embankment's upstream toe"},
+                "t": float(first[0]), "x": float(first[1]) - x0, "z": float(first[2]),
+                "y": float(coupler.first_y), "x_frame": "from the embankment's upstream toe" if flume else
+                "the terrain's frame (m from its south-west node)"},
             "budget": coupler.budget(),
             "particles_inside_solid": max(inside.most, solver.n_fluid and wall_inside(solver)),
             "timings": {

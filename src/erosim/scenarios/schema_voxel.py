@@ -3,8 +3,12 @@
 ::
 
     seed = 1
-    [terrain]      shape = "flume" (the only shape so far): a flat flume floor at z = 0, side walls at
-                   y = 0 and y = width, an upstream wall at x = 0, open downstream at x = length
+    [terrain]      shape = "flume": a flat flume floor at z = 0, side walls at y = 0 and y = width, an
+                   upstream wall at x = 0, open downstream at x = length; or "heightmap": [heightmap]
+                   (a generated terrain or a DEM, schema_common.TerrainSection) as voxels, open edges;
+                   voxels_file: start from a saved field instead
+    [caves]        noise caves carved into the heightmap (wavelength, threshold, below)
+    [rain]         rain on the heightmap as drops of 5 particles (rate mm/h)
     [embankment]   a trapezoid across the flume (erosim.terrain.voxel.Embankment): toe, height, crest, slopes
     [voxels]       cell size and the density ramp's half-width (0: the narrowest the wall allows)
     [sph]          solver parameters (erosim.sph.params.SPHParams); the walls are the field and the planes
@@ -26,11 +30,16 @@ from pydantic import Field, model_validator
 from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.erosion.shear_stress_kristof2009 import ShearStressParams
+from erosim.scenarios.schema_common import TerrainSection
 from erosim.sph.params import SPHParams
 
 
 class FlumeSection(Section):
-    shape: Literal["flume"] = param("flume", doc="the terrain: 'flume' (a floor, side walls, an embankment)")
+    shape: Literal["flume", "heightmap"] = param(
+        "flume", doc="the terrain: 'flume' (a floor, side walls, an embankment) or 'heightmap' ([heightmap] as voxels)"
+    )
+    voxels_file: str | None = param(None, doc="start from this saved density field (.npz of a run's fields/), e.g. "
+                                    "the end of an earlier run")  # fmt: skip
     length: float = param(1.6, gt=0, unit="m", doc="flume length (x); the downstream end is open")
     width: float = param(0.12, gt=0, unit="m", doc="flume width (y) between its side walls")
     top: float = param(0.5, gt=0, unit="m", doc="height of the voxel grid above the floor")
@@ -49,12 +58,28 @@ class VoxelsSection(Section):
     cell_size: float = param(0.02, gt=0, unit="m", doc="voxel size Δ (no larger than the kernel support h)")
     band: float = param(0.0, ge=0, unit="m", doc="density ramp half-width; 0 = h + √3Δ plus 5 % (the least the "
                         "wall-weight distance needs)")  # fmt: skip
+    depth: float = param(0.0, ge=0, unit="m", doc="a heightmap's field reaches at least this far below its lowest "
+                         "ground (room for caves); 0: the ramp and two cells")  # fmt: skip
     iso: float = param(0.5, unit="1", doc="iso level of the surface in the density range (0 air, 1 solid)")
     max_bytes: int = param(4 << 30, gt=0, unit="B", doc="refuse a field larger than this in memory")
 
 
+class CavesSection(Section):
+    wavelength: float = param(0.0, ge=0, unit="m", doc="size of the noise caves carved into a heightmap (0: none)")
+    threshold: float = param(0.3, unit="1", doc="caves where the 3-D noise exceeds this (higher: fewer caves)")
+    below: float | None = param(None, unit="m", doc="caves only under this height (none: anywhere)")
+    octaves: int = param(3, ge=1, le=8, unit="1", doc="noise octaves")
+
+
+class RainSection(Section):
+    rate: float = param(0.0, ge=0, unit="mm/h", doc="rain intensity over the whole map (0: none)")
+    height: float = param(1.0, ge=0, unit="m", doc="drops appear this high above the highest ground")
+    every: int = param(20, ge=1, unit="steps", doc="SPH steps between two showers (the rain due is added then)")
+
+
 class WaterSection(Section):
-    level: float = param(0.15, ge=0, unit="m", doc="initial reservoir level above the floor (0: none)")
+    level: float | None = param(None, unit="m", doc="initial water level: the flume's reservoir, or every hollow "
+                                "of a heightmap below it (none: no water at the start)")  # fmt: skip
 
 
 class InflowSection(Section):
@@ -80,6 +105,10 @@ class VoxelRun(Section):
     meshes: list[Literal["obj", "ply", "glb"]] = param(["glb"], doc="surface mesh formats written per output time")
     field_format: Literal["npz", "vti"] = param("npz", doc="density field format per output time")
     particle_frames: bool = param(True, doc="particle frames (.vtp) per output time")
+    sections: bool = param(False, doc="a cross-section figure per output time (figures/section_NNNN.png), the "
+                           "surface at the start of the run dashed")  # fmt: skip
+    section_axis: Literal["x", "y"] = param("y", doc="the section's plane is across this axis")
+    section_at: float | None = param(None, unit="m", doc="where along that axis (none: the middle)")
     checkpoint_wall_s: float = param(300.0, gt=0, unit="s", doc="wall-clock time between checkpoints")
 
 
@@ -87,6 +116,11 @@ class VoxelScenario(Section):
     seed: int = param(1, ge=0, doc="random seed")
     terrain: FlumeSection = Field(default_factory=FlumeSection)
     embankment: EmbankmentSection = Field(default_factory=EmbankmentSection)
+    heightmap: TerrainSection = Field(
+        default_factory=lambda: TerrainSection(preset="mountains", size=32, cell_size=1.0)
+    )
+    caves: CavesSection = Field(default_factory=CavesSection)
+    rain: RainSection = Field(default_factory=RainSection)
     voxels: VoxelsSection = Field(default_factory=VoxelsSection)
     sph: SPHParams = Field(default_factory=lambda: SPHParams(dim=3, walls="reflect", spacing=0.02))
     water: WaterSection = Field(default_factory=WaterSection)
@@ -116,6 +150,10 @@ class VoxelScenario(Section):
                 "In voxel scenarios the terrain and the flume's planes are the walls; leave sph.walls out."
             )
         f, e = self.terrain, self.embankment
+        if f.shape == "heightmap":
+            if self.inflow.discharge > 0:
+                raise ConfigError("[inflow] enters a flume's upstream wall; on a heightmap use [rain] or water.level.")
+            return self
         heel = e.x_toe + e.height * (e.upstream + e.downstream) + e.crest_width
         if heel >= f.length:
             raise ConfigError(
@@ -126,7 +164,7 @@ class VoxelScenario(Section):
             raise ConfigError(
                 f"The embankment's crest ({e.base + e.height:g} m) is above terrain.top; raise terrain.top."
             )
-        if self.inflow.discharge > 0 and max(self.inflow.depth, self.water.level) < self.sph.spacing:
+        if self.inflow.discharge > 0 and max(self.inflow.depth, self.water.level or 0.0) < self.sph.spacing:
             raise ConfigError("The inflow has no depth; give inflow.depth (m) or water.level of at least sph.spacing.")
         if self.sph.spacing > f.width / 2:
             raise ConfigError(
