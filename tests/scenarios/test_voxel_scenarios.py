@@ -35,7 +35,40 @@ def _sets(items):
 
 def test_every_voxel_scenario_has_a_case():
     names = {n for n in loader.library_names() if loader.read_toml(loader.LIBRARY / f"{n}.toml")["kind"] == "voxel"}
-    assert names == {"overtopping"}
+    assert names == {"overtopping", "mountain-lake", "canyon-caves"}
+
+
+def test_mountain_lake_turns_any_dem_into_voxels_and_refuses_one_too_large(tmp_path):
+    from erosim.scenarios.builders_voxel import build_terrain, surface_profile
+
+    yy, xx = np.mgrid[0:9, 0:12]
+    dem = 2.0 + 0.25 * xx + 0.1 * yy  # a tilted plane, heights in metres, 1 m cells (.npy)
+    np.save(tmp_path / "dem.npy", dem)
+    sc = loader.load("mountain-lake", [f"heightmap.file={tmp_path / 'dem.npy'}", "heightmap.cell_size=1.0"])
+    t = build_terrain(sc.config)
+    assert t.shape[1:] == (17, 23)  # 0.5 m voxels over 8 m x 11 m
+    # the surface along a row is the DEM's plane (row 0 of the map is north: y = 8 m is its first row);
+    # exact on a plane to float32 rounding of the ramp, well inside a voxel
+    x, z = surface_profile(t, 4.0)
+    assert np.allclose(z, 2.0 + 0.25 * x + 0.1 * (8 - 4.0), atol=1e-3)
+    code, text = _cli("run", "mountain-lake", "--out", str(tmp_path / "big"), "--set",
+                      f"heightmap.file={tmp_path / 'dem.npy'}", "--set", "voxels.max_bytes=20000")  # fmt: skip
+    assert code != 0 and "use voxels of at least" in " ".join(text.split()), text
+    assert not (tmp_path / "big").exists()
+
+
+def test_canyon_caves_are_carved_only_under_their_height():
+    from erosim.scenarios.builders_voxel import build_terrain
+
+    with_caves = build_terrain(loader.load("canyon-caves").config)
+    without = build_terrain(loader.load("canyon-caves", ["caves.wavelength=0"]).config)
+    below = loader.load("canyon-caves").config.caves.below
+    z = with_caves.axes()[2]
+    changed = np.any(with_caves.density != without.density, axis=(1, 2))
+    assert changed.any()  # caves were carved
+    # no node higher than `below` plus the ramp's half-width changed (the intersection's ramp reaches b up)
+    assert z[changed].max() <= below + with_caves.band + 1e-9
+    assert with_caves.solid_volume() < without.solid_volume()
 
 
 def test_overtopping_runs_and_writes_its_outputs(tmp_path):
