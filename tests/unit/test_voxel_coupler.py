@@ -111,3 +111,15 @@ def test_crest_life_is_the_first_profile_lowered_by_the_fraction():
     prof = np.concatenate(rows)
     assert crest_life(prof, 0.25, 0.2, 60.0) == (40.0, True)  # 0.14 < 0.2 − 0.05
     assert crest_life(prof, 0.9, 0.2, 60.0) == (60.0, False)  # never below 0.02: lasted the run
+
+
+def test_bench_voxel_reports_its_keys():
+    from erosim.bench.voxel import run
+
+    res = run(particles=1000, steps=60, every=20, warmup=2)
+    assert res["particles"] > 900 and res["steps"] == 60
+    for key in ("particle_steps_per_s", "boundary_fraction", "erosion_fraction"):
+        assert np.isfinite(res[key])
+    assert res["particle_steps_per_s"] > 0
+    assert res["boundary_particles"]["voxel"] == 0 and res["boundary_particles"]["box"] > 0
+    assert res["eroded_m3"] > 0  # τ_c = 0: the sloshing water erodes the tank

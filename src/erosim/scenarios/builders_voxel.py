@@ -3,7 +3,7 @@
 The terrain is a :class:`~erosim.terrain.voxel.VoxelTerrain` (a flume's floor, an optional plinth and a
 trapezoidal embankment, :mod:`erosim.terrain.voxel`) felt by the fluid through the wall-weight
 boundary :class:`~erosim.sph.boundaries.voxel_wall.VoxelWall`; the flume's side walls and upstream
-end are analytic planes; water enters through the upstream wall (``[inflow]``); water leaving past
+end are analytic planes; water is poured on the reservoir (``[inflow]``); water leaving past
 the downstream end is removed and counted. Every
 ``erosion.every`` steps the :class:`~erosim.coupling.voxel_coupler.VoxelCoupler` applies the
 shear-stress erosion of :mod:`erosim.erosion.shear_stress_kristof2009` to the field.
@@ -172,21 +172,22 @@ class RainDrops(cb.Callback):
 
 
 class Inflow(cb.Callback):
-    """Water entering through the upstream wall (x = 0): a layer of particles at x = ½Δx over the width
-    and z = ½Δx … ``depth``, moving downstream at Q/A, added each time the last layer has moved one spacing."""
+    """Water poured on the reservoir: a layer of particles on the rectangle ``x0…x1`` × the flume's width at
+    ``height``, moving down at Q/A, added each time the last layer has moved one spacing (a layer always
+    enters free space above the water, so new particles never overlap the fluid)."""
 
-    def __init__(self, solver, width: float, depth: float, discharge: float):
+    def __init__(self, solver, x0: float, x1: float, width: float, height: float, discharge: float):
         super().__init__(IterationInterval(1), name="inflow")
         dx = solver.params.spacing
+        xs = (np.arange(math.ceil(x0 / dx - 0.5), math.floor(x1 / dx - 0.5) + 1) + 0.5) * dx
         ys = (np.arange(0, math.floor(width / dx - 0.5) + 1) + 0.5) * dx
-        zs = (np.arange(0, math.floor(depth / dx - 0.5) + 1) + 0.5) * dx
-        gy, gz = np.meshgrid(ys[ys < width], zs[zs < depth], indexing="ij")
-        self.layer = np.column_stack([np.full(gy.size, 0.5 * dx), gy.ravel(), gz.ravel()])
+        gx, gy = np.meshgrid(xs[xs < x1], ys[ys < width], indexing="ij")
+        self.layer = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, height)])
         area = len(self.layer) * dx * dx
         self.speed = discharge / area
         self.period = dx / self.speed
         self.vel = np.zeros_like(self.layer)
-        self.vel[:, 0] = self.speed
+        self.vel[:, 2] = -self.speed
         self.solver = solver
         self.carry, self.last_t, self.events = 0.0, float(solver.t), 0
 
@@ -345,7 +346,7 @@ def build_solver(cfg: VoxelScenario, terrain):
     if flume:
         if len(fluid) == 0 and cfg.inflow.discharge <= 0:
             raise ConfigError("The scenario has no water: give water.level above the floor or inflow.discharge > 0.")
-        top, floor = max(level or 0.0, cfg.inflow.depth, e.base + e.height), 0.0
+        top, floor = max(level or 0.0, cfg.inflow.height if cfg.inflow.discharge > 0 else 0.0, e.base + e.height), 0.0
         what = "the water level, the inflow and the crest above the floor"
     else:
         if len(fluid) == 0 and cfg.rain.rate <= 0:
@@ -388,7 +389,7 @@ def setup(scenario, out) -> Setup:
     callbacks: list = []
     if cfg.inflow.discharge > 0:
         i = cfg.inflow
-        callbacks.append(Inflow(solver, cfg.terrain.width, i.depth if i.depth > 0 else cfg.water.level, i.discharge))
+        callbacks.append(Inflow(solver, i.x0, i.x1, cfg.terrain.width, i.height, i.discharge))
     flume = cfg.terrain.shape == "flume"
     if flume:
         callbacks.append(Outflow(solver, (-np.inf, -np.inf), (cfg.terrain.length, np.inf)))

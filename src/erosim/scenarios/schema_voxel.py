@@ -13,7 +13,7 @@
     [voxels]       cell size and the density ramp's half-width (0: the narrowest the wall allows)
     [sph]          solver parameters (erosim.sph.params.SPHParams); the walls are the field and the planes
     [water]        the reservoir at rest upstream of the embankment: its level
-    [inflow]       water entering through the upstream wall: discharge (m³/s) over the depth 0…depth
+    [inflow]       water poured on the reservoir: discharge (m³/s) over x0…x1, released at ``height``
     [erosion]      shear-stress erosion (erosion.shear_stress_kristof2009) every ``every`` steps
     [run]          t_end, output interval (meshes, field, particle frames), profile interval and formats
 
@@ -83,12 +83,10 @@ class WaterSection(Section):
 
 
 class InflowSection(Section):
-    discharge: float = param(
-        0.0, ge=0, unit="m3/s", doc="water entering through the upstream wall per second (0: none)"
-    )
-    depth: float = param(
-        0.0, ge=0, unit="m", doc="the inflow enters over z = 0…depth, across the width; 0: water.level"
-    )
+    discharge: float = param(0.0, ge=0, unit="m3/s", doc="water poured on the reservoir per second (0: none)")
+    x0: float = param(0.0, ge=0, unit="m", doc="upstream end of the area it is poured on")
+    x1: float = param(0.2, gt=0, unit="m", doc="downstream end of that area")
+    height: float = param(0.3, gt=0, unit="m", doc="height it is released at (above the water: it falls on it)")
 
 
 class VoxelErosion(ShearStressParams):
@@ -164,8 +162,11 @@ class VoxelScenario(Section):
             raise ConfigError(
                 f"The embankment's crest ({e.base + e.height:g} m) is above terrain.top; raise terrain.top."
             )
-        if self.inflow.discharge > 0 and max(self.inflow.depth, self.water.level or 0.0) < self.sph.spacing:
-            raise ConfigError("The inflow has no depth; give inflow.depth (m) or water.level of at least sph.spacing.")
+        i = self.inflow
+        if i.discharge > 0 and not (i.x0 < i.x1 <= e.x_toe):
+            raise ConfigError(
+                "The inflow's area must lie upstream of the embankment: give inflow.x0 < inflow.x1 ≤ embankment.x_toe."
+            )
         if self.sph.spacing > f.width / 2:
             raise ConfigError(
                 f"sph.spacing = {self.sph.spacing:g} m leaves fewer than two particles across the {f.width:g} m "
