@@ -44,7 +44,7 @@ def test_mountain_lake_turns_any_dem_into_voxels_and_refuses_one_too_large(tmp_p
     yy, xx = np.mgrid[0:9, 0:12]
     dem = 2.0 + 0.25 * xx + 0.1 * yy  # a tilted plane, heights in metres, 1 m cells (.npy)
     np.save(tmp_path / "dem.npy", dem)
-    sc = loader.load("mountain-lake", [f"heightmap.file={tmp_path / 'dem.npy'}", "heightmap.cell_size=1.0"])
+    sc = loader.load("mountain-lake", [f"terrain.file={tmp_path / 'dem.npy'}"])  # a .npy DEM: 1 m cells
     t = build_terrain(sc.config)
     assert t.shape[1:] == (17, 23)  # 0.5 m voxels over 8 m x 11 m
     # the surface along a row is the DEM's plane (row 0 of the map is north: y = 8 m is its first row);
@@ -52,7 +52,7 @@ def test_mountain_lake_turns_any_dem_into_voxels_and_refuses_one_too_large(tmp_p
     x, z = surface_profile(t, 4.0)
     assert np.allclose(z, 2.0 + 0.25 * x + 0.1 * (8 - 4.0), atol=1e-3)
     code, text = _cli("run", "mountain-lake", "--out", str(tmp_path / "big"), "--set",
-                      f"heightmap.file={tmp_path / 'dem.npy'}", "--set", "voxels.max_bytes=20000")  # fmt: skip
+                      f"terrain.file={tmp_path / 'dem.npy'}", "--set", "voxels.max_bytes=20000")  # fmt: skip
     assert code != 0 and "use voxels of at least" in " ".join(text.split()), text
     assert not (tmp_path / "big").exists()
 

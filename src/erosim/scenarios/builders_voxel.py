@@ -72,7 +72,7 @@ def build_terrain(cfg: VoxelScenario):
     if f.shape == "heightmap":
         from erosim.scenarios.schema_common import build_terrain as heightmap
 
-        hm = heightmap(cfg.heightmap, cfg.seed)
+        hm = heightmap(cfg.terrain, cfg.seed)
         top = float(np.nanmax(hm.z)) + cfg.rain.height + band + 2 * v.cell_size
         bottom = float(np.nanmin(hm.z)) - max(band + 2 * v.cell_size, v.depth)
         t = VoxelTerrain.from_heightmap(hm, v.cell_size, bottom=bottom, top=top, band=band, iso=v.iso,

@@ -4,8 +4,8 @@
 
     seed = 1
     [terrain]      shape = "flume": a flat flume floor at z = 0, side walls at y = 0 and y = width, an
-                   upstream wall at x = 0, open downstream at x = length; or "heightmap": [heightmap]
-                   (a generated terrain or a DEM, schema_common.TerrainSection) as voxels, open edges;
+                   upstream wall at x = 0, open downstream at x = length; or "heightmap": the rest of
+                   [terrain] (a generated terrain or a DEM: schema_common.TerrainSection) as voxels, open edges;
                    voxels_file: start from a saved field instead
     [caves]        noise caves carved into the heightmap (wavelength, threshold, below)
     [rain]         rain on the heightmap as drops of 5 particles (rate mm/h)
@@ -34,7 +34,10 @@ from erosim.scenarios.schema_common import TerrainSection
 from erosim.sph.params import SPHParams
 
 
-class FlumeSection(Section):
+class VoxelTerrainSection(TerrainSection):
+    """The terrain: a flume, or a heightmap (the fields of schema_common.TerrainSection: a generated
+    terrain or ``file``, any DEM the project reads) as voxels."""
+
     shape: Literal["flume", "heightmap"] = param(
         "flume", doc="the terrain: 'flume' (a floor, side walls, an embankment) or 'heightmap' ([heightmap] as voxels)"
     )
@@ -112,7 +115,9 @@ class VoxelRun(Section):
 
 class VoxelScenario(Section):
     seed: int = param(1, ge=0, doc="random seed")
-    terrain: FlumeSection = Field(default_factory=FlumeSection)
+    terrain: VoxelTerrainSection = Field(
+        default_factory=lambda: VoxelTerrainSection(preset="mountains", size=32, cell_size=1.0)
+    )
     embankment: EmbankmentSection = Field(default_factory=EmbankmentSection)
     heightmap: TerrainSection = Field(
         default_factory=lambda: TerrainSection(preset="mountains", size=32, cell_size=1.0)
