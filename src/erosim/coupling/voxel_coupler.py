@@ -12,8 +12,9 @@ Each time its schedule fires (an ``IterationInterval`` of ``erosion.every`` step
    field takes exactly the eroder's new values);
 4. refreshes every boundary of the solver (``refresh(solver, terrain=density)``: the wall's distance is
    read from the changed field and particles left inside the solid are pushed out), and adds the
-   terms to the run's budget; the first transfer's time and place (the node it lowered most) is kept
-   as the *first erosion*.
+   terms to the run's budget. The *first erosion* is the time and place of the first transfer that
+   lowers a solid node (density above the iso level; the node it lowers most): the ramp's nodes on the
+   air side hold material too and are eroded by the same law, but their loss only steepens the ramp.
 
 Before ``start`` (s) the coupler does nothing: a fluid laid on a lattice settles in its first moments
 (particles slide into the corners of the terrain at speeds no still reservoir has), and that motion
@@ -75,13 +76,15 @@ class VoxelCoupler:
         changed = dd != 0
         if not changed.any():
             return
-        t.density += dd  # float32 += exact float64 differences of float32 values
         if np.isnan(self.first[0]):
-            kz, ky, kx = np.unravel_index(int(np.argmin(dd)), dd.shape)  # the node lowered most (first in C order)
-            ox, oy, oz = t.origin
-            c = t.cell_size
-            self.first[:] = (float(s.t), ox + c * kx, oz + c * kz)
-            self.first_y = oy + c * ky
+            lowered = np.where((dd < 0) & (t.density > t.iso), dd, 0.0)  # solid nodes (above the iso level) only
+            if lowered.any():
+                kz, ky, kx = np.unravel_index(int(np.argmin(lowered)), dd.shape)  # lowered most (first in C order)
+                ox, oy, oz = t.origin
+                c = t.cell_size
+                self.first[:] = (float(s.t), ox + c * kx, oz + c * kz)
+                self.first_y = oy + c * ky
+        t.density += dd  # float32 += exact float64 differences of float32 values
         for b in s.boundaries:
             b.refresh(s, terrain=t.density, changed=changed)
 

@@ -17,7 +17,7 @@ A run leaves
   embankment's upstream toe, every ``run.profile_interval``; ``figures/profiles.png`` with the
   profiles every ``run.figure_interval`` (and the last);
 * ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y} of the
-  node the first transfer lowered most, the ``budget`` (m³: eroded = carried off; pending, unmet, the field's
+  solid node the first transfer to lower one lowered most, the ``budget`` (m³: eroded = carried off; pending, unmet, the field's
   change, closure), ``particles_inside_solid`` (the most seen after any coupling; 0) and the timings.
 """
 
