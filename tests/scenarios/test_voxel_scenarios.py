@@ -173,3 +173,23 @@ def test_validate_overtopping_default_resolution(tmp_path):
     assert res["runs"]["partial"]["particles_inside_solid"] == 0
     assert res["runs"]["full"]["particles_inside_solid"] == 0
     assert res["passed"], res
+
+
+def test_canyon_caves_second_run_starts_from_the_first_runs_field(tmp_path):
+    sets = ["terrain.size=12", "run.t_end=0.6", "run.output_interval=0.3", "erosion.start=0.05",
+            "run.particle_frames=false", "rain.height=0.5"]  # fmt: skip
+    first, second = tmp_path / "first", tmp_path / "second"
+    code, text = _cli("run", "canyon-caves", "--out", str(first), *_sets(sets))
+    assert code == 0, text
+    end = first / "fields" / "density_0002.npz"
+    code, text = _cli("run", "canyon-caves", "--out", str(second), *_sets(sets + [f"terrain.voxels_file={end}"]))
+    assert code == 0, text
+    a = VoxelTerrain.load(end)
+    b = VoxelTerrain.load(second / "fields" / "density_0000.npz")
+    assert np.array_equal(a.density, b.density) and a.cell_size == b.cell_size and a.origin == b.origin
+    for run in (first, second):
+        assert all((run / "figures" / f"section_{k:04d}.png").stat().st_size > 0 for k in range(3))
+        rep = json.loads((run / "report.json").read_text())
+        assert rep["particles_inside_solid"] == 0
+        assert rep["water"]["added"].get("rain", 0) > 0  # drops of 5 particles
+        assert rep["water"]["added"]["rain"] % 5 == 0
