@@ -15,11 +15,13 @@ A run leaves
   (``run.field_format``) per output time (every ``run.output_interval``, and at the start and end),
   ``particles/`` frames at the same times (``run.particle_frames``);
 * ``profiles.csv`` (``t,x,z``): the surface height z along the flume's centre line, x from the
-  embankment's upstream toe (a heightmap: along the middle row, x in the terrain's frame), every ``run.profile_interval``; ``figures/profiles.png`` with the
-  profiles every ``run.figure_interval`` (and the last);
+  embankment's upstream toe (a heightmap: along the middle row, x in the terrain's frame), every
+  ``run.profile_interval``; ``figures/profiles.png`` with the profiles every ``run.figure_interval``
+  (and the last);
 * ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y} of the
   solid node the first transfer to lower one lowered most, the ``budget`` (m³: eroded = carried off;
-  pending, unmet, the field's change, closure), ``particles_inside_solid`` (the most seen after any coupling; 0) and the timings.
+  pending, unmet, the field's change, closure), ``particles_inside_solid`` (the most seen after any
+  coupling; 0) and the timings.
 """
 
 from __future__ import annotations
