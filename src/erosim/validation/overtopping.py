@@ -14,8 +14,8 @@ reproduces, and the criteria checked here:
   the centre line's highest point has dropped by more than ``DROP``·H (a run whose crest stands to the
   end has lived at least ``t_end``); passed when partial's life exceeds full's.
 
-Resolutions: ``coarse`` (4 cm particles and voxels, 20 s), ``default`` (the library's 4 cm, 60 s),
-``fine`` (2 cm, 60 s). Writes ``figures/profiles_partial.png`` and ``profiles_full.png`` (the
+Resolutions: ``coarse`` (the library's 4 cm particles and voxels, 20 s), ``default`` (2 cm, 60 s:
+at 4 cm the ``partial`` preset's τ_c is never exceeded, docs/voxel.md), ``fine`` (1.5 cm, 60 s). Writes ``figures/profiles_partial.png`` and ``profiles_full.png`` (the
 profiles every 20 s), ``validation.json``.
 """
 
@@ -32,7 +32,7 @@ from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
 
 #: (particle spacing = voxel size (m), t_end (s))
-RESOLUTIONS = {"coarse": (0.04, 20.0), "default": (0.04, 60.0), "fine": (0.02, 60.0)}
+RESOLUTIONS = {"coarse": (0.04, 20.0), "default": (0.02, 60.0), "fine": (0.015, 60.0)}
 #: the crest is gone once the centre line's highest point has dropped by this fraction of the height
 DROP = 0.25
 
