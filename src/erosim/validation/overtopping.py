@@ -15,8 +15,9 @@ reproduces, and the criteria checked here:
   end has lived at least ``t_end``); passed when partial's life exceeds full's.
 
 Resolutions: ``coarse`` (the library's 4 cm particles and voxels, 20 s), ``default`` (2 cm, 60 s:
-at 4 cm the ``partial`` preset's τ_c is never exceeded, docs/voxel.md), ``fine`` (1.5 cm, 60 s). Writes ``figures/profiles_partial.png`` and ``profiles_full.png`` (the
-profiles every 20 s), ``validation.json``.
+at 4 cm the ``partial`` preset's τ_c is never exceeded, docs/voxel.md), ``fine`` (1.5 cm, 60 s).
+Writes ``figures/profiles_partial.png`` and ``profiles_full.png`` (the profiles every 20 s),
+``validation.json``.
 """
 
 from __future__ import annotations
