@@ -316,6 +316,7 @@ VALIDATION_CASES = {
     "flood-solvers": "erosim.validation.flood_solvers:run",
     "splash-wetness": "erosim.validation.splash_wetness:run",
     "voxel-at-rest": "erosim.validation.voxel_at_rest:run",
+    "overtopping": "erosim.validation.overtopping:run",
 }
 
 
@@ -402,6 +403,23 @@ def bench_sph_terrain(particles, steps, every, as_json):
     from erosim.scenarios.kinds import resolve
 
     fn = _guard(resolve, "erosim.bench.sph_terrain:run")
+    _print_result(_guard(fn, particles, steps, every=every), as_json)
+
+
+@bench.command(name="voxel")
+@click.option(
+    "--particles", type=click.IntRange(min=1000), default=50_000, show_default=True, help="Fluid particles (about)."
+)
+@click.option("--steps", type=click.IntRange(min=1), default=None, help="Timed steps (default: a few seconds' worth).")
+@click.option(
+    "--every", type=click.IntRange(min=1), default=50, show_default=True, help="SPH steps between erosion updates."
+)
+@click.option("--json", "as_json", is_flag=True)
+def bench_voxel(particles, steps, every, as_json):
+    """SPH on an eroding voxel terrain (wall weights, erosion) against the same fluid in a box."""
+    from erosim.scenarios.kinds import resolve
+
+    fn = _guard(resolve, "erosim.bench.voxel:run")
     _print_result(_guard(fn, particles, steps, every=every), as_json)
 
 

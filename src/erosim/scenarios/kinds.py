@@ -33,6 +33,7 @@ KINDS: dict[str, Kind] = {
     ),
     "flood": Kind("erosim.scenarios.schema_flood:FloodScenario", "erosim.scenarios.builders_flood:setup"),
     "splash": Kind("erosim.scenarios.schema_splash:SplashScenario", "erosim.scenarios.builders_splash:setup"),
+    "voxel": Kind("erosim.scenarios.schema_voxel:VoxelScenario", "erosim.scenarios.builders_voxel:setup"),
 }
 
 

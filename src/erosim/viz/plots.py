@@ -344,3 +344,20 @@ def voxel_section(path, field: np.ndarray, extent, iso: float, *, labels=("x (m)
     ax.set_title(title or "voxel terrain section (solid shaded; surface line, earlier surface dashed)")
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def profiles_figure(path, curves: list[tuple[float, np.ndarray, np.ndarray]], title: str = "") -> Path:
+    """Surface profiles along a flume: ``curves`` of (t, x, z), one line per time, lighter for earlier."""
+    fig, ax = plt.subplots(figsize=(9, 3.6))
+    cmap = plt.get_cmap("viridis")
+    n = max(len(curves) - 1, 1)
+    for i, (t, x, z) in enumerate(curves):
+        ax.plot(x, z, color=cmap(i / n), lw=1.8 if i in (0, len(curves) - 1) else 1.2, label=f"t = {t:.4g} s")
+    ax.set_xlabel("x from the upstream toe (m)")
+    ax.set_ylabel("surface height z (m)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper right")
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    return save_figure(fig, path)

@@ -1,0 +1,119 @@
+"""``erosim bench voxel``: the SPH fluid on a voxel terrain it erodes, against the same fluid in a box with
+particle walls (issue 10; SPEC VX-10).
+
+The benchmark's dam break (:mod:`erosim.bench.sph`: a cube of about ``particles`` fluid particles at one
+end of a tank 3L × L × 1.5L, Δx = 0.01 m) is run three ways, each warmed up (compilation, first lists)
+and then timed over the same ``steps``:
+
+* **box**: the tank's floor and sides as boundary particles (the SPH benchmark itself);
+* **voxel**: the tank as a voxel field (floor and four walls, 1 cm voxels, the wall-weight ramp) felt
+  through :class:`~erosim.sph.boundaries.voxel_wall.VoxelWall` — no boundary particles;
+* **voxel + erosion**: the same with Krištof et al.'s shear-stress erosion of the field applied every
+  ``every`` steps (default 50) by the :class:`~erosim.coupling.voxel_coupler.VoxelCoupler` (τ_c = 0, so
+  every moving particle erodes: the erosion's largest cost).
+
+Reported: ``particles``, ``steps``, ``particle_steps_per_s`` (voxel + erosion, coupling included),
+``boundary_fraction`` = (voxel step time) / (box step time) − 1 (what the wall weights cost over
+particle walls; the issue's target ≤ 0.15), ``erosion_fraction`` = (voxel + erosion time) / (voxel
+time) − 1 (target ≤ 0.10), the three rates, ``voxel_nodes``, ``boundary_particles`` of the box,
+``eroded_m3``, ``threads`` and ``peak_rss_mb``.
+"""
+
+from __future__ import annotations
+
+import resource
+import time
+
+
+def _timed(solver, steps: int, coupler=None, every: int = 50) -> float:
+    t0 = time.perf_counter()
+    for k in range(steps):
+        solver.step()
+        if coupler is not None and (k + 1) % every == 0:
+            coupler()
+    return time.perf_counter() - t0
+
+
+def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, warmup: int = 20,
+        seconds: float = 8.0) -> dict:  # fmt: skip
+    """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
+    import numba
+
+    from erosim.bench.sph import dam_break_geometry
+    from erosim.coupling.voxel_coupler import VoxelCoupler
+    from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
+    from erosim.simulation.schedules import IterationInterval
+    from erosim.sph.boundaries.voxel_wall import VoxelWall
+    from erosim.sph.params import SPHParams
+    from erosim.sph.solver import SPHSolver
+    from erosim.terrain.voxel import Box, VoxelTerrain
+
+    dx = 0.01
+    fluid, lo, hi = dam_break_geometry(int(particles), 3, dx)
+    box = SPHSolver(SPHParams(dim=3, spacing=dx), fluid, domain_lo=lo, domain_hi=hi)
+    for _ in range(warmup):
+        box.step()
+    if steps is None:
+        per = _time_steps_probe(box)
+        steps = int(max(100, min(500, seconds / max(per, 1e-6))))
+    box_wall = _timed(box, steps)
+
+    params = SPHParams(dim=3, spacing=dx, walls="reflect")
+    h = params.support()
+    cell = dx
+    band = 1.05 * (h + 3**0.5 * cell)
+    pad = band + 2 * cell
+    lo_v = (lo[0] - pad, lo[1] - pad, lo[2] - pad)
+    hi_v = (hi[0] + pad, hi[1] + pad, hi[2])
+    air = Box(tuple(lo), (hi[0], hi[1], hi[2] + 1.0))  # the tank's inside, open at the top
+
+    def tank(x, y, z):
+        return -air.sdf(x, y, z)  # solid outside the tank's inside
+
+    results = {}
+    for erode in (False, True):
+        terrain = VoxelTerrain.from_sdf(tank, lo_v, hi_v, cell, band=band)
+        wall = VoxelWall(terrain)
+        solver = SPHSolver(params, fluid, domain_lo=[a - 0.05 for a in lo_v], domain_hi=[b + 0.05 for b in hi_v],
+                           boundaries=[wall])  # fmt: skip
+        coupler = None
+        if erode:
+            eroder = ShearStressErosion(terrain, ShearStressParams(k_eps=1.0, tau_c=0.0), support=solver.h)
+            coupler = VoxelCoupler(IterationInterval(every), solver, eroder, terrain)
+        _timed(solver, warmup, coupler, every)
+        if coupler is not None:
+            coupler()  # compiled and warm before the timing
+            coupler.wall, coupler.calls = 0.0, 0
+        wall_s = _timed(solver, steps, coupler, every)
+        results[erode] = (wall_s, solver, terrain, coupler)
+    v_wall, solver, terrain, _ = results[False]
+    e_wall, esolver, _, coupler = results[True]
+    nf = esolver.n_fluid
+    return {
+        "particles": int(nf),
+        "steps": int(steps),
+        "erosion_every": int(every),
+        "particle_steps_per_s": nf * steps / e_wall,
+        "boundary_fraction": v_wall / box_wall - 1.0,
+        "erosion_fraction": e_wall / v_wall - 1.0,
+        "box_particle_steps_per_s": box.n_fluid * steps / box_wall,
+        "voxel_particle_steps_per_s": solver.n_fluid * steps / v_wall,
+        "ms_per_step": {
+            "box": 1000 * box_wall / steps,
+            "voxel": 1000 * v_wall / steps,
+            "voxel_erosion": 1000 * e_wall / steps,
+        },  # fmt: skip
+        "coupling_ms_per_call": 1000 * coupler.wall / max(coupler.calls, 1),
+        "voxel_nodes": int(terrain.density.size),
+        "boundary_particles": {"box": int(box.n_boundary), "voxel": int(solver.n_boundary)},
+        "eroded_m3": coupler.totals["eroded"],
+        "threads": int(numba.get_num_threads()),
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
+    }
+
+
+def _time_steps_probe(solver) -> float:
+    t0 = time.perf_counter()
+    for _ in range(5):
+        solver.step()
+    return (time.perf_counter() - t0) / 5

@@ -1,0 +1,138 @@
+"""The coupler of a voxel terrain: the fluid's particles → an eroder's density increments → the field,
+every N steps (SPEC VX-6; the house coupler's contract, :mod:`erosim.coupling.coupler`, on a 3-D field).
+
+Each time its schedule fires (an ``IterationInterval`` of ``erosion.every`` steps) the coupler
+
+1. hands the eroder the fluid particles and the simulated time Δt since the last call:
+   ``eroder.increments(pos, vel, dt) -> Increment`` (Δd per node of the density field, the removed
+   volume in ``carried_off``; the eroder never writes the field);
+2. checks the increment's budget (:func:`~erosim.core.increments.check_budget` with the volume of one
+   density unit of one node, Δ³/(d_solid − d_air), in place of a cell's area): Σ Δd·Δ³/(d_s − d_a) + C = 0;
+3. applies it once, ``density += Δd`` (Δd is the exact float64 difference of float32 values, so the
+   field takes exactly the eroder's new values);
+4. refreshes every boundary of the solver (``refresh(solver, terrain=density)``: the wall's distance is
+   read from the changed field and particles left inside the solid are pushed out), and adds the
+   terms to the run's budget. The *first erosion* is the time and place of the first transfer that
+   lowers a solid node (density above the iso level; the node it lowers most): the ramp's nodes on the
+   air side hold material too and are eroded by the same law, but their loss only steepens the ramp.
+
+Before ``start`` (s) the coupler does nothing: a fluid laid on a lattice settles in its first moments
+(particles slide into the corners of the terrain at speeds no still reservoir has), and that motion
+would otherwise scour the field.
+
+Its checkpoint state is the density field itself (float32, bit for bit), the eroder's accumulator,
+the budget and the first erosion, so a resumed run continues exactly.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from erosim.core.increments import check_budget
+
+_TERMS = ("eroded", "deposited", "suspended", "carried_off")
+
+
+class VoxelCoupler:
+    """Couple ``solver`` to ``terrain`` (a :class:`~erosim.terrain.voxel.VoxelTerrain`) through ``eroder``."""
+
+    def __init__(self, schedule, solver, eroder, terrain, *, start: float = 0.0, name: str = "coupler"):
+        self.schedule = schedule
+        self.name = name
+        self.solver = solver
+        self.eroder = eroder
+        self.terrain = terrain
+        self.initial = terrain.density.copy()
+        self.totals = dict.fromkeys(_TERMS, 0.0)
+        self.calls = 0
+        self.last_t = float(solver.t)
+        self.first = np.full(3, np.nan)  # (t, x, z) of the first transfer
+        self.first_y = np.nan
+        self.wall = 0.0
+        self.start = float(start)  # no erosion before this time (s): the fluid settles first
+
+    def __call__(self, sim=None) -> None:
+        t0 = time.perf_counter()
+        try:
+            self._couple()
+        finally:
+            self.wall += time.perf_counter() - t0
+
+    def _couple(self) -> None:
+        s, t = self.solver, self.terrain
+        dt = float(s.t) - self.last_t
+        self.last_t = float(s.t)
+        if self.eroder is None or dt <= 0 or float(s.t) <= self.start:
+            return
+        inc = self.eroder.increments(s.fluid_positions(), s.fluid_velocities(), dt)
+        terms = check_budget(inc, t.shape, t.volume_per_unit, f"Erosion model '{self.eroder.name}'")
+        for k in _TERMS:
+            self.totals[k] += terms[k]
+        self.calls += 1
+        dd = np.asarray(inc.dz)
+        changed = dd != 0
+        if not changed.any():
+            return
+        if np.isnan(self.first[0]):
+            lowered = np.where((dd < 0) & (t.density > t.iso), dd, 0.0)  # solid nodes (above the iso level) only
+            if lowered.any():
+                kz, ky, kx = np.unravel_index(int(np.argmin(lowered)), dd.shape)  # lowered most (first in C order)
+                ox, oy, oz = t.origin
+                c = t.cell_size
+                self.first[:] = (float(s.t), ox + c * kx, oz + c * kz)
+                self.first_y = oy + c * ky
+        t.density += dd  # float32 += exact float64 differences of float32 values
+        for b in s.boundaries:
+            b.refresh(s, terrain=t.density, changed=changed)
+
+    def budget(self) -> dict[str, Any]:
+        """Volumes (m³) since the start: eroded, deposited, carried off (removed from the field), the
+        eroder's pending and unmet erosion, and the change of the field's solid volume."""
+        t = self.terrain
+        change = float((t.density.astype(np.float64) - self.initial).sum() * t.volume_per_unit)
+        eroded = self.totals["eroded"]
+        closure = abs(change + eroded - self.totals["deposited"])
+        return {
+            "unit": "m3",
+            **self.totals,
+            "pending": self.eroder.pending_volume() if self.eroder is not None else 0.0,
+            "unmet": self.eroder.unmet_total if self.eroder is not None else 0.0,
+            "field_change": change,
+            "closure_rel": closure / eroded if eroded > 0 else 0.0,
+            "couplings": self.calls,
+        }
+
+    # ---------------------------------------------------------------- callback protocol
+    def state_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "density": self.terrain.density.copy(),
+            "totals": np.array([self.totals[k] for k in _TERMS]),
+            "first": np.append(self.first, self.first_y),
+            "calls": self.calls,
+            "last_t": self.last_t,
+        }
+        if self.eroder is not None:
+            st = self.eroder.state_dict()
+            out["eroder_pending"] = st["pending"]
+            out["eroder_removed_total"] = st["removed_total"]
+            out["eroder_unmet_total"] = st["unmet_total"]
+        return out
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.terrain.density[...] = np.asarray(state["density"], np.float32)  # in place: the wall reads it
+        self.totals = dict(zip(_TERMS, np.asarray(state["totals"]).tolist(), strict=True))
+        first = np.asarray(state["first"], np.float64)
+        self.first[:], self.first_y = first[:3], float(first[3])
+        self.calls = int(state["calls"])
+        self.last_t = float(state["last_t"])
+        if self.eroder is not None:
+            self.eroder.load_state_dict({k[7:]: v for k, v in state.items() if k.startswith("eroder_")})
+
+    def flush(self, sim) -> None:
+        """Nothing to write between checkpoints (the field is in the checkpoint)."""
+
+    def finalize(self, sim) -> dict[str, Any]:
+        return {}

@@ -1,0 +1,485 @@
+"""The ``voxel`` kind: SPH water scouring a voxel terrain (seed 001; SPEC VX-1…VX-10).
+
+The terrain is a :class:`~erosim.terrain.voxel.VoxelTerrain` (a flume's floor, an optional plinth and a
+trapezoidal embankment, :mod:`erosim.terrain.voxel`) felt by the fluid through the wall-weight
+boundary :class:`~erosim.sph.boundaries.voxel_wall.VoxelWall`; the flume's side walls and upstream
+end are analytic planes; water is poured on the reservoir (``[inflow]``); water leaving past
+the downstream end is removed and counted. Every
+``erosion.every`` steps the :class:`~erosim.coupling.voxel_coupler.VoxelCoupler` applies the
+shear-stress erosion of :mod:`erosim.erosion.shear_stress_kristof2009` to the field.
+
+A run leaves
+
+* ``figures/section_NNNN.png`` (``run.sections``): cross-sections, the run's starting surface dashed;
+* ``meshes/surface_NNNN.{obj,ply,glb}`` (``run.meshes``) and ``fields/density_NNNN.{npz,vti}``
+  (``run.field_format``) per output time (every ``run.output_interval``, and at the start and end),
+  ``particles/`` frames at the same times (``run.particle_frames``);
+* ``profiles.csv`` (``t,x,z``): the surface height z along the flume's centre line, x from the
+  embankment's upstream toe (a heightmap: along the middle row, x in the terrain's frame), every
+  ``run.profile_interval``; ``figures/profiles.png`` with the profiles every ``run.figure_interval``
+  (and the last);
+* ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y} of the
+  solid node the first transfer to lower one lowered most, the ``budget`` (m³: eroded = carried off;
+  pending, unmet, the field's change, closure), ``particles_inside_solid`` (the most seen after any
+  coupling; 0) and the timings.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from erosim.core.errors import ConfigError
+from erosim.coupling.voxel_coupler import VoxelCoupler
+from erosim.scenarios.schema_voxel import VoxelScenario
+from erosim.scenarios.setup import Setup
+from erosim.simulation import callbacks as cb
+from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
+
+#: the wall-weight distance must be right out to h; the ramp gets this margin over h + √3Δ
+BAND_MARGIN = 1.05
+
+
+def band_for(cfg: VoxelScenario) -> float:
+    """The density ramp's half-width: ``voxels.band``, or the least the wall allows (h + √3Δ) plus 5 %."""
+    if cfg.voxels.band > 0:
+        return cfg.voxels.band
+    return BAND_MARGIN * (cfg.sph.support() + math.sqrt(3.0) * cfg.voxels.cell_size)
+
+
+def build_terrain(cfg: VoxelScenario):
+    """The scenario's voxel field: a saved field (``terrain.voxels_file``), a heightmap with its caves, or
+    the flume's floor (z < 0), the plinth (z < ``embankment.base``) and the embankment."""
+    from erosim.terrain.voxel import Box, Embankment, HalfSpace, VoxelTerrain
+
+    f, e, v = cfg.terrain, cfg.embankment, cfg.voxels
+    h = cfg.sph.support()
+    if f.voxels_file:
+        t = VoxelTerrain.load(f.voxels_file)
+        if t.cell_size > h:
+            raise ConfigError(
+                f"The saved field's voxels of {t.cell_size:g} m are too coarse for the particle spacing "
+                f"{cfg.sph.spacing:g} m (kernel support h = {h:g} m); use sph.spacing ≥ "
+                f"{t.cell_size / cfg.sph.h_factor:g} m."
+            )
+        return t
+    if v.cell_size > h:
+        raise ConfigError(
+            f"Voxels of {v.cell_size:g} m are too coarse for the particle spacing {cfg.sph.spacing:g} m: the wall "
+            f"distance needs cells no larger than the kernel support h = {h:g} m; set voxels.cell_size ≤ {h:g}."
+        )
+    band = band_for(cfg)
+    if f.shape == "heightmap":
+        from erosim.scenarios.schema_common import build_terrain as heightmap
+
+        hm = heightmap(cfg.terrain, cfg.seed)
+        top = float(np.nanmax(hm.z)) + cfg.rain.height + band + 2 * v.cell_size
+        bottom = float(np.nanmin(hm.z)) - max(band + 2 * v.cell_size, v.depth)
+        t = VoxelTerrain.from_heightmap(hm, v.cell_size, bottom=bottom, top=top, band=band, iso=v.iso,
+                                        max_bytes=v.max_bytes)  # fmt: skip
+        c = cfg.caves
+        if c.wavelength > 0:
+            t = t.carve_caves(wavelength=c.wavelength, threshold=c.threshold, seed=cfg.seed, octaves=c.octaves,
+                              below=c.below)  # fmt: skip
+        return t
+    c = v.cell_size
+    shapes = [HalfSpace((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+              Embankment(e.x_toe, e.height, e.crest_width, e.upstream, e.downstream, base=e.base)]  # fmt: skip
+    if e.base > 0:
+        shapes.append(Box((-1.0 - band, -1.0 - band, -1.0 - band), (f.length + 1.0 + band, f.width + 1.0 + band,
+                                                                     e.base)))  # fmt: skip
+    lo = (-2.0 * c, -2.0 * c, -(band + 2.0 * c))
+    hi = (f.length + 2.0 * c, f.width + 2.0 * c, f.top)
+    return VoxelTerrain.from_shapes(shapes, lo, hi, c, band=band, iso=v.iso, max_bytes=v.max_bytes)
+
+
+def surface_profile(terrain, y: float) -> tuple[np.ndarray, np.ndarray]:
+    """(x, z) of the terrain's top surface along the node row nearest ``y``: per column, the highest
+    crossing of the iso level (linear between the topmost solid node and the air node above it)."""
+    x_ax, y_ax, z_ax = terrain.axes()
+    j = int(np.clip(round((y - y_ax[0]) / terrain.cell_size), 0, len(y_ax) - 1))
+    col = terrain.density[:, j, :].astype(np.float64)  # (nz, nx)
+    iso = terrain.iso
+    solid = col > iso
+    nz = col.shape[0]
+    top = np.where(solid.any(axis=0), nz - 1 - np.argmax(solid[::-1], axis=0), -1)
+    z = np.full(col.shape[1], z_ax[0])
+    for i, k in enumerate(top):
+        if k < 0:
+            continue
+        if k == nz - 1:
+            z[i] = z_ax[-1]
+            continue
+        d0, d1 = col[k, i], col[k + 1, i]
+        z[i] = z_ax[k] + terrain.cell_size * (d0 - iso) / (d0 - d1)
+    return x_ax, z
+
+
+class Outflow(cb.Callback):
+    """Removes the particles that left the box ``lo``–``hi`` in x and y (open edges), every step."""
+
+    def __init__(self, solver, lo, hi):
+        super().__init__(IterationInterval(1), name="outflow")
+        self.solver, self.lo, self.hi = solver, np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+
+    def __call__(self, sim) -> None:
+        s = self.solver
+        st = s.state
+        xy = st.pos[: st.n_fluid, :2]
+        mask = np.any((xy < self.lo) | (xy > self.hi), axis=1)
+        if mask.any():
+            s.remove_fluid(mask, sink="edge")
+
+
+class RainDrops(cb.Callback):
+    """Rain as drops of 5 particles (a centre and its four horizontal neighbours at Δx; SPEC VX-8) at
+    random places over the map at ``z``, falling at rest; the drops due at ``rate`` (mm/h) are added every
+    ``every`` steps. Places come from a generator keyed by (seed, shower), so a resumed run rains the same."""
+
+    SHAPE = np.array([[0, 0, 0], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], np.float64)
+
+    def __init__(self, schedule, solver, lo, hi, z: float, rate_mm_h: float, seed: int):
+        super().__init__(schedule, name="rain")
+        dx = solver.params.spacing
+        self.solver, self.lo, self.hi, self.z, self.seed = solver, np.asarray(lo), np.asarray(hi), z, seed
+        area = float(np.prod(self.hi - self.lo))
+        self.per_s = rate_mm_h / 3.6e6 * area / (5 * dx**3)  # drops per second
+        self.carry, self.last_t, self.events, self.drops = 0.0, float(solver.t), 0, 0
+
+    def __call__(self, sim) -> None:
+        s = self.solver
+        due = self.carry + (float(s.t) - self.last_t) * self.per_s
+        self.last_t = float(s.t)
+        n = int(due)
+        self.carry = due - n
+        if n == 0:
+            return
+        dx = s.params.spacing
+        rng = np.random.default_rng([self.seed, 0xD409, self.events])
+        self.events += 1
+        centres = np.column_stack([rng.uniform(self.lo[0] + dx, self.hi[0] - dx, n),
+                                   rng.uniform(self.lo[1] + dx, self.hi[1] - dx, n), np.full(n, self.z)])  # fmt: skip
+        pts = (centres[:, None, :] + dx * self.SHAPE[None]).reshape(-1, 3)
+        s.add_fluid(pts, np.zeros_like(pts), source="rain")
+        self.drops += n
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"carry": self.carry, "last_t": self.last_t, "events": self.events, "drops": self.drops}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.carry, self.last_t = float(state["carry"]), float(state["last_t"])
+        self.events, self.drops = int(state["events"]), int(state["drops"])
+
+
+class Inflow(cb.Callback):
+    """Water poured on the reservoir: a layer of particles on the rectangle ``x0…x1`` × the flume's width at
+    ``height``, moving down at Q/A, added each time the last layer has moved one spacing (a layer always
+    enters free space above the water, so new particles never overlap the fluid)."""
+
+    def __init__(self, solver, x0: float, x1: float, width: float, height: float, discharge: float):
+        super().__init__(IterationInterval(1), name="inflow")
+        dx = solver.params.spacing
+        xs = (np.arange(math.ceil(x0 / dx - 0.5), math.floor(x1 / dx - 0.5) + 1) + 0.5) * dx
+        ys = (np.arange(0, math.floor(width / dx - 0.5) + 1) + 0.5) * dx
+        gx, gy = np.meshgrid(xs[xs < x1], ys[ys < width], indexing="ij")
+        self.layer = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, height)])
+        area = len(self.layer) * dx * dx
+        self.speed = discharge / area
+        self.period = dx / self.speed
+        self.vel = np.zeros_like(self.layer)
+        self.vel[:, 2] = -self.speed
+        self.solver = solver
+        self.carry, self.last_t, self.events = 0.0, float(solver.t), 0
+
+    def __call__(self, sim) -> None:
+        s = self.solver
+        due = self.carry + (float(s.t) - self.last_t) / self.period
+        self.last_t = float(s.t)
+        layers = int(due)
+        self.carry = due - layers
+        for _ in range(layers):
+            self.events += 1
+            s.add_fluid(self.layer, self.vel, source="inflow")
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"carry": self.carry, "last_t": self.last_t, "events": self.events}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.carry, self.last_t, self.events = float(state["carry"]), float(state["last_t"]), int(state["events"])
+
+
+class Profiles(cb.Callback):
+    """The centre-line surface profile every ``interval`` (rows t, x from the toe, z) → ``profiles.csv``."""
+
+    def __init__(self, schedule, terrain, solver, y: float, x_toe: float, path: Path):
+        super().__init__(schedule, name="profiles")
+        self.terrain, self.solver, self.y, self.x_toe, self.path = terrain, solver, y, x_toe, Path(path)
+        self.rows: list[np.ndarray] = []
+        self.figure = None  # figure(self) at the end of a completed run
+
+    def __call__(self, sim) -> None:
+        x, z = surface_profile(self.terrain, self.y)
+        t = float(self.solver.t)
+        if self.rows and self.rows[-1][0, 0] == t:
+            return
+        self.rows.append(np.column_stack([np.full(len(x), t), x - self.x_toe, z]))
+
+    def table(self) -> np.ndarray:
+        return np.concatenate(self.rows) if self.rows else np.zeros((0, 3))
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"rows": self.table()}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        tab = np.asarray(state["rows"], np.float64).reshape(-1, 3)
+        self.rows = [tab[tab[:, 0] == t] for t in np.unique(tab[:, 0])]
+
+    def flush(self, sim) -> None:
+        from erosim.core.atomic import write_text
+
+        write_text(self.path, cb.csv_text(["t", "x", "z"], self.table()))
+
+    def finalize(self, sim) -> dict[str, Any]:
+        self(sim)  # the final profile
+        self.flush(sim)
+        if self.figure is not None:
+            self.figure(self)
+        return {}
+
+
+class VoxelOutputs(cb.Callback):
+    """Per output time: the surface mesh(es), the density field, particle frames (count NNNN)."""
+
+    def __init__(self, schedule, terrain, solver, out, cfg: VoxelScenario):
+        super().__init__(schedule, name="voxel_outputs")
+        self.terrain, self.solver, self.out, self.cfg = terrain, solver, out, cfg
+        self.count = 0
+        self.last_t = -math.inf
+        self.initial = terrain.density.copy()  # the surface at the start, dashed in the sections
+        self.cfg_name = "voxel terrain"
+        self.frames = cb.ParticleFrames(Schedule(), solver, out.path / "particles") if cfg.run.particle_frames else None
+
+    def __call__(self, sim) -> None:
+        t = float(self.solver.t)
+        if t == self.last_t:
+            return
+        self.last_t = t
+        run, root = self.cfg.run, self.out.path
+        tag = f"{self.count:04d}"
+        if run.meshes:
+            mesh = self.terrain.surface_mesh()
+            for kind in run.meshes:
+                self.terrain.export_mesh(root / "meshes" / f"surface_{tag}.{kind}", mesh=mesh)
+        if run.field_format == "npz":
+            self.terrain.save(root / "fields" / f"density_{tag}.npz")
+        else:
+            self.terrain.write_vti(root / "fields" / f"density_{tag}.vti")
+        if self.frames is not None:
+            self.frames(sim)
+        if run.sections:
+            ref = self.terrain.like(self.initial)
+            self.terrain.cross_section(root / "figures" / f"section_{tag}.png", axis=run.section_axis,
+                                       at=run.section_at, title=f"{self.cfg_name}  t = {t:.3g} s",
+                                       reference=ref)  # fmt: skip
+        self.count += 1
+
+    def state_dict(self) -> dict[str, Any]:
+        st = {"count": self.count, "last_t": self.last_t}
+        if self.frames is not None:
+            st["frames"] = self.frames.state_dict()["frames"]
+        return st
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.count = int(state.get("count", 0))
+        self.last_t = float(state.get("last_t", -math.inf))
+        if self.frames is not None:
+            self.frames.load_state_dict({"frames": state.get("frames", [])})
+
+    def finalize(self, sim) -> dict[str, Any]:
+        self(sim)
+        return {"outputs": {"times": self.count, "meshes": [f"meshes/surface_NNNN.{k}" for k in self.cfg.run.meshes],
+                            "field": f"fields/density_NNNN.{self.cfg.run.field_format}"}}  # fmt: skip
+
+
+class Inside(cb.Callback):
+    """Counts the fluid particles inside the solid after each coupling; keeps the most seen."""
+
+    def __init__(self, schedule, solver, wall):
+        super().__init__(schedule, name="inside")
+        self.solver, self.wall, self.most = solver, wall, 0
+
+    def __call__(self, sim) -> None:
+        self.most = max(self.most, self.wall.inside(self.solver))
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"most": self.most}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.most = int(state.get("most", 0))
+
+
+def rain_height(cfg: VoxelScenario, terrain) -> float:
+    """z at which rain drops appear: ``rain.height`` above the highest solid node of the field."""
+    solid = (terrain.density > terrain.iso).any(axis=(1, 2))
+    z_top = terrain.axes()[2][np.nonzero(solid)[0].max()] if solid.any() else terrain.lo[2]
+    return float(min(z_top + cfg.rain.height, terrain.hi[2]))
+
+
+def build_solver(cfg: VoxelScenario, terrain):
+    """The fluid (a reservoir or lakes at rest), its voxel wall and, in a flume, the planes of its side and
+    upstream walls; the sound speed from the highest fall the water can take."""
+    from erosim.sph.boundaries.planes import PlaneWalls
+    from erosim.sph.boundaries.voxel_wall import VoxelWall
+    from erosim.sph.solver import SPHSolver
+
+    p, f, e = cfg.sph, cfg.terrain, cfg.embankment
+    dx = p.spacing
+    flume = f.shape == "flume"
+    level = cfg.water.level
+    fluid = np.zeros((0, 3))
+    if level is not None:
+        if flume:
+            fluid = terrain.fluid_points(dx, lo=(0.0, 0.0, 0.0), hi=(e.x_toe + e.height * e.upstream, f.width, f.top),
+                                         below=level)  # fmt: skip
+        else:
+            fluid = terrain.fluid_points(dx, below=level)
+    if flume:
+        if len(fluid) == 0 and cfg.inflow.discharge <= 0:
+            raise ConfigError("The scenario has no water: give water.level above the floor or inflow.discharge > 0.")
+        top, floor = max(level or 0.0, cfg.inflow.height if cfg.inflow.discharge > 0 else 0.0, e.base + e.height), 0.0
+        what = "the water level, the inflow and the crest above the floor"
+    else:
+        if len(fluid) == 0 and cfg.rain.rate <= 0:
+            raise ConfigError("The scenario has no water: give water.level above some ground or rain.rate > 0.")
+        top = max([float(fluid[:, 2].max()) if len(fluid) else -np.inf]
+                  + ([rain_height(cfg, terrain)] if cfg.rain.rate > 0 else []))  # fmt: skip
+        floor = float(terrain.lo[2])
+        what = "the highest water or rain drop above the field's bottom"
+    derived = {}
+    if p.sound_speed <= 0:
+        g = math.sqrt(sum(x * x for x in p.gravity_vector()))
+        c = 10.0 * math.sqrt(2.0 * g * max(top - floor, dx))
+        p = p.model_copy(update={"sound_speed": c})
+        derived = {"sound_speed": c, "rule": f"c = 10·sqrt(2 g H), H from {what}"}
+    h = p.support()
+    if flume:
+        lo = [-4.0 * h, -4.0 * h, terrain.lo[2]]
+        hi = [f.length + 4.0 * h, f.width + 4.0 * h, f.top + max(top, 0.5 * f.top)]
+        planes = [PlaneWalls([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, f.width, 0.0]],
+                             [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0]])]  # fmt: skip
+    else:
+        lo = [terrain.lo[0] - 4.0 * h, terrain.lo[1] - 4.0 * h, terrain.lo[2]]
+        hi = [terrain.hi[0] + 4.0 * h, terrain.hi[1] + 4.0 * h, max(terrain.hi[2], top) + 10.0 * h]
+        planes = []
+    wall = VoxelWall(terrain)
+    solver = SPHSolver(p, fluid, domain_lo=lo, domain_hi=hi, seed=cfg.seed, boundaries=[wall, *planes])
+    return solver, wall, derived
+
+
+def setup(scenario, out) -> Setup:
+    """The flume, its fluid, inflow and outflow, the erosion coupler and the outputs of a ``voxel`` run."""
+    from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion
+
+    cfg: VoxelScenario = scenario.config
+    terrain = build_terrain(cfg)
+    solver, wall, derived = build_solver(cfg, terrain)
+    e, run = cfg.erosion, cfg.run
+    eroder = ShearStressErosion(terrain, e, support=solver.h) if e.enabled else None
+    coupler = VoxelCoupler(IterationInterval(e.every), solver, eroder, terrain, start=e.start)
+    callbacks: list = []
+    if cfg.inflow.discharge > 0:
+        i = cfg.inflow
+        callbacks.append(Inflow(solver, i.x0, i.x1, cfg.terrain.width, i.height, i.discharge))
+    flume = cfg.terrain.shape == "flume"
+    if flume:
+        callbacks.append(Outflow(solver, (-np.inf, -np.inf), (cfg.terrain.length, np.inf)))
+    else:
+        callbacks.append(Outflow(solver, terrain.lo[:2], terrain.hi[:2]))
+        if cfg.rain.rate > 0:
+            callbacks.append(RainDrops(IterationInterval(cfg.rain.every), solver, terrain.lo[:2], terrain.hi[:2],
+                                       rain_height(cfg, terrain), cfg.rain.rate, cfg.seed))  # fmt: skip
+    callbacks.append(coupler)
+    inside = Inside(IterationInterval(e.every), solver, wall)
+    x0 = cfg.embankment.x_toe if flume else 0.0
+    y_mid = 0.5 * cfg.terrain.width if flume else 0.5 * (terrain.lo[1] + terrain.hi[1])
+    profiles = Profiles(TimeInterval(run.profile_interval), terrain, solver, y_mid, x0,
+                        out.path / "profiles.csv")  # fmt: skip
+    outputs = VoxelOutputs(TimeInterval(run.output_interval if run.output_interval > 0 else run.t_end), terrain,
+                           solver, out, cfg)  # fmt: skip
+    profiles.figure = lambda p: _profile_figure(cfg, p, out)
+    outputs.cfg_name = scenario.name
+    callbacks += [inside, profiles, outputs]
+    report_fn = _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x0, flume)
+
+    def summary(sim, rep: dict) -> dict[str, Any]:
+        return {
+            "status": sim.status,
+            "t": round(float(solver.t), 6),
+            "steps": int(solver.steps),
+            "fluid_particles": solver.n_fluid,
+            "eroded_volume_m3": rep["eroded_volume_m3"],
+            "first_erosion": rep["first_erosion"],
+            "particles_inside_solid": rep["particles_inside_solid"],
+            "wall_time_s": round(sim.wall_time, 2),
+        }
+
+    return Setup(
+        models=[solver], callbacks=callbacks, stop_time=run.t_end, unit="s", report=report_fn, summary=summary,
+        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed,
+    )  # fmt: skip
+
+
+def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x0, flume):
+    def report(sim) -> dict[str, Any]:
+        from erosim.terrain.voxel import memory_bytes
+
+        first = coupler.first
+        steps = sim.iteration - sim.iteration_start
+        st = solver.state
+        return {
+            "t": float(solver.t),
+            "t_end": cfg.run.t_end,
+            "steps": int(solver.steps),
+            "fluid_particles": st.n_fluid,
+            "water": {"initial_particles": st.initial, "added": dict(st.added), "removed": dict(st.removed)},
+            "voxels": {"shape_zyx": list(terrain.shape), "cell_size_m": terrain.cell_size, "band_m": terrain.band,
+                       "memory_bytes": memory_bytes(int(np.prod(terrain.shape)), erosion=eroder is not None)},
+            "resolution": {"spacing": cfg.sph.spacing, "support_h": solver.h, **derived},
+            "eroded_volume_m3": coupler.totals["eroded"],
+            "first_erosion": None if math.isnan(first[0]) else {
+                "t": float(first[0]), "x": float(first[1]) - x0, "z": float(first[2]),
+                "y": float(coupler.first_y), "x_frame": "from the embankment's upstream toe" if flume else
+                "the terrain's frame (m from its south-west node)"},
+            "budget": coupler.budget(),
+            "particles_inside_solid": max(inside.most, solver.n_fluid and wall_inside(solver)),
+            "timings": {
+                "wall_time_s": round(sim.wall_time, 3),
+                "coupling_wall_s": round(coupler.wall, 3),
+                "coupling_fraction": coupler.wall / sim.wall_time if sim.wall_time > 0 else None,
+                "particle_steps_per_s": st.n_fluid * steps / sim.wall_time if sim.wall_time > 0 and steps else None,
+            },
+        }  # fmt: skip
+
+    def wall_inside(s) -> int:
+        return inside.wall.inside(s)
+
+    return report
+
+
+def _profile_figure(cfg: VoxelScenario, profiles: Profiles, out) -> None:
+    """``figures/profiles.png``: the centre-line profiles every ``run.figure_interval`` and the last."""
+    from erosim.viz.plots import profiles_figure
+
+    tab = profiles.table()
+    if not len(tab):
+        return
+    times = np.unique(tab[:, 0])
+    every = cfg.run.figure_interval
+    keep = [t for t in times if abs(t / every - round(t / every)) * every < 0.5 * cfg.run.profile_interval]
+    if times[-1] not in keep:
+        keep.append(times[-1])
+    curves = [(t, tab[tab[:, 0] == t, 1], tab[tab[:, 0] == t, 2]) for t in keep]
+    profiles_figure(out.figures / "profiles.png", curves, title=f"Centre-line profiles, every {every:g} s")

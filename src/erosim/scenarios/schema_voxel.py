@@ -1,0 +1,180 @@
+"""Schema of ``kind = "voxel"`` scenarios: SPH water scouring a voxel terrain (seed 001, SPEC VX-1…VX-10).
+
+::
+
+    seed = 1
+    [terrain]      shape = "flume": a flat flume floor at z = 0, side walls at y = 0 and y = width, an
+                   upstream wall at x = 0, open downstream at x = length; or "heightmap": the rest of
+                   [terrain] (a generated terrain or a DEM: schema_common.TerrainSection) as voxels, open edges;
+                   voxels_file: start from a saved field instead
+    [caves]        noise caves carved into the heightmap (wavelength, threshold, below)
+    [rain]         rain on the heightmap as drops of 5 particles (rate mm/h)
+    [embankment]   a trapezoid across the flume (erosim.terrain.voxel.Embankment): toe, height, crest, slopes
+    [voxels]       cell size and the density ramp's half-width (0: the narrowest the wall allows)
+    [sph]          solver parameters (erosim.sph.params.SPHParams); the walls are the field and the planes
+    [water]        the reservoir at rest upstream of the embankment: its level
+    [inflow]       water poured on the reservoir: discharge (m³/s) over x0…x1, released at ``height``
+    [erosion]      shear-stress erosion (erosion.shear_stress_kristof2009) every ``every`` steps
+    [run]          t_end, output interval (meshes, field, particle frames), profile interval and formats
+
+Positions are metres in the flume's frame: x along the flume from its upstream wall, y across, z up
+from the floor.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from erosim.core.config import Section, param
+from erosim.core.errors import ConfigError
+from erosim.erosion.shear_stress_kristof2009 import ShearStressParams
+from erosim.scenarios.schema_common import TerrainSection
+from erosim.sph.params import SPHParams
+
+
+class VoxelTerrainSection(TerrainSection):
+    """The terrain: a flume, or a heightmap (the fields of schema_common.TerrainSection: a generated
+    terrain or ``file``, any DEM the project reads) as voxels."""
+
+    shape: Literal["flume", "heightmap"] = param(
+        "flume", doc="the terrain: 'flume' (a floor, side walls, an embankment) or 'heightmap' ([heightmap] as voxels)"
+    )
+    voxels_file: str | None = param(None, doc="start from this saved density field (.npz of a run's fields/), e.g. "
+                                    "the end of an earlier run")  # fmt: skip
+    length: float = param(1.6, gt=0, unit="m", doc="flume length (x); the downstream end is open")
+    width: float = param(0.12, gt=0, unit="m", doc="flume width (y) between its side walls")
+    top: float = param(0.5, gt=0, unit="m", doc="height of the voxel grid above the floor")
+
+
+class EmbankmentSection(Section):
+    x_toe: float = param(0.4, ge=0, unit="m", doc="x of the upstream toe")
+    height: float = param(0.2, gt=0, unit="m", doc="height of the crest above the base")
+    crest_width: float = param(0.1, ge=0, unit="m", doc="crest width along the flume")
+    upstream: float = param(2.0, gt=0, unit="m/m", doc="upstream slope, horizontal:vertical")
+    downstream: float = param(2.0, gt=0, unit="m/m", doc="downstream slope, horizontal:vertical")
+    base: float = param(0.0, ge=0, unit="m", doc="height of the embankment's base above the floor (a plinth)")
+
+
+class VoxelsSection(Section):
+    cell_size: float = param(0.02, gt=0, unit="m", doc="voxel size Δ (no larger than the kernel support h)")
+    band: float = param(0.0, ge=0, unit="m", doc="density ramp half-width; 0 = h + √3Δ plus 5 % (the least the "
+                        "wall-weight distance needs)")  # fmt: skip
+    depth: float = param(0.0, ge=0, unit="m", doc="a heightmap's field reaches at least this far below its lowest "
+                         "ground (room for caves); 0: the ramp and two cells")  # fmt: skip
+    iso: float = param(0.5, unit="1", doc="iso level of the surface in the density range (0 air, 1 solid)")
+    max_bytes: int = param(4 << 30, gt=0, unit="B", doc="refuse a field larger than this in memory")
+
+
+class CavesSection(Section):
+    wavelength: float = param(0.0, ge=0, unit="m", doc="size of the noise caves carved into a heightmap (0: none)")
+    threshold: float = param(0.3, unit="1", doc="caves where the 3-D noise exceeds this (higher: fewer caves)")
+    below: float | None = param(None, unit="m", doc="caves only under this height (none: anywhere)")
+    octaves: int = param(3, ge=1, le=8, unit="1", doc="noise octaves")
+
+
+class RainSection(Section):
+    rate: float = param(0.0, ge=0, unit="mm/h", doc="rain intensity over the whole map (0: none)")
+    height: float = param(1.0, ge=0, unit="m", doc="drops appear this high above the highest ground")
+    every: int = param(20, ge=1, unit="steps", doc="SPH steps between two showers (the rain due is added then)")
+
+
+class WaterSection(Section):
+    level: float | None = param(None, unit="m", doc="initial water level: the flume's reservoir, or every hollow "
+                                "of a heightmap below it (none: no water at the start)")  # fmt: skip
+
+
+class InflowSection(Section):
+    discharge: float = param(0.0, ge=0, unit="m3/s", doc="water poured on the reservoir per second (0: none)")
+    x0: float = param(0.0, ge=0, unit="m", doc="upstream end of the area it is poured on")
+    x1: float = param(0.2, gt=0, unit="m", doc="downstream end of that area")
+    height: float = param(0.3, gt=0, unit="m", doc="height it is released at (above the water: it falls on it)")
+
+
+class VoxelErosion(ShearStressParams):
+    enabled: bool = param(True, doc="shear-stress erosion on (false: the fluid only)")
+    start: float = param(1.0, ge=0, unit="s", doc="no erosion before this time: the fluid laid on a lattice settles")
+
+
+class VoxelRun(Section):
+    t_end: float = param(60.0, gt=0, unit="s", doc="simulated time to reach")
+    output_interval: float = param(10.0, ge=0, unit="s", doc="meshes, density field and particle frames every "
+                                   "this long (0: at the start and the end only)")  # fmt: skip
+    profile_interval: float = param(1.0, gt=0, unit="s", doc="centre-line profiles (profiles.csv) every this long")
+    figure_interval: float = param(20.0, gt=0, unit="s", doc="profiles drawn in figures/profiles.png every this long")
+    meshes: list[Literal["obj", "ply", "glb"]] = param(["glb"], doc="surface mesh formats written per output time")
+    field_format: Literal["npz", "vti"] = param("npz", doc="density field format per output time")
+    particle_frames: bool = param(True, doc="particle frames (.vtp) per output time")
+    sections: bool = param(False, doc="a cross-section figure per output time (figures/section_NNNN.png), the "
+                           "surface at the start of the run dashed")  # fmt: skip
+    section_axis: Literal["x", "y"] = param("y", doc="the section's plane is across this axis")
+    section_at: float | None = param(None, unit="m", doc="where along that axis (none: the middle)")
+    checkpoint_wall_s: float = param(300.0, gt=0, unit="s", doc="wall-clock time between checkpoints")
+
+
+class VoxelScenario(Section):
+    seed: int = param(1, ge=0, doc="random seed")
+    terrain: VoxelTerrainSection = Field(
+        default_factory=lambda: VoxelTerrainSection(preset="mountains", size=32, cell_size=1.0)
+    )
+    embankment: EmbankmentSection = Field(default_factory=EmbankmentSection)
+    heightmap: TerrainSection = Field(
+        default_factory=lambda: TerrainSection(preset="mountains", size=32, cell_size=1.0)
+    )
+    caves: CavesSection = Field(default_factory=CavesSection)
+    rain: RainSection = Field(default_factory=RainSection)
+    voxels: VoxelsSection = Field(default_factory=VoxelsSection)
+    sph: SPHParams = Field(default_factory=lambda: SPHParams(dim=3, walls="reflect", spacing=0.02))
+    water: WaterSection = Field(default_factory=WaterSection)
+    inflow: InflowSection = Field(default_factory=InflowSection)
+    erosion: VoxelErosion = Field(default_factory=VoxelErosion)
+    run: VoxelRun = Field(default_factory=VoxelRun)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _derive(cls, data):
+        if not isinstance(data, dict):
+            return data
+        data = dict(data)
+        sph = dict(data.get("sph") or {})
+        sph.setdefault("dim", 3)
+        sph.setdefault("spacing", 0.02)
+        sph.setdefault("walls", "reflect")
+        data["sph"] = sph
+        return data
+
+    @model_validator(mode="after")
+    def _check(self) -> VoxelScenario:
+        if self.sph.dim != 3:
+            raise ConfigError("A voxel terrain is a 3-D wall; leave sph.dim out (or set it to 3).")
+        if self.sph.walls != "reflect":
+            raise ConfigError(
+                "In voxel scenarios the terrain and the flume's planes are the walls; leave sph.walls out."
+            )
+        f, e = self.terrain, self.embankment
+        if f.shape == "heightmap":
+            if self.inflow.discharge > 0:
+                raise ConfigError("[inflow] enters a flume's upstream wall; on a heightmap use [rain] or water.level.")
+            return self
+        heel = e.x_toe + e.height * (e.upstream + e.downstream) + e.crest_width
+        if heel >= f.length:
+            raise ConfigError(
+                f"The embankment reaches x = {heel:g} m, beyond the flume's end at {f.length:g} m; lengthen "
+                "terrain.length or move embankment.x_toe upstream."
+            )
+        if e.base + e.height >= f.top:
+            raise ConfigError(
+                f"The embankment's crest ({e.base + e.height:g} m) is above terrain.top; raise terrain.top."
+            )
+        i = self.inflow
+        if i.discharge > 0 and not (i.x0 < i.x1 <= e.x_toe):
+            raise ConfigError(
+                "The inflow's area must lie upstream of the embankment: give inflow.x0 < inflow.x1 ≤ embankment.x_toe."
+            )
+        if self.sph.spacing > f.width / 2:
+            raise ConfigError(
+                f"sph.spacing = {self.sph.spacing:g} m leaves fewer than two particles across the {f.width:g} m "
+                "flume; use a smaller spacing or a wider flume."
+            )
+        return self

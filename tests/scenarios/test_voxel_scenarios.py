@@ -1,0 +1,195 @@
+"""The ``voxel`` kind (SPH water scouring a voxel terrain): the overtopping case end to end at a coarse
+resolution, its outputs, the budget, ``non_erodible_below``, exact resume and bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+from click.testing import CliRunner
+
+from erosim.cli import cli
+from erosim.core.errors import Interrupted
+from erosim.io.runfolder import RunFolder
+from erosim.scenarios import loader, runner
+from erosim.terrain.voxel import VoxelTerrain
+
+# 4 cm particles and voxels (about 150 particles): seconds per run. τ_c is lowered and the settling
+# time shortened so that a run of a fraction of a second erodes (the scale of the library presets needs
+# the overflow of several seconds).
+COARSE = ["sph.spacing=0.04", "voxels.cell_size=0.04", "run.t_end=0.3", "run.output_interval=0.15",
+          "run.profile_interval=0.05", "erosion.tau_c=0.5", "erosion.k_eps=2.0", "erosion.start=0.05",
+          "erosion.every=10"]  # fmt: skip
+
+
+def _cli(*args):
+    res = CliRunner().invoke(cli, ["--quiet", *args])
+    return res.exit_code, res.output
+
+
+def _sets(items):
+    return [a for s in items for a in ("--set", s)]
+
+
+def test_every_voxel_scenario_has_a_case():
+    names = {n for n in loader.library_names() if loader.read_toml(loader.LIBRARY / f"{n}.toml")["kind"] == "voxel"}
+    assert names == {"overtopping", "mountain-lake", "canyon-caves"}
+
+
+def test_mountain_lake_turns_any_dem_into_voxels_and_refuses_one_too_large(tmp_path):
+    from erosim.scenarios.builders_voxel import build_terrain, surface_profile
+
+    yy, xx = np.mgrid[0:9, 0:12]
+    dem = 2.0 + 0.25 * xx + 0.1 * yy  # a tilted plane, heights in metres, 1 m cells (.npy)
+    np.save(tmp_path / "dem.npy", dem)
+    sc = loader.load("mountain-lake", [f"terrain.file={tmp_path / 'dem.npy'}"])  # a .npy DEM: 1 m cells
+    t = build_terrain(sc.config)
+    assert t.shape[1:] == (17, 23)  # 0.5 m voxels over 8 m x 11 m
+    # the surface along a row is the DEM's plane (row 0 of the map is north: y = 8 m is its first row);
+    # exact on a plane to float32 rounding of the ramp, well inside a voxel
+    x, z = surface_profile(t, 4.0)
+    assert np.allclose(z, 2.0 + 0.25 * x + 0.1 * (8 - 4.0), atol=1e-3)
+    code, text = _cli("run", "mountain-lake", "--out", str(tmp_path / "big"), "--set",
+                      f"terrain.file={tmp_path / 'dem.npy'}", "--set", "voxels.max_bytes=20000")  # fmt: skip
+    assert code != 0 and "use voxels of at least" in " ".join(text.split()), text
+    assert not (tmp_path / "big").exists()
+
+
+def test_canyon_caves_are_carved_only_under_their_height():
+    from erosim.scenarios.builders_voxel import build_terrain
+
+    with_caves = build_terrain(loader.load("canyon-caves").config)
+    without = build_terrain(loader.load("canyon-caves", ["caves.wavelength=0"]).config)
+    below = loader.load("canyon-caves").config.caves.below
+    z = with_caves.axes()[2]
+    changed = np.any(with_caves.density != without.density, axis=(1, 2))
+    assert changed.any()  # caves were carved
+    # no node higher than `below` plus the ramp's half-width changed (the intersection's ramp reaches b up)
+    assert z[changed].max() <= below + with_caves.band + 1e-9
+    assert with_caves.solid_volume() < without.solid_volume()
+
+
+def test_overtopping_runs_and_writes_its_outputs(tmp_path):
+    out = tmp_path / "run"
+    code, text = _cli("run", "overtopping", "--preset", "full", "--out", str(out),
+                      *_sets(COARSE + ['run.meshes=["obj", "ply", "glb"]']))  # fmt: skip
+    assert code == 0, text
+    rep = json.loads((out / "report.json").read_text())
+    # the shear of the settling and inflowing water at τ_c = 0.5 erodes within 0.3 s
+    assert rep["eroded_volume_m3"] > 0
+    fe = rep["first_erosion"]
+    assert fe["t"] >= 0.05  # nothing before erosion.start
+    assert set(fe) >= {"t", "x", "z"}
+    b = rep["budget"]
+    # the eroder's removed volume is the field's loss: float32 differences summed in float64
+    assert b["carried_off"] == pytest.approx(b["eroded"], rel=1e-12)
+    assert b["closure_rel"] < 1e-9
+    assert rep["particles_inside_solid"] == 0
+    assert rep["timings"]["particle_steps_per_s"] > 0
+    # profiles.csv: t,x,z along the centre line, x from the upstream toe; the first is the embankment's crest
+    rows = np.loadtxt(out / "profiles.csv", delimiter=",", skiprows=1)
+    assert (out / "profiles.csv").read_text().startswith("t,x,z\n")
+    t0 = rows[rows[:, 0] == 0.0]
+    # full preset: a 0.2 m embankment on a 2 cm plinth; the profile's peak is the crest at 0.22 m within a
+    # voxel's interpolation error of the ramp (exact on planes; the crest's corners are rounded by < Δ)
+    assert t0[:, 2].max() == pytest.approx(0.22, abs=0.04)
+    crest = t0[t0[:, 2] > 0.2, 1]
+    assert crest.min() >= 0.4 - 0.04 and crest.max() <= 0.5 + 0.04  # crest from 0.4 to 0.5 m past the toe
+    assert len(np.unique(rows[:, 0])) >= 5
+    # outputs per output time (0, 0.15, 0.3): every mesh format loads back, the fields too
+    for k in range(3):
+        for kind in ("obj", "ply", "glb"):
+            m = trimesh.load(out / "meshes" / f"surface_{k:04d}.{kind}", force="mesh")
+            assert len(m.faces) > 100
+        VoxelTerrain.load(out / "fields" / f"density_{k:04d}.npz")
+    assert (out / "figures" / "profiles.png").stat().st_size > 0
+    assert (out / "particles" / "particles.pvd").is_file()
+    # the non-erodible base (nodes below 0.03 m) kept every value it had
+    start = VoxelTerrain.load(out / "fields" / "density_0000.npz")
+    end = VoxelTerrain.load(out / "fields" / "density_0002.npz")
+    z = start.axes()[2]
+    low = z < 0.03
+    assert np.array_equal(start.density[low], end.density[low])
+    assert not np.array_equal(start.density[~low], end.density[~low])
+
+
+def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch):
+    from erosim.sph.solver import SPHSolver
+
+    sets = COARSE + ["run.output_interval=0", "run.particle_frames=false"]
+    whole = RunFolder(tmp_path / "whole")
+    runner.run(loader.load("overtopping", sets, preset="full"), whole, progress=False)
+    real, calls = SPHSolver.step, {"n": 0}
+
+    def interrupt(self):
+        calls["n"] += 1
+        if calls["n"] == 500:
+            raise KeyboardInterrupt
+        return real(self)
+
+    monkeypatch.setattr(SPHSolver, "step", interrupt)
+    cut = RunFolder(tmp_path / "cut")
+    with pytest.raises(Interrupted):
+        runner.run(loader.load("overtopping", sets, preset="full"), cut, progress=False)
+    monkeypatch.setattr(SPHSolver, "step", real)
+    runner.run(loader.load(cut.path / "scenario.toml"), RunFolder(cut.path, resume=True), resume=True,
+               progress=False)  # fmt: skip
+    a = VoxelTerrain.load(whole.path / "fields" / "density_0001.npz").density
+    b = VoxelTerrain.load(cut.path / "fields" / "density_0001.npz").density
+    assert np.array_equal(a, b)
+    assert (whole.path / "profiles.csv").read_text() == (cut.path / "profiles.csv").read_text()
+    ra, rb = (json.loads((p / "report.json").read_text()) for p in (whole.path, cut.path))
+    assert ra["eroded_volume_m3"] > 0
+    assert ra["eroded_volume_m3"] == rb["eroded_volume_m3"] and ra["first_erosion"] == rb["first_erosion"]
+    assert ra["steps"] == rb["steps"] and ra["fluid_particles"] == rb["fluid_particles"]
+
+
+@pytest.mark.parametrize(
+    "sets, words",
+    [
+        (["voxels.iso=1.5"], "iso level 1.5 lies outside"),
+        (["voxels.cell_size=0.1"], "too coarse for the particle spacing"),
+        (["voxels.max_bytes=1000"], "use voxels of at least"),
+        (["embankment.x_toe=1.0"], "beyond the flume's end"),
+    ],
+)
+def test_bad_input_is_one_sentence_and_leaves_no_run_folder(tmp_path, sets, words):
+    out = tmp_path / "bad"
+    code, text = _cli("run", "overtopping", "--out", str(out), *_sets(COARSE + sets))
+    assert code != 0
+    assert words in " ".join(text.split()), text
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_validate_overtopping_default_resolution(tmp_path):
+    """The seed's observations at the library's resolution (both presets, 60 s each): see
+    erosim.validation.overtopping for the criteria."""
+    from erosim.validation.overtopping import run as validate
+
+    res = validate("default", tmp_path / "v", progress=False)
+    assert res["runs"]["partial"]["particles_inside_solid"] == 0
+    assert res["runs"]["full"]["particles_inside_solid"] == 0
+    assert res["passed"], res
+
+
+def test_canyon_caves_second_run_starts_from_the_first_runs_field(tmp_path):
+    sets = ["terrain.size=12", "run.t_end=0.6", "run.output_interval=0.3", "erosion.start=0.05",
+            "run.particle_frames=false", "rain.height=0.5"]  # fmt: skip
+    first, second = tmp_path / "first", tmp_path / "second"
+    code, text = _cli("run", "canyon-caves", "--out", str(first), *_sets(sets))
+    assert code == 0, text
+    end = first / "fields" / "density_0002.npz"
+    code, text = _cli("run", "canyon-caves", "--out", str(second), *_sets(sets + [f"terrain.voxels_file={end}"]))
+    assert code == 0, text
+    a = VoxelTerrain.load(end)
+    b = VoxelTerrain.load(second / "fields" / "density_0000.npz")
+    assert np.array_equal(a.density, b.density) and a.cell_size == b.cell_size and a.origin == b.origin
+    for run in (first, second):
+        assert all((run / "figures" / f"section_{k:04d}.png").stat().st_size > 0 for k in range(3))
+        rep = json.loads((run / "report.json").read_text())
+        assert rep["particles_inside_solid"] == 0
+        assert rep["water"]["added"].get("rain", 0) > 0  # drops of 5 particles
+        assert rep["water"]["added"]["rain"] % 5 == 0
