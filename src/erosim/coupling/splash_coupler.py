@@ -31,7 +31,9 @@ since the last one:
    settled mud; ΔS the mud taken up minus settled; C what was thrown clear), checked by
    :func:`~erosim.core.increments.check_budget` and applied once; the solver's boundaries are
    refreshed and the ground's columns follow their surface;
-6. moisture diffuses through the ground, surface particles evaporate, and the mud concentration
+6. in a layered ground water drains down the columns (Darcy, the layers' harmonic-mean K; the surface
+   then takes water at the top layer's K, not ``permeability``), moisture diffuses through the ground,
+   surface particles evaporate, and the mud concentration
    diffuses among the fluid particles (SP-4, :mod:`erosim.sph.mud`).
 
 Per fluid particle the registered fields are ``water`` (the share of its volume V_p still water,
