@@ -141,6 +141,12 @@ def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch):
         ({"ground.porosity": 1.0}, "'ground.porosity' = 1.0 is not valid"),
         ({"ground.sigma_wet": 3e4}, "ground.sigma_wet = 30000 Pa is above ground.sigma_dry = 20000 Pa"),
         ({"ground.spacing": 0.0013}, "ground.spacing = 0.0013 m does not fit the fluid spacing"),
+        (
+            {"ground.layers": 2, "ground.topsoil_layers": 2, "ground.subsoil_permeability": 1e-10},
+            "ground.topsoil_layers = 2 leaves no subsoil in 2 layers",
+        ),
+        ({"ground.topsoil_layers": 1}, "ground.topsoil_layers > 0 needs ground.subsoil_permeability > 0"),
+        ({"ground.subsoil_permeability": 1e-10}, "ground.subsoil_permeability is set but ground.topsoil_layers is 0"),
     ],
 )
 def test_bad_input_is_one_sentence_and_leaves_no_folder(tmp_path, sets, words):

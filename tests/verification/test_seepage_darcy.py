@@ -8,7 +8,7 @@ from scipy.special import erfc
 
 from erosim.coupling.porous_ground import PorousGround
 from erosim.coupling.raster import Raster
-from erosim.hydrology.seepage_darcy import absorb, conductivity, evaporate
+from erosim.hydrology.seepage_darcy import absorb, conductivity, drain, evaporate, harmonic
 from erosim.kernels.sph_diffusion import diffuse
 
 
@@ -135,3 +135,44 @@ def test_seepage_stops_when_the_ground_below_is_saturated():
     assert 0.9 * room < absorbed <= room * (1 + 1e-12)
     assert g.theta.max() <= 1.0
     assert abs(water.sum() + g.water() - total0) / total0 < 1e-12
+
+
+def test_two_layer_column_passes_the_harmonic_mean_darcy_rate_and_the_top_soil_fills_first():
+    """A top soil of K_t over a subsoil of K_s: a saturated top over a dry subsoil drains at
+    K̄A = 2K_tK_s/(K_t + K_s)·A (the series conductance of the two half-layers, s/(s/2K_t + s/2K_s));
+    under a puddle the top soil then saturates while the subsoil is still dry, and the puddle sinks
+    no faster than the interface lets water through (saturation-excess ponding)."""
+    kp_t, kp_s = 2e-8, 5e-11
+    r = Raster(0.0, 0.0, 0.01, 0.01, 5, 5)
+    g = PorousGround(r, np.zeros(r.shape), 0.01, 2, 0.4, 0.0, 2650.0, permeability=[kp_t, kp_s])
+    k_t, k_s = conductivity(kp_t), conductivity(kp_s)
+    k_bar = harmonic(k_t * np.ones(g.ncol), k_s * np.ones(g.ncol))
+    s = g.s
+    assert k_bar[0] == pytest.approx(s / (s / (2 * k_t) + s / (2 * k_s)), rel=1e-14)
+    g.theta[g.surface] = 1.0
+    dt = 1e-3
+    moved = drain(g.theta, g.pore, g.upper, g.lower, k_bar, g.area, dt)
+    # exact to rounding: θ_u(1 − θ_l) = 1 at the first step, K̄AΔt per column (well under the pore volume)
+    assert moved == pytest.approx(g.ncol * k_bar[0] * g.area * dt, rel=1e-12)
+
+    g.theta[:] = 0.0
+    water = np.full(g.ncol, 1.0)  # an endless puddle on every column
+    contact = np.arange(g.ncol)
+    total0 = water.sum() + g.water()
+    tau_top = g.pore[0] / (k_t * g.area)  # the top soil fills in about this time at K_t (0.02 s)
+    steps, soaked = 400, []
+    for _ in range(steps):
+        taken, gained = absorb(water, contact, g.theta, g.pore, g.area, k_t, dt)
+        water -= taken
+        g.theta += gained / g.pore
+        drain(g.theta, g.pore, g.upper, g.lower, k_bar, g.area, dt)
+        soaked.append(taken.sum())
+    top, sub = g.theta[g.surface].mean(), g.theta[~g.surface].mean()
+    assert steps * dt > 10 * tau_top
+    # the top soil is saturated (within the one step it needs to refill, K_t A Δt/(φV) = 5 %) and the
+    # subsoil has taken at most K̄ t A of water (θ ≤ K̄ t/(φ s) = 0.1)
+    assert top > 0.95 and sub <= k_bar[0] * steps * dt / (0.4 * s) + 1e-12
+    # once the top is full the ground takes no more than the interface passes: K̄A per column at most
+    assert soaked[-1] <= g.ncol * k_bar[0] * g.area * dt * (1 + 1e-9)
+    assert soaked[0] == pytest.approx(g.ncol * k_t * g.area * dt, rel=1e-12)  # a dry top takes K_t at first
+    assert abs(water.sum() + g.water() - total0) / total0 < 1e-12  # water budget: rounding only

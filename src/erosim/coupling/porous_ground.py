@@ -5,7 +5,9 @@ map (x = x0 + (i + ½)s, y = y0 + (j + ½)s), ``layers`` particles deep under th
 z = ground(x, y) − (l + ½)s. Each has a porosity φ, a saturation θ ∈ [0, 1] (the share of its pores
 holding water), a grain density ρ_s and — through θ — a yield strength (:mod:`erosim.erosion.wet_strength`).
 It holds φs³θ m³ of water; the top layer (l = 0) is the surface that water touches and that
-evaporates.
+evaporates. Each layer may have its own permeability (a top soil over a subsoil): the pairs'
+diffusion then scales with their harmonic-mean conductivity, and water drains down the columns by
+Darcy's law (:func:`erosim.hydrology.seepage_darcy.drain`).
 
 The particles are the soil's moisture carriers: when the heightmap changes (a crater, a deposit) every
 column follows its ground (:meth:`PorousGround.follow`), keeping its water; the solid volume the
@@ -42,7 +44,8 @@ class PorousGround:
     """Layers of porous particles under ``terrain`` (raster.shape, SPH frame, read live)."""
 
     def __init__(self, raster: Raster, terrain: np.ndarray, spacing: float, layers: int, porosity: float,
-                 saturation: float, density: float):  # fmt: skip
+                 saturation: float, density: float, permeability=None):  # fmt: skip
+        """``permeability``: None (uniform ground) or one k_p (m²) per layer, top first."""
         self.raster, self.terrain = raster, terrain
         self.s = s = float(spacing)
         self.layers = int(layers)
@@ -63,6 +66,13 @@ class PorousGround:
         self.pore = self.porosity * self.volume
         self.theta = np.full(n, float(saturation))
         self.density = np.full(n, float(density))  # grain density of each particle (kg/m³)
+        self.layered = permeability is not None
+        perm = np.ones(self.layers) if permeability is None else np.asarray(permeability, float)
+        if perm.shape != (self.layers,):
+            raise ValueError(f"permeability has {perm.size} values for {self.layers} layers; give one per layer.")
+        self.permeability = np.repeat(perm, self.ncol)  # k_p of each particle (m²)
+        self.upper = np.arange(self.ncol * (self.layers - 1))  # each particle over another, and that one
+        self.lower = self.upper + self.ncol
         self.surface = np.zeros(n, bool)
         self.surface[: self.ncol] = True
         self.follow()
@@ -89,8 +99,13 @@ class PorousGround:
         return float((self.theta * self.pore).sum())
 
     def weights(self, diffusivity: float) -> np.ndarray:
-        """Pair weights D φ̄ V² L(r) of the moisture diffusion (seepage_darcy's docstring)."""
+        """Pair weights D φ̄ V² L(r) of the moisture diffusion (seepage_darcy's docstring); in a layered
+        ground D = ``diffusivity``·K̄_ij/K_top, K̄ the pair's harmonic-mean conductivity."""
         phi = 0.5 * (self.porosity[self.i] + self.porosity[self.j])
+        if self.layered and self.permeability[0] > 0:
+            from erosim.hydrology.seepage_darcy import harmonic
+
+            phi = phi * harmonic(self.permeability[self.i], self.permeability[self.j]) / self.permeability[0]
         return phi * pair_weights(self._r, self.h, 3, self.volume, self.volume, diffusivity)
 
     def column_of(self, xy: np.ndarray) -> np.ndarray:

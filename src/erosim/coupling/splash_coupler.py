@@ -31,7 +31,9 @@ since the last one:
    settled mud; ΔS the mud taken up minus settled; C what was thrown clear), checked by
    :func:`~erosim.core.increments.check_budget` and applied once; the solver's boundaries are
    refreshed and the ground's columns follow their surface;
-6. moisture diffuses through the ground, surface particles evaporate, and the mud concentration
+6. in a layered ground water drains down the columns (Darcy, the layers' harmonic-mean K; the surface
+   then takes water at the top layer's K, not ``permeability``), moisture diffuses through the ground,
+   surface particles evaporate, and the mud concentration
    diffuses among the fluid particles (SP-4, :mod:`erosim.sph.mud`).
 
 Per fluid particle the registered fields are ``water`` (the share of its volume V_p still water,
@@ -73,7 +75,7 @@ from erosim.coupling.sampling import sample
 from erosim.erosion import splash as sp
 from erosim.erosion.shear_stress_kristof2009 import excess_stresses
 from erosim.erosion.wet_strength import strength
-from erosim.hydrology.seepage_darcy import absorb, conductivity, evaporate
+from erosim.hydrology.seepage_darcy import absorb, conductivity, drain, evaporate, harmonic
 from erosim.kernels.sph_diffusion import diffuse
 from erosim.sph.boundaries.heightfield import node_slopes
 from erosim.sph.mud import MudParams, diffuse_concentration, mixture_density
@@ -121,6 +123,10 @@ class WetGround:
         g = float(np.linalg.norm(solver.g))
         self.k = conductivity(permeability, gravity=g if g > 0 else 9.81)
         self.diffusivity = float(diffusivity)
+        kg = conductivity(ground.permeability, gravity=g if g > 0 else 9.81)
+        self.k_between = harmonic(kg[ground.upper], kg[ground.lower]) if ground.layered else None
+        if ground.layered:  # the surface takes water at the top soil's conductivity
+            self.k = float(kg[0])
         self.evaporation = evaporation_mm_h / 3.6e6  # m/s
         dx = solver.params.spacing
         self.vp = dx**3
@@ -256,6 +262,8 @@ class WetGround:
 
         # ---- 6 moisture, evaporation
         g = self.ground
+        if self.k_between is not None:
+            drain(g.theta, g.pore, g.upper, g.lower, self.k_between, g.area, dt)
         diffuse(g.theta, g.pore, g.i, g.j, self._w, dt)
         self.totals["evaporated"] += evaporate(g.theta, g.pore, g.surface, g.area, self.evaporation, dt)
         t2, c2 = time.perf_counter(), time.process_time()

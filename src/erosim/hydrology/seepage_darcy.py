@@ -20,6 +20,22 @@ d(φ_iV_iθ_i)/dt = Σ_j D_θ φ̄_ij V_i V_j L(r_ij)(θ_j − θ_i) (the conser
 :mod:`erosim.kernels.sph_diffusion`; φ̄ the mean porosity of the pair), so a step of wet over dry
 ground spreads as erfc(z/(2√(D_θ t))) and a moisture front moves ∝ √t.
 
+**Layered ground: Darcy drainage between layers.** Where the top soil and the subsoil differ in
+permeability, the gravity part of Richards' equation, q = K(θ), is added to the diffusion above (its
+capillary part, −D_θ ∂θ/∂z). Between a particle u and the one under it, l, in the same column,
+
+    q_ul = K̄_ul θ_u (1 − θ_l),        K̄_ul = 2 K_u K_l / (K_u + K_l),
+
+K̄ the conductivity between the two layers: the harmonic mean, the series conductance of the half
+particle of each over the distance s between their centres (s / (s/2K_u + s/2K_l)). The upper's
+saturation stands for the share of its pores that conduct, the lower's deficit for its suction (as
+in the absorption); a saturated top layer over a dry subsoil drains at K̄A. In Δt the pair moves at
+most the upper's water θ_uφ_uV_u and the lower's free pore (1 − θ_l)φ_lV_l, so θ stays in [0, 1].
+Since D_θ = K(θ) dψ/dθ (Richards), the diffusivity of a pair is D_θ K̄_ij/K_top: D_θ is the top
+soil's. A top soil faster than its subsoil fills once the subsoil cannot take the water away, and
+the water then stands on it (saturation-excess ponding, Dunne 1983). Modelling choice: a uniform
+ground keeps the diffusion-only exchange.
+
 **Evaporation** (optional): surface particles lose E·A_k·Δt of water (E in m/s), while they have it.
 
 Every transfer is subtracted from one store and added to another in the same floating-point
@@ -76,3 +92,26 @@ def evaporate(theta: np.ndarray, pore: np.ndarray, surface: np.ndarray, area: fl
     loss = np.minimum(held, rate * area * dt)
     theta[surface] = (held - loss) / pore[surface]
     return float(loss.sum())
+
+
+def harmonic(k_a: np.ndarray, k_b: np.ndarray) -> np.ndarray:
+    """Conductivity between two layers in series, K̄ = 2K_aK_b/(K_a + K_b) (0 where either is 0)."""
+    total = k_a + k_b
+    return np.divide(2.0 * k_a * k_b, total, out=np.zeros(np.broadcast(k_a, k_b).shape), where=total > 0)
+
+
+def drain(theta: np.ndarray, pore: np.ndarray, upper: np.ndarray, lower: np.ndarray, k_between: np.ndarray,
+          area: float, dt: float) -> float:  # fmt: skip
+    """One step of Darcy drainage q = K̄ θ_u (1 − θ_l) from each ``upper`` particle to its ``lower`` one.
+
+    ``k_between`` (m/s) the harmonic-mean conductivity of each pair, ``area`` the top area (m²);
+    θ in place, every pair's amount taken from one and given to the other; returns the m³ moved.
+    """
+    if dt <= 0 or len(upper) == 0:
+        return 0.0
+    tu, tl = theta[upper], theta[lower]
+    flow = k_between * tu * np.clip(1.0 - tl, 0.0, 1.0) * area * dt
+    flow = np.minimum(flow, np.minimum(tu * pore[upper], np.clip(1.0 - tl, 0.0, 1.0) * pore[lower]))
+    theta[upper] -= flow / pore[upper]
+    theta[lower] += flow / pore[lower]
+    return float(flow.sum())

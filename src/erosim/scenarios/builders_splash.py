@@ -75,7 +75,8 @@ def froude_scaled(cfg: SplashScenario, cell: float) -> tuple[SplashScenario, flo
     does on the reference terrain in as many steps (a λ times larger particle falls √λ times longer):
 
     run.t_end, run.rain_until × √λ;  rain.height × λ, rain.rate (a speed) × √λ;  inflow discharge × λ^{5/2},
-    radius and height × λ;  permeability × √λ (K is a speed);  moisture and mud diffusivities × λ^{3/2};
+    radius and height × λ;  ground.spacing × λ;  permeabilities × √λ (K is a speed);  moisture and mud
+    diffusivities × λ^{3/2};
     evaporation × √λ;  yield strengths × λ (d_p/R ∝ v/√σ stays);  splash.min_speed × √λ;  scour k_s × √λ,
     τ_c × λ^{−n/2} (the shear rate v/l scales as 1/√λ);  a set sph.sound_speed × √λ, sph.dt × √λ.
     Returns the scaled scenario and λ (1: unchanged)."""
@@ -101,6 +102,8 @@ def froude_scaled(cfg: SplashScenario, cell: float) -> tuple[SplashScenario, flo
     ground = g.model_copy(
         update={
             "permeability": g.permeability * r,
+            "subsoil_permeability": g.subsoil_permeability * r,
+            "spacing": g.spacing * lam,
             "diffusivity": g.diffusivity * lam**1.5,
             "evaporation": g.evaporation * r,
             "sigma_dry": g.sigma_dry * lam,
@@ -379,7 +382,10 @@ def setup(scenario, out) -> Setup:
             f"{MAX_GROUND:.0e} that fit in a laptop's memory (about 1 kB each with their pairs); raise "
             "scale.spacing_cells (up to 2) or sph.spacing, or lower ground.layers."
         )
-    ground = PorousGround(r, geo.terrain, s_ground, gs.layers, gs.porosity, gs.saturation, gs.density)
+    perm = None
+    if gs.topsoil_layers > 0:
+        perm = [gs.permeability] * gs.topsoil_layers + [gs.subsoil_permeability] * (gs.layers - gs.topsoil_layers)
+    ground = PorousGround(r, geo.terrain, s_ground, gs.layers, gs.porosity, gs.saturation, gs.density, perm)
     wet = WetGround(IterationInterval(cfg.run.every), solver, r, geo.terrain, ground, splash=cfg.splash,
                     sigma_dry=gs.sigma_dry, sigma_wet=gs.sigma_wet, permeability=gs.permeability,
                     diffusivity=gs.diffusivity, evaporation_mm_h=gs.evaporation, mud=cfg.mud,

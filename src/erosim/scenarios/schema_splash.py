@@ -45,7 +45,12 @@ class PorousGroundSection(WetStrengthParams):
     porosity: float = param(0.4, gt=0, lt=1, unit="1", doc="porosity φ: pore volume per particle volume (< 1)")
     saturation: float = param(0.0, ge=0, le=1, unit="1", doc="initial saturation θ of every ground particle, 0…1")
     density: float = param(2650.0, gt=0, unit="kg/m3", doc="density of the ground's grains")
-    permeability: float = param(1.0e-9, ge=0, unit="m2", doc="intrinsic permeability k_p (K = k_p ρ g/μ)")
+    permeability: float = param(1.0e-9, ge=0, unit="m2", doc="intrinsic permeability k_p (K = k_p ρ g/μ); of "
+                                "the top soil where topsoil_layers > 0")  # fmt: skip
+    topsoil_layers: int = param(0, ge=0, le=63, unit="1", doc="layers of top soil of ground.permeability over a "
+                                "subsoil of ground.subsoil_permeability (0: one uniform ground)")  # fmt: skip
+    subsoil_permeability: float = param(0.0, ge=0, unit="m2", doc="permeability of the layers under the top soil "
+                                        "(with topsoil_layers > 0)")  # fmt: skip
     diffusivity: float = param(1.0e-4, ge=0, unit="m2/s", doc="moisture diffusivity D_θ between ground particles")
     evaporation: float = param(0.0, ge=0, unit="mm/h", doc="evaporation from the surface particles")
     nodata_wall: float = param(50.0, gt=0, unit="m", doc="nodata cells of a DEM stand this high above its top")
@@ -124,6 +129,16 @@ class SplashScenario(Section):
             raise ConfigError("In splash scenarios the ground and the map edges are the walls; leave sph.walls out.")
         if self.drop is None and self.rain.rate <= 0 and not self.inflows:
             raise ConfigError("The scenario has no water: give a [drop], rain.rate > 0 or an [inflows.NAME] jet.")
+        g = self.ground
+        if g.topsoil_layers >= g.layers:
+            raise ConfigError(f"ground.topsoil_layers = {g.topsoil_layers} leaves no subsoil in {g.layers} layers; "
+                              "give fewer top soil layers than ground.layers, or 0 for a uniform ground.")  # fmt: skip
+        if g.topsoil_layers > 0 and g.subsoil_permeability <= 0:
+            raise ConfigError("ground.topsoil_layers > 0 needs ground.subsoil_permeability > 0 (m²) for the layers "
+                              "under the top soil.")  # fmt: skip
+        if g.topsoil_layers == 0 and g.subsoil_permeability > 0:
+            raise ConfigError("ground.subsoil_permeability is set but ground.topsoil_layers is 0; give the number of "
+                              "top soil layers, or leave subsoil_permeability out.")  # fmt: skip
         for name, inf in self.inflows.items():
             if len(inf.position) != 2:
                 raise ConfigError(f"inflows.{name}.position has {len(inf.position)} coordinates; give [x, y].")
