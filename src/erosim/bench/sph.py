@@ -49,6 +49,37 @@ def dam_break_geometry(particles: int, dim: int, spacing: float):
     return fluid, np.zeros(dim), np.array(hi)
 
 
+def box_reference(particles: int, spacing: float, *, warmup: int, steps: int | None, seconds: float,
+                  step_bounds: tuple[int, int]):  # fmt: skip
+    """The 3-D dam break in a box of boundary particles that the terrain benchmarks compare with.
+
+    Returns (fluid, lo, hi, solver, steps, wall_s): ``steps`` (when None) is what fits in ``seconds``
+    at the speed of five probe steps, within ``step_bounds``; ``wall_s`` is the time of that many steps
+    after ``warmup`` untimed ones.
+    """
+    from erosim.sph.params import SPHParams
+    from erosim.sph.solver import SPHSolver
+
+    fluid, lo, hi = dam_break_geometry(int(particles), 3, spacing)
+    box = SPHSolver(SPHParams(dim=3, spacing=spacing), fluid, domain_lo=lo, domain_hi=hi)
+    for _ in range(warmup):
+        box.step()
+    if steps is None:
+        per = timed_steps(box.step, 5) / 5
+        steps = int(max(step_bounds[0], min(step_bounds[1], seconds / max(per, 1e-6))))
+    return fluid, lo, hi, box, steps, timed_steps(box.step, steps)
+
+
+def timed_steps(step, steps: int, every: int = 0, coupler=None) -> float:
+    """Wall seconds of ``steps`` calls of ``step``, calling ``coupler`` after every ``every``-th."""
+    t0 = time.perf_counter()
+    for k in range(steps):
+        step()
+        if coupler is not None and (k + 1) % every == 0:
+            coupler()
+    return time.perf_counter() - t0
+
+
 def run(
     particles: int = 100_000,
     steps: int | None = None,

@@ -29,19 +29,12 @@ import time
 import numpy as np
 
 
-def _time_steps(step, steps: int) -> float:
-    t0 = time.perf_counter()
-    for _ in range(steps):
-        step()
-    return time.perf_counter() - t0
-
-
 def run(particles: int = 100_000, steps: int | None = None, *, every: int = 20, warmup: int = 20,
         seconds: float = 8.0) -> dict:  # fmt: skip
     """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
     import numba
 
-    from erosim.bench.sph import dam_break_geometry
+    from erosim.bench.sph import box_reference
     from erosim.coupling.coupler import Coupler
     from erosim.coupling.raster import Raster
     from erosim.erosion.transport_capacity_mei2007 import TransportCapacity, TransportCapacityParams
@@ -52,15 +45,9 @@ def run(particles: int = 100_000, steps: int | None = None, *, every: int = 20, 
     from erosim.sph.solver import SPHSolver
 
     dx = 0.01
-    fluid, lo, hi = dam_break_geometry(int(particles), 3, dx)
     # --- box: boundary particles on the floor and the sides
-    box = SPHSolver(SPHParams(dim=3, spacing=dx), fluid, domain_lo=lo, domain_hi=hi)
-    for _ in range(warmup):
-        box.step()
-    if steps is None:
-        per = _time_steps(box.step, 5) / 5
-        steps = int(max(60, min(400, seconds / max(per, 1e-6))))
-    box_wall = _time_steps(box.step, steps)
+    fluid, lo, hi, box, steps, box_wall = box_reference(particles, dx, warmup=warmup, steps=steps,
+                                                        seconds=seconds, step_bounds=(60, 400))  # fmt: skip
 
     # --- terrain: flat heightmap floor, plane sides, erosion every `every` steps
     cell = 2.0 * dx

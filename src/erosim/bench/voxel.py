@@ -22,16 +22,6 @@ time) − 1 (target ≤ 0.10), the three rates, ``voxel_nodes``, ``boundary_part
 from __future__ import annotations
 
 import resource
-import time
-
-
-def _timed(solver, steps: int, coupler=None, every: int = 50) -> float:
-    t0 = time.perf_counter()
-    for k in range(steps):
-        solver.step()
-        if coupler is not None and (k + 1) % every == 0:
-            coupler()
-    return time.perf_counter() - t0
 
 
 def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, warmup: int = 20,
@@ -39,7 +29,7 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
     """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
     import numba
 
-    from erosim.bench.sph import dam_break_geometry
+    from erosim.bench.sph import box_reference, timed_steps
     from erosim.coupling.voxel_coupler import VoxelCoupler
     from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
     from erosim.simulation.schedules import IterationInterval
@@ -49,14 +39,8 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
     from erosim.terrain.voxel import Box, VoxelTerrain
 
     dx = 0.01
-    fluid, lo, hi = dam_break_geometry(int(particles), 3, dx)
-    box = SPHSolver(SPHParams(dim=3, spacing=dx), fluid, domain_lo=lo, domain_hi=hi)
-    for _ in range(warmup):
-        box.step()
-    if steps is None:
-        per = _time_steps_probe(box)
-        steps = int(max(100, min(500, seconds / max(per, 1e-6))))
-    box_wall = _timed(box, steps)
+    fluid, lo, hi, box, steps, box_wall = box_reference(particles, dx, warmup=warmup, steps=steps,
+                                                        seconds=seconds, step_bounds=(100, 500))  # fmt: skip
 
     params = SPHParams(dim=3, spacing=dx, walls="reflect")
     h = params.support()
@@ -80,11 +64,11 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
         if erode:
             eroder = ShearStressErosion(terrain, ShearStressParams(k_eps=1.0, tau_c=0.0), support=solver.h)
             coupler = VoxelCoupler(IterationInterval(every), solver, eroder, terrain)
-        _timed(solver, warmup, coupler, every)
+        timed_steps(solver.step, warmup, every, coupler)
         if coupler is not None:
             coupler()  # compiled and warm before the timing
             coupler.wall, coupler.calls = 0.0, 0
-        wall_s = _timed(solver, steps, coupler, every)
+        wall_s = timed_steps(solver.step, steps, every, coupler)
         results[erode] = (wall_s, solver, terrain, coupler)
     v_wall, solver, terrain, _ = results[False]
     e_wall, esolver, _, coupler = results[True]
@@ -111,9 +95,3 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
     }
 
-
-def _time_steps_probe(solver) -> float:
-    t0 = time.perf_counter()
-    for _ in range(5):
-        solver.step()
-    return (time.perf_counter() - t0) / 5
