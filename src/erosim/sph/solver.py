@@ -455,6 +455,23 @@ class SPHSolver:
         """One step (the simulation's unit of work)."""
         self.step()
 
+    def _advance_clock(self, dt: float) -> None:
+        """Count the step and stop with one sentence when the fluid outran the sound speed or blew up."""
+        prm = self.params
+        self.t += dt
+        self.steps += 1
+        self.last_dt = dt
+        if not (self.vmax <= prm.max_mach * self.c) or not math.isfinite(self.amax):
+            what = (
+                "NaN/infinite values"
+                if not math.isfinite(self.vmax) or not math.isfinite(self.amax)
+                else (f"a fluid speed of {self.vmax:.3g} m/s, above {prm.max_mach:g}× the sound speed {self.c:.3g} m/s")
+            )
+            raise InstabilityError(
+                f"The SPH fluid went unstable at step {self.steps} (t = {self.t:.6g} s) with {what}; "
+                "use an adaptive step (sph.dt = 0) or a smaller sph.dt/sph.cfl, or raise sph.sound_speed or sph.alpha."
+            )
+
     def step(self) -> float:
         """Advance one step (fixed or adaptive Δt); returns the Δt used.
 
@@ -491,19 +508,7 @@ class SPHSolver:
             fn(self, dt)
         self.vmax = math.sqrt(float(self._v2.max()))
         self.amax = math.sqrt(float(self._a2.max()))
-        self.t += dt
-        self.steps += 1
-        self.last_dt = dt
-        if not (self.vmax <= prm.max_mach * self.c) or not math.isfinite(self.amax):
-            what = (
-                "NaN/infinite values"
-                if not math.isfinite(self.vmax) or not math.isfinite(self.amax)
-                else (f"a fluid speed of {self.vmax:.3g} m/s, above {prm.max_mach:g}× the sound speed {self.c:.3g} m/s")
-            )
-            raise InstabilityError(
-                f"The SPH fluid went unstable at step {self.steps} (t = {self.t:.6g} s) with {what}; "
-                "use an adaptive step (sph.dt = 0) or a smaller sph.dt/sph.cfl, or raise sph.sound_speed or sph.alpha."
-            )
+        self._advance_clock(dt)
         return dt
 
     # ------------------------------------------------------------------ outputs (label order)

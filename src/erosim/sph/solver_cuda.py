@@ -30,7 +30,7 @@ import warnings
 import numpy as np
 
 from erosim.core import devices
-from erosim.core.errors import ConfigError, InstabilityError
+from erosim.core.errors import ConfigError
 from erosim.kernels import neighbours as nb
 from erosim.sph.boundaries.box import BoxWalls
 from erosim.sph.boundaries.particles import BoundaryParticles
@@ -250,19 +250,7 @@ class CudaSPHSolver(SPHSolver):
         v2, a2 = self._d_maxima.copy_to_host()
         self.vmax = math.sqrt(float(v2))
         self.amax = math.sqrt(float(a2))
-        self.t += dt
-        self.steps += 1
-        self.last_dt = dt
-        if not (self.vmax <= prm.max_mach * self.c) or not math.isfinite(self.amax):
-            what = (
-                "NaN/infinite values"
-                if not math.isfinite(self.vmax) or not math.isfinite(self.amax)
-                else (f"a fluid speed of {self.vmax:.3g} m/s, above {prm.max_mach:g}× the sound speed {self.c:.3g} m/s")
-            )
-            raise InstabilityError(
-                f"The SPH fluid went unstable at step {self.steps} (t = {self.t:.6g} s) with {what}; "
-                "use an adaptive step (sph.dt = 0) or a smaller sph.dt/sph.cfl, or raise sph.sound_speed or sph.alpha."
-            )
+        self._advance_clock(dt)
         return dt
 
     def step(self) -> float:
