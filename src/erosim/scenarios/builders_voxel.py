@@ -33,6 +33,8 @@ from typing import Any
 import numpy as np
 
 from erosim.core.errors import ConfigError
+from erosim.coupling.raster import Raster
+from erosim.coupling.sources import EDGES, EdgeOutflow
 from erosim.coupling.voxel_coupler import VoxelCoupler
 from erosim.scenarios.schema_voxel import VoxelScenario
 from erosim.scenarios.setup import Setup
@@ -116,22 +118,6 @@ def surface_profile(terrain, y: float) -> tuple[np.ndarray, np.ndarray]:
         d0, d1 = col[k, i], col[k + 1, i]
         z[i] = z_ax[k] + terrain.cell_size * (d0 - iso) / (d0 - d1)
     return x_ax, z
-
-
-class Outflow(cb.Callback):
-    """Removes the particles that left the box ``lo``–``hi`` in x and y (open edges), every step."""
-
-    def __init__(self, solver, lo, hi):
-        super().__init__(IterationInterval(1), name="outflow")
-        self.solver, self.lo, self.hi = solver, np.asarray(lo, np.float64), np.asarray(hi, np.float64)
-
-    def __call__(self, sim) -> None:
-        s = self.solver
-        st = s.state
-        xy = st.pos[: st.n_fluid, :2]
-        mask = np.any((xy < self.lo) | (xy > self.hi), axis=1)
-        if mask.any():
-            s.remove_fluid(mask, sink="edge")
 
 
 class RainDrops(cb.Callback):
@@ -395,9 +381,13 @@ def setup(scenario, out) -> Setup:
         callbacks.append(Inflow(solver, i.x0, i.x1, cfg.terrain.width, i.height, i.discharge))
     flume = cfg.terrain.shape == "flume"
     if flume:
-        callbacks.append(Outflow(solver, (-np.inf, -np.inf), (cfg.terrain.length, np.inf)))
+        # the open downstream end: a raster whose east edge is the flume's end
+        ends = Raster(0.0, 0.0, cfg.terrain.length, cfg.terrain.width, 2, 2)
+        callbacks.append(EdgeOutflow(IterationInterval(1), solver, ends, ["east"]))
     else:
-        callbacks.append(Outflow(solver, terrain.lo[:2], terrain.hi[:2]))
+        (x0, y0), (x1, y1) = terrain.lo[:2], terrain.hi[:2]
+        box = Raster(float(x0), float(y0), float(x1 - x0), float(y1 - y0), 2, 2)
+        callbacks.append(EdgeOutflow(IterationInterval(1), solver, box, EDGES))
         if cfg.rain.rate > 0:
             callbacks.append(RainDrops(IterationInterval(cfg.rain.every), solver, terrain.lo[:2], terrain.hi[:2],
                                        rain_height(cfg, terrain), cfg.rain.rate, cfg.seed))  # fmt: skip
