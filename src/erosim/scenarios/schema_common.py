@@ -30,6 +30,19 @@ from erosim.terrain.shapes import SHAPES
 DEFAULT_CELL_SIZE = 10.0
 
 
+def with_sph_defaults(data, **defaults):
+    """A scenario's raw table with ``[sph]`` keys it leaves out filled from ``defaults`` (a
+    ``mode="before"`` validator's body; anything not a table passes through for pydantic to refuse)."""
+    if not isinstance(data, dict):
+        return data
+    data = dict(data)
+    sph = dict(data.get("sph") or {})
+    for key, value in defaults.items():
+        sph.setdefault(key, value)
+    data["sph"] = sph
+    return data
+
+
 class TerrainSection(Section):
     """Where the heightmap comes from: generated noise or a DEM file."""
 

@@ -30,7 +30,7 @@ from pydantic import Field, model_validator
 from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.erosion.transport_capacity_mei2007 import TransportCapacityParams
-from erosim.scenarios.schema_common import TerrainSection
+from erosim.scenarios.schema_common import TerrainSection, with_sph_defaults
 from erosim.scenarios.schema_sph import FluidBlock, Measure
 from erosim.sph.params import SPHParams
 
@@ -126,14 +126,10 @@ class SPHTerrainScenario(Section):
         """``sph.dim`` from the geometry (2 with a [profile]); boundary walls are the ground's business."""
         if not isinstance(data, dict):
             return data
-        data = dict(data)
-        sph = dict(data.get("sph") or {})
-        sph.setdefault("dim", 2 if data.get("profile") else 3)
-        if not data.get("profile"):
-            sph.setdefault("spacing", 1.0)  # metre-sized particles on a terrain (a flume keeps SPH's 1 cm)
-        sph.setdefault("walls", "reflect")
-        data["sph"] = sph
-        return data
+        if data.get("profile"):
+            return with_sph_defaults(data, dim=2, walls="reflect")
+        # metre-sized particles on a terrain (a flume keeps SPH's 1 cm)
+        return with_sph_defaults(data, dim=3, spacing=1.0, walls="reflect")
 
     @model_validator(mode="after")
     def _check(self) -> SPHTerrainScenario:

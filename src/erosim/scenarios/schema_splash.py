@@ -27,7 +27,7 @@ from erosim.core.errors import ConfigError
 from erosim.coupling.splash_coupler import ScourParams
 from erosim.erosion.splash import SplashParams
 from erosim.erosion.wet_strength import WetStrengthParams
-from erosim.scenarios.schema_common import TerrainSection
+from erosim.scenarios.schema_common import TerrainSection, with_sph_defaults
 from erosim.scenarios.schema_sph_terrain import EdgesSection, InflowSection, RainSection
 from erosim.sph.mud import MudParams
 from erosim.sph.params import SPHParams
@@ -112,14 +112,7 @@ class SplashScenario(Section):
     @model_validator(mode="before")
     @classmethod
     def _derive(cls, data):
-        if not isinstance(data, dict):
-            return data
-        data = dict(data)
-        sph = dict(data.get("sph") or {})
-        sph.setdefault("dim", 3)
-        sph.setdefault("walls", "reflect")
-        data["sph"] = sph
-        return data
+        return with_sph_defaults(data, dim=3, walls="reflect")
 
     @model_validator(mode="after")
     def _check(self) -> SplashScenario:

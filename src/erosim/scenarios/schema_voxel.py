@@ -30,7 +30,7 @@ from pydantic import Field, model_validator
 from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.erosion.shear_stress_kristof2009 import ShearStressParams
-from erosim.scenarios.schema_common import TerrainSection
+from erosim.scenarios.schema_common import TerrainSection, with_sph_defaults
 from erosim.sph.params import SPHParams
 
 
@@ -134,15 +134,7 @@ class VoxelScenario(Section):
     @model_validator(mode="before")
     @classmethod
     def _derive(cls, data):
-        if not isinstance(data, dict):
-            return data
-        data = dict(data)
-        sph = dict(data.get("sph") or {})
-        sph.setdefault("dim", 3)
-        sph.setdefault("spacing", 0.02)
-        sph.setdefault("walls", "reflect")
-        data["sph"] = sph
-        return data
+        return with_sph_defaults(data, dim=3, spacing=0.02, walls="reflect")
 
     @model_validator(mode="after")
     def _check(self) -> VoxelScenario:
