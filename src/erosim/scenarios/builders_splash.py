@@ -436,16 +436,14 @@ def setup(scenario, out) -> Setup:
         out["wall_time_s"] = round(sim.wall_time, 2)
         return out
 
-    assumed = []
-    if lam != 1.0:
-        assumed.append(f"The scenario's values are for {cfg.scale.reference_cell:g} m cells; on these "
-                       f"{geo.raster.dx:g} m cells they are scaled by Froude similarity (λ = {lam:.4g}): lengths × λ, "
-                       f"times and speeds × √λ (t_end {run.t_end:.4g} s).")  # fmt: skip
-        warnings += assumed
+    if lam != 1.0:  # a warning, not only an assumption: values given with --set are scaled too
+        warnings.append(f"The scenario's values are for {cfg.scale.reference_cell:g} m cells; on these "
+                        f"{geo.raster.dx:g} m cells they are scaled by Froude similarity (λ = {lam:.4g}): lengths × "
+                        f"λ, times and speeds × √λ (t_end {run.t_end:.4g} s).")  # fmt: skip
 
     return Setup(
         models=[solver], callbacks=callbacks, stop_time=run.t_end, unit="s", report=report, summary=summary,
-        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings, assumed=assumed,
+        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings,
     )  # fmt: skip
 
 
