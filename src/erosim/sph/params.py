@@ -96,9 +96,13 @@ class SPHParams(Section):
         0.2, gt=0, le=1, unit="1", doc="Courant number of the adaptive step (and of the fixed-step check)"
     )
     precision: Literal["float32", "float64"] = param("float64", doc="floating point type of the particle fields")
-    initial_pressure: Literal["hydrostatic", "zero"] = param(
+    initial_pressure: Literal["hydrostatic", "hydrostatic-consistent", "zero"] = param(
         "hydrostatic",
-        doc="start-up density: 'hydrostatic' sets ρ from p = ρ₀|g|(H − z) below the fluid's top H; 'zero' starts at ρ₀",
+        doc="start-up density: 'hydrostatic' sets ρ from p = ρ₀|g|(H − z) below the fluid's top H; "
+        "'hydrostatic-consistent' (continuity density) also lowers or raises each particle deeper than h by its "
+        "kernel sum's departure from the lattice's (fluid neighbours plus particle-free walls' share), so a "
+        "fill that does not fit a curved wall or an edge does not turn into over-pressure as it settles; "
+        "'zero' starts at ρ₀",
     )
     walls: Literal["particles", "reflect"] = param(
         "particles",

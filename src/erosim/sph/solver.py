@@ -184,7 +184,7 @@ class SPHSolver:
         for bd in self.boundaries:
             bd.bind(self)
         self._hooks()
-        if prm.initial_pressure == "hydrostatic" and gnorm > 0:
+        if prm.initial_pressure != "zero" and gnorm > 0:
             self._hydrostatic_start(up, gnorm)
         self._pressure_all()
         self._evaluate()
@@ -261,7 +261,36 @@ class SPHSolver:
         rho = eos_mod.density_for_pressure(prm.rho0 * gnorm * depth, prm.rho0, self.b, self.gamma)
         if not self._summation:
             st.rho[:] = rho
+            if prm.initial_pressure == "hydrostatic-consistent":
+                deep = depth[: st.n_fluid] >= self.h
+                st.rho[: st.n_fluid][deep] += self._kernel_shortfall()[deep]
         st.rho[st.n_fluid :] = np.maximum(st.rho[st.n_fluid :], prm.rho0)
+
+    def _kernel_shortfall(self) -> np.ndarray:
+        """S_i − S_ref per fluid particle: its kernel sum S_i = m(W(0) + Σ_j W_ij) over fluid and boundary
+        neighbours plus the particle-free walls' share Z(l_i) (their ``add_density``), less the sum S_ref of a
+        particle inside the lattice of spacing Δx.
+
+        Continuity density carries ρ_i − S_i unchanged as particles move (dρ_i/dt = dS_i/dt for the fluid
+        pairs and the wall term m(v·n)G = dZ/dt), so a start ρ_i = ρ^H(z_i) + S_i − S_ref arrives at the
+        hydrostatic density where the particle's surroundings fill up to the lattice's — a lattice row that
+        does not fit a curved wall or a concave edge settles into its gap without the gap becoming pressure.
+        """
+        from erosim.kernels.sph_kernels import kernel_w
+
+        st, dx, d, h = self.state, self.params.spacing, self.dim, self.h
+        total = np.zeros(st.n)
+        self._sumpass(st.pos, self.start, self.nbr, st.n_fluid, self.m, h, total)
+        for bd in self.boundaries:
+            add = getattr(bd, "add_density", None)
+            if add is not None:
+                add(self, total)
+        k = int(math.ceil(h / dx))
+        ax = np.arange(-k, k + 1) * dx
+        grid = np.stack([g.ravel() for g in np.meshgrid(*([ax] * d), indexing="ij")], axis=1)
+        r = np.sqrt((grid**2).sum(axis=1))
+        ref = self.m * float(kernel_w(r[r < h], h, d, self.params.kernel).sum())
+        return total[: st.n_fluid] - ref
 
     def eos_args(self) -> tuple[float, float, float, float]:
         """(ρ₀, B, γ, p_min) of :func:`erosim.sph.eos.tait`, for boundary passes."""

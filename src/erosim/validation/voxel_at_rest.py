@@ -4,9 +4,13 @@ The tank is one :class:`~erosim.terrain.voxel.VoxelTerrain` (the union of half-s
 vertical walls at x = 0, y = 0 and y = W, the floor z = 0, a 45° wall rising from x = X45 and a
 spherical bowl of radius R sunk into the floor; all act on the fluid through
 :class:`~erosim.sph.boundaries.voxel_wall.VoxelWall` (Harada et al. 2007 wall weights at the field's
-distance). The water, filled to depth D on the lattice of spacing Δx and started hydrostatically,
-settles for ``t_end``; over the last ``window`` seconds the piezometric head of each particle,
-p_i/(ρ₀g) + z_i, is averaged (the pressure rings acoustically about its mean), and
+distance). The water, filled to depth D on the lattice of spacing Δx and started hydrostatically
+(``initial_pressure = "hydrostatic-consistent"``: each particle deeper than h also starts short by its
+kernel sum's shortfall against the lattice's, fluid neighbours plus the wall's share, so that the lattice
+rows that do not fit the bowl, the slope and the concave edges settle into their gaps without turning the
+gaps into over-pressure; :meth:`erosim.sph.solver.SPHSolver._kernel_shortfall`), settles for ``t_end``;
+over the last ``window`` seconds the piezometric head of each particle, p_i/(ρ₀g) + z_i, is averaged
+(the pressure rings acoustically about its mean), and
 
 * hydrostatic pressure  sqrt(mean (p̄_i − ρ₀g(L_p − z̄_i))²) / (ρ₀gH) < 3 %, L_p the median head
   (the level the pressure field stands for) and H = L_p − the bowl's bottom, the deepest water;
@@ -60,9 +64,11 @@ def errors(head: np.ndarray, z: np.ndarray, rho: np.ndarray, l: np.ndarray, *, r
     }
 
 
-def run(resolution: str = "default", out: Path | None = None, progress: bool = True) -> dict:
+def run(resolution: str = "default", out: Path | None = None, progress: bool = True,
+        start: str = "hydrostatic-consistent") -> dict:  # fmt: skip
     """Run the case; writes ``validation.json`` and ``pressure.png`` (pressure against height, with the
-    hydrostatic line) into ``out``."""
+    hydrostatic line) into ``out``. ``start`` is the solver's ``initial_pressure`` (the lattice's start made
+    consistent with the walls by default; ``"hydrostatic"`` for the plain hydrostatic start)."""
     from erosim.sph.boundaries.voxel_wall import VoxelWall
     from erosim.sph.params import SPHParams
     from erosim.sph.solver import SPHSolver
@@ -76,8 +82,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     vt = tank(dx)
     fluid = vt.fluid_points(dx, below=DEPTH)
     wall = VoxelWall(vt)
-    s = SPHSolver(SPHParams(dim=3, spacing=dx, walls="reflect"), fluid, domain_lo=vt.lo, domain_hi=vt.hi,
-                  boundaries=[wall])  # fmt: skip
+    prm = SPHParams(dim=3, spacing=dx, walls="reflect", initial_pressure=start)
+    s = SPHSolver(prm, fluid, domain_lo=vt.lo, domain_hi=vt.hi, boundaries=[wall])
     rho0, g = s.params.rho0, 9.81
     inside_max = 0
     heads, zs = [], []
@@ -113,6 +119,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         "resolution": resolution,
         "spacing": dx,
         "settling_time_s": t_end,
+        "initial_pressure": start,
         "averaging_window_s": window,
         **e,
         "fluid_particles": int(s.n_fluid),

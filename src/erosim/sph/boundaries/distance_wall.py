@@ -63,8 +63,12 @@ class DistanceWall(Boundary):
         return c.table, c.dl, c.approach_only, self.rho1, self.c2
 
     def _density(self, solver) -> None:
+        self.add_density(solver, solver.state.rho)
+
+    def add_density(self, solver, rho) -> None:
+        """rho_i += Z(l_i), the wall's share of a summation density, for the fluid particles."""
         st = solver.state
-        self._density_pass(st.pos, st.rho, st.n_fluid, *self._geometry(), self.curves.table, self.curves.dl)
+        self._density_pass(st.pos, rho, st.n_fluid, *self._geometry(), self.curves.table, self.curves.dl)
 
     def forces(self, solver) -> None:
         st = solver.state
