@@ -8,24 +8,25 @@ import pytest
 from erosim.validation import voxel_at_rest as var
 
 
-@pytest.mark.slow  # 44 s measured on the shared 2-core machine (another run beside it), about 90 s when compiling
+@pytest.mark.slow  # 150 s measured on the shared 2-core machine under a load average of 9 (compiling included)
 def test_coarse_voxel_tank_at_rest(tmp_path):
-    """Δx = 2 cm (762 particles), 1.5 s of settling, heads averaged over the last 0.3 s. Held to the issue's
-    bounds where they are met: density within 1 % of ρ₀ next to the walls (measured 0.6 %; a missing wall
-    term leaves about half of ρ₀ there) and no particle inside the solid after any step. The pressure's
-    RMS against hydrostatic is held below 8 % of ρ₀gH: measured 6.2 % (2026-11-25), above the issue's 3 %
-    target — at this resolution three quarters of the particles are within h of a wall and the head
-    grows with depth (+15 % of H at the bowl's bottom, −2 % near the surface; docs/voxel.md) — so the
-    result is reported as not passed, which this test checks too, and the bound catches a regression."""
+    """Δx = 2 cm (822 particles), 1.5 s of settling, heads averaged over the last 0.3 s, the start consistent
+    with the walls (``hydrostatic-consistent``): the issue's three bounds hold — the pressure's RMS against
+    hydrostatic below 3 % of ρ₀gH (measured 2.81 %, 2026-11-25; 6.2 % with the plain hydrostatic start and the
+    old fill, which left the concave edges' rows empty; docs/voxel.md), density within 1 % of ρ₀ next to the
+    walls (measured 0.42 %; a missing wall term leaves about half of ρ₀ there) and no particle inside the
+    solid after any step. The run is deterministic (one thread below 5 000 particles), so the 3 % bound is
+    the target itself, not a margin over noise."""
     result = var.run("coarse", tmp_path / "v", progress=False)
     saved = json.loads((tmp_path / "v" / "validation.json").read_text())
     assert saved["value"] == result["value"]
     assert (tmp_path / "v" / "pressure.png").is_file()
+    assert result["initial_pressure"] == "hydrostatic-consistent"
     assert result["boundary_particles"] == 0 and result["near_wall_particles"] > result["fluid_particles"] // 2
     assert result["near_wall_density_dev"] < var.RHO_THRESHOLD
     assert result["particles_inside_max"] == 0
-    assert result["pressure_rms_rel"] < 0.08
-    assert result["passed"] == (result["pressure_rms_rel"] < var.P_THRESHOLD)
+    assert result["pressure_rms_rel"] < var.P_THRESHOLD
+    assert result["passed"]
 
 
 def test_the_tank_has_its_walls():
