@@ -8,7 +8,7 @@ import pytest
 from erosim.validation import voxel_at_rest as var
 
 
-@pytest.mark.slow  # 150 s measured on the shared 2-core machine under a load average of 9 (compiling included)
+@pytest.mark.slow  # 150 s (load average 9) to 453 s (load average 17) on the shared 2-core machine
 def test_coarse_voxel_tank_at_rest(tmp_path):
     """Δx = 2 cm (822 particles), 1.5 s of settling, heads averaged over the last 0.3 s, the start consistent
     with the walls (``hydrostatic-consistent``): the issue's three bounds hold — the pressure's RMS against
