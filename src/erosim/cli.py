@@ -340,8 +340,15 @@ VALIDATION_CASES = {
     help="martin-moyce only: lift the column's gate at this speed (m/s); 0 releases the column at once "
     "(default: sqrt(g*a) = 0.75 m/s on the box ground, no gate on the heightmap floor or cuda).",
 )
+@click.option(
+    "--start",
+    type=click.Choice(["hydrostatic-consistent", "hydrostatic"]),
+    default=None,
+    help="voxel-at-rest only: the fluid's start, hydrostatic and consistent with the walls (default) or the "
+    "plain hydrostatic start.",
+)
 @_device_option("martin-moyce and hydrostatic: where the SPH steps run")
-def validate(case, resolution, out, as_json, ground, gate_speed, device):
+def validate(case, resolution, out, as_json, ground, gate_speed, start, device):
     """Run a validation CASE against published experimental or analytic data."""
     from erosim.scenarios.kinds import resolve
 
@@ -349,6 +356,8 @@ def validate(case, resolution, out, as_json, ground, gate_speed, device):
         _fail(ErosimError(f"--ground applies to martin-moyce only, not '{case}'; leave it out."))
     if gate_speed is not None and case != "martin-moyce":
         _fail(ErosimError(f"--gate-speed applies to martin-moyce only, not '{case}'; leave it out."))
+    if start is not None and case != "voxel-at-rest":
+        _fail(ErosimError(f"--start applies to voxel-at-rest only, not '{case}'; leave it out."))
     if device is not None and case not in DEVICE_CASES:
         _fail(ErosimError(f"--device applies to {' and '.join(DEVICE_CASES)} only, not '{case}'; leave it out."))
     _require_device(device)
@@ -358,6 +367,8 @@ def validate(case, resolution, out, as_json, ground, gate_speed, device):
         extra["device"] = device
     if gate_speed is not None:
         extra["gate_speed"] = gate_speed
+    if start is not None:
+        extra["start"] = start
     result = _guard(fn, resolution, Path(out) if out else None, not (STATE.quiet or as_json), **extra)
     _print_result(result, as_json)
     if not result.get("passed", False):

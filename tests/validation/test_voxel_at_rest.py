@@ -50,3 +50,16 @@ def test_the_tank_has_its_walls():
     l, _ = vt.distance(pts)
     assert np.allclose(l, 0.01, atol=1e-3), l
     assert "voxel-at-rest" in VALIDATION_CASES
+
+
+def test_the_start_is_chosen_for_voxel_at_rest_only():
+    """``--start`` picks the voxel-at-rest case's start; given to another case it is refused in one sentence."""
+    from click.testing import CliRunner
+
+    from erosim.cli import cli
+
+    res = CliRunner().invoke(cli, ["validate", "hydrostatic", "--start", "hydrostatic", "--json"])
+    assert res.exit_code != 0
+    assert "--start applies to voxel-at-rest only, not 'hydrostatic'" in res.output
+    res = CliRunner().invoke(cli, ["validate", "voxel-at-rest", "--start", "no-such-start"])
+    assert res.exit_code == 2 and "hydrostatic-consistent" in res.output
