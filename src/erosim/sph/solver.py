@@ -275,6 +275,7 @@ class SPHSolver:
         pairs and the wall term m(v·n)G = dZ/dt), so a start ρ_i = ρ^H(z_i) + S_i − S_ref arrives at the
         hydrostatic density where the particle's surroundings fill up to the lattice's — a lattice row that
         does not fit a curved wall or a concave edge settles into its gap without the gap becoming pressure.
+        A wall with no density share of its own (the box's reflection alone) counts as missing neighbours.
         """
         from erosim.kernels.sph_kernels import kernel_w
 
