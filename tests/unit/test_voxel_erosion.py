@@ -70,7 +70,7 @@ def test_quantised_transfer_keeps_the_total():
     pos = np.column_stack([rng.uniform(0.01, 0.07, 40), rng.uniform(0.01, 0.07, 40), rng.uniform(0.01, 0.07, 40)])
     vel = rng.normal(size=(40, 3))
     wl = rng.uniform(0.0, 0.01, 40)
-    p = ShearStressParams(k_eps=0.01, tau_c=1.0)
+    p = ShearStressParams(k_eps=0.02, tau_c=1.0)
     e = ShearStressErosion(vt, p, support=H_SUPPORT)
     per_call = e.rates(pos, vel, wl) * p.k_eps * 1e-3  # solid fraction per call of dt = 1 ms
     assert 0 < per_call.max() < p.quantum  # less than a quantum a call
@@ -175,7 +175,7 @@ def test_parallel_speed_is_taken_along_the_wall_normal_from_the_field():
     foot = np.array([0.1, 0.05, 0.05])
     pos = foot + 0.005 * slope
     vel = 1.0 * down - 0.5 * slope
-    p = ShearStressParams(tau_c=0.0, n=1.0, radius=0.02)
+    p = ShearStressParams(tau_c=0.0, n=1.0, radius=0.02, parallel="wall")
     e = ShearStressErosion(vt, p, support=H_SUPPORT)
     l, nrm = e.wall_distances(pos[None])
     assert l[0] == pytest.approx(0.005, abs=1e-8) and nrm[0] == pytest.approx(slope, abs=1e-6)

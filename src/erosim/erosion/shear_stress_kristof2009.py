@@ -8,8 +8,8 @@ sums over the fluid particles j within the erosion radius R:
 
     dM_i/dt = −K_ε Σ_j max(0, K θ_ijⁿ − τ_c),
     θ_ij    = v_p,j / max(r'_ij, l_min),     r'_ij = |r_i − r_j| − min(l_j, l_min),
-    v_p,j   = |v_j − (v_j·n_j) n_j|            (``parallel = "wall"``, the default)
-            = |v_j| − |v_j · r̂_ij|             (``parallel = "seed"``, listing 9),
+    v_p,j   = |v_j| − |v_j · r̂_ij|             (``parallel = "seed"``, listing 9, the default)
+            = |v_j − (v_j·n_j) n_j|            (``parallel = "wall"``),
 
 r_ij = r_i − r_j, l_j the particle's wall distance and n_j the unit wall normal at the particle, both
 from the density field (:mod:`erosim.kernels.voxel`; l clamped at 0), and l_min = 0.4 h (h the
@@ -22,8 +22,10 @@ listing approximates it with the direction r̂_ij from the particle to the grid 
 wall normal only for a point straight below the particle: for a point up- or downstream of it,
 r̂_ij leans along the flow and |v| − |v·r̂| falls below the speed along the wall (to 0 for r̂ ∥ v),
 while across the flow it exceeds it (|v| for r̂ ⊥ v, even for a particle moving straight into the
-wall). The normal from the field's gradient is the surface's own, so a particle's shear is the same
-for every grid point it reaches and is zero for motion normal to the wall.
+wall). With ``parallel = "wall"`` the normal from the field's gradient is the surface's own, so a
+particle's shear is the same for every grid point it reaches and zero for motion normal to the wall;
+it is an option, not the default, because SPEC VX-6 fixes the seed's form, and on the overtopping
+case at 2 cm it puts the first erosion higher on the downstream slope (docs/voxel.md).
 
 M is the node's solid fraction, so its density changes by (d_solid − d_air)·dM; the area factor L_b²
 of Krištof's dM_b/dt = −Σ L_b² ε is constant on a voxel
@@ -79,8 +81,8 @@ class ShearStressParams(Section):
     radius: float = param(0.0, ge=0, unit="m", doc="erosion radius R around a grid point; 0 = the kernel support h")
     l_min: float = param(0.4, gt=0, le=1, unit="1", doc="l_min, and the cap of the distance correction, as a "
                          "fraction of h (seed: 0.4)")  # fmt: skip
-    parallel: Literal["wall", "seed"] = param("wall", doc="v_p: the speed along the surface, from the wall normal at "
-                                              "the particle ('wall'), or the seed's |v| − |v·r̂| ('seed')")  # fmt: skip
+    parallel: Literal["seed", "wall"] = param("seed", doc="v_p: the seed's |v| − |v·r̂| ('seed', SPEC VX-6), or the "
+                                              "speed along the wall normal at the particle ('wall')")  # fmt: skip
     quantum: float = param(1.0 / 255.0, gt=0, le=1, unit="1", doc="transfer step as a fraction of the density range "
                            "(seed: one byte, 1/255)")  # fmt: skip
     non_erodible_below: float | None = param(None, unit="m", doc="grid points below this elevation are not eroded")
