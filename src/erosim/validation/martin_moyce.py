@@ -98,6 +98,18 @@ def computation_against_experiment(ref_T: np.ndarray, ref_Z: np.ndarray) -> floa
     return float(np.mean(np.abs(np.interp(ref_T[sel], T_k, Z_k) - ref_Z[sel]) / ref_Z[sel]))
 
 
+def column_height_error(t: np.ndarray, depth: np.ndarray, a: float, g: float) -> tuple[float, int]:
+    """Mean relative error of the residual column height H = h/(2a) at the back wall against Martin &
+    Moyce's table (τ = t√(g/a)), at the table points the run spans; also how many points."""
+    from erosim.data import MARTIN_MOYCE_COLUMN, reference_csv
+
+    ref = reference_csv(MARTIN_MOYCE_COLUMN)
+    tau = np.asarray(t) * np.sqrt(g / a)
+    sel = ref["tau"] <= tau[-1]
+    h = np.interp(ref["tau"][sel], tau, np.asarray(depth) / (2.0 * a))
+    return float(np.mean(np.abs(h - ref["H"][sel]) / ref["H"][sel])), int(sel.sum())
+
+
 GROUNDS = ("box", "heightfield")
 
 
@@ -119,6 +131,23 @@ def _heightfield_scenario(n_a: int, t_end: float, sample_dt: float, overrides: l
             "run.checkpoint_wall_s=600.0", "measure.front=true", "measure.front_origin=0.0", *overrides,
         ],
     )  # fmt: skip
+
+
+def _column_height(path: Path, g: float) -> dict | None:
+    """The scenario's ``column`` gauge (x = 5 mm from the back wall) against the column-height table."""
+    if not path.is_file():
+        return None
+    with path.open() as fh:
+        header = fh.readline().strip().split(",")
+    if "depth_column" not in header:
+        return None
+    rows = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    err, n = column_height_error(rows[:, 0], rows[:, header.index("depth_column")], A, g)
+    return {
+        "metric": "mean relative error of the column height h/(2a) at x = 5 mm against Martin & Moyce's table",
+        "value": err,
+        "points": n,
+    }
 
 
 def run(
@@ -222,6 +251,7 @@ def run(
             "value": mps_err,
             "its_error_against_the_experiment": computation_against_experiment(ref["T"], ref["Z"]),
         },
+        "column_height": _column_height(folder.path / "gauges.csv", g),
         "figure": str(fig.relative_to(folder.path)),
     }
     atomic.write_json(folder.path / "validation.json", result)
