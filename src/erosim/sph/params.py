@@ -87,8 +87,9 @@ class SPHParams(Section):
     wall_viscosity: Literal["fluid", "none"] = param(
         "fluid",
         doc="viscous term between fluid and boundary particles: 'fluid' (the fluid's own term, artificial "
-        "or laminar, against the wall at rest: no-slip; the artificial ν = αh_s c/(4(d+2)) is ~10³ × water's) "
-        "or 'none' (free-slip walls: the pressure term alone holds the fluid off, nothing damps its approach)",
+        "or laminar, against the wall at rest: no-slip; the artificial ν = αh_s c/(4(d+2)) is thousands "
+        "of times water's at centimetre spacings) or 'none' (free-slip walls: the pressure term alone "
+        "holds the fluid off, nothing damps its approach)",
     )
     mu: float = param(1.0e-3, ge=0, unit="Pa*s", doc="dynamic viscosity μ for 'laminar' (water: 1e-3)")
     gravity: tuple[float, ...] | None = param(
