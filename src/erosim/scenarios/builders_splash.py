@@ -504,15 +504,16 @@ def surface_wetness(wet: WetGround, geo) -> dict[str, float]:
     return {"mean": float(theta.mean()), "max": float(theta.max())}
 
 
-#: measured costs of a splash run (s; 2 shared cores, see docs/splash.md "On a DEM"): per fluid step, per
-#: fluid particle-step, and per ground pair at each coupling
-STEP_S, PARTICLE_STEP_S, PAIR_COUPLING_S = 2.0e-3, 1.0e-5, 1.0e-8
+#: CPU seconds of a splash run on one core, per fluid step, per fluid particle-step and per ground diffusion
+#: pair at each coupling: fitted to the 80 × 80 DEM of docs/splash.md (490 s: 26 s of SPH steps, 442 s of
+#: seepage passes over 5.6·10⁶ pairs) and checked on an 18 × 18 one (estimate 3.6 s, measured 3.1 s)
+STEP_S, PARTICLE_STEP_S, PAIR_COUPLING_S = 2.0e-3, 3.0e-6, 4.5e-8
 
 
 def run_cost(cfg: SplashScenario, solver, ground: PorousGround) -> dict[str, Any]:
-    """The run's sizes and a rough wall time, said before it starts: steps from the first step's limit
-    (sound speed and spacing; the fluid's speed shortens it later, by 10 % in the library's runs), the
-    fluid expected (rain over the run), the ground's particles and diffusion pairs."""
+    """The run's sizes and a rough time (within a factor of about three), said before it starts: steps from
+    the first step's limit (sound speed and spacing; the fluid's speed shortens the steps later: 13 % more of
+    them on the DEM of docs/splash.md), the fluid expected (rain over the run), the ground's particles and pairs."""
     dt = solver.dt_limit() if cfg.sph.dt <= 0 else cfg.sph.dt
     steps = int(math.ceil(cfg.run.t_end / dt))
     fluid = solver.n_fluid
@@ -526,7 +527,7 @@ def run_cost(cfg: SplashScenario, solver, ground: PorousGround) -> dict[str, Any
     dx = solver.params.spacing
     line = (f"size: about {steps:,} steps of {dt:.3g} s, up to {fluid:,} fluid particles of {dx:.3g} m, "
             f"{ground.n:,} ground particles of {ground.s:.3g} m ({ground.ncol:,} columns × {ground.layers} layers, "
-            f"{pairs:,} diffusion pairs): roughly {when} on 2 cores; fewer with a coarser ground.spacing, fewer "
+            f"{pairs:,} diffusion pairs): roughly {when} of one core's time; less with a coarser ground.spacing, fewer "
             "ground.layers or a shorter run.t_end")  # fmt: skip
     return {"steps": steps, "dt_s": dt, "fluid_particles": fluid, "ground_particles": ground.n,
             "ground_pairs": pairs, "seconds": seconds, "line": line}  # fmt: skip
