@@ -65,7 +65,10 @@ class PorousGround:
             iy = np.clip(np.floor((sites[:, 1] - raster.y0) / raster.dy + 0.5).astype(np.int64), 0, raster.ny - 1)
             keep = ~np.asarray(outside, bool)[iy, ix]
             if not keep.any():
-                raise ValueError("every ground column lies over nodata; give a terrain with data")
+                from erosim.core.errors import ConfigError
+
+                raise ConfigError("Every ground column would stand over the DEM's nodata cells; give a DEM with more "
+                                  "valid cells or a smaller ground spacing.")  # fmt: skip
         self.xy = sites[keep]
         self.ncol = len(self.xy)
         # each lattice site → its column, or the nearest kept column's where none stands there
