@@ -337,8 +337,8 @@ VALIDATION_CASES = {
     "--gate-speed",
     type=click.FloatRange(min=0.0),
     default=None,
-    help="martin-moyce only: lift the column's gate at this speed (m/s); 0 releases the column at once "
-    "(default: sqrt(g*a) = 0.75 m/s on the box ground, no gate on the heightmap floor or cuda).",
+    help="martin-moyce only: lift a gate at the column's face at this speed (m/s, box ground on the cpu); "
+    "default 0: the column is released at once.",
 )
 @click.option(
     "--start",

@@ -92,6 +92,56 @@ def test_rain_splash_on_a_users_dem_writes_wetness_on_its_grid(tmp_path):
     assert any("Froude similarity" in w for w in rep["warnings"])
 
 
+def test_rain_splash_through_the_cli_on_a_dem_with_nodata_and_a_60_degree_slope(tmp_path):
+    """A DEM of 1 m cells whose north half climbs at 60°, with a nodata hole on the slope: the run ends
+    (no NaN), nothing is laid or dug there, and wetness.tif has the DEM's grid with the hole as nodata."""
+    import subprocess
+    import sys
+
+    n = 18
+    y = np.arange(n, dtype=float)[::-1]  # northing in cells: row 0 is the north edge
+    x = np.arange(n, dtype=float)
+    z = 100.0 + 0.2 * x[None, :] + math.sqrt(3.0) * np.maximum(y - 8.0, 0.0)[:, None]  # tan 60° = √3
+    z = np.broadcast_to(z, (n, n)).astype(np.float32).copy()
+    hole = np.zeros((n, n), bool)
+    hole[3:6, 8:11] = True  # on the slope
+    z[hole] = -9999.0
+    dem = tmp_path / "steep.tif"
+    prof = dict(driver="GTiff", height=n, width=n, count=1, dtype="float32", crs="EPSG:32633", nodata=-9999.0,
+                transform=Affine(1.0, 0, 400000, 0, -1.0, 5100000))  # fmt: skip
+    with rasterio.open(dem, "w", **prof) as ds:
+        ds.write(z, 1)
+    out = tmp_path / "run"
+    sets = {"terrain.file": dem, "run.t_end": 0.22, "rain.rate": 1e5, "rain.pattern": "uniform",
+            "run.wetness_frames": 0, "ground.layers": 2, "run.output_interval": 1.0}  # fmt: skip
+    cmd = [sys.executable, "-m", "erosim", "run", "rain-splash", "--out", str(out)]
+    for k, v in sets.items():
+        cmd += ["--set", f"{k}={v}"]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "assumed: nodata: 9 cells" in done.stderr and "assumed: size: about" in done.stderr
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["status"] == "completed" and rep["t"] >= rep["t_end"]
+    assert rep["terrain"]["nodata_cells"] == 9 and rep["terrain"]["shape"] == [n, n]
+    wb = rep["water_budget"]
+    assert rep["impacts"]["count"] > 0 and wb["absorbed"] > 0
+    assert wb["left_nodata"] > 0 and wb["left_edges"] >= wb["left_nodata"]  # water ran into the hole and left
+    assert wb["closure_rel"] < 1e-9 and rep["solid_budget"]["closure_rel"] < 1e-9
+    with rasterio.open(dem) as a, rasterio.open(out / "maps" / "wetness.tif") as b:
+        assert (a.width, a.height, a.transform, a.crs) == (b.width, b.height, b.transform, b.crs)
+        wet = b.read(1, masked=True)
+    assert np.array_equal(np.ma.getmaskarray(wet), hole)  # nodata stays nodata, nothing else is
+    assert np.isfinite(wet.compressed()).all() and 0.0 <= wet.min() and wet.max() <= 1.0
+    with rasterio.open(out / "maps" / "height.tif") as ds:
+        h = ds.read(1, masked=True)
+    assert np.array_equal(np.ma.getmaskarray(h), hole) and np.isfinite(h.compressed()).all()
+    from erosim.io.results import read_frame
+
+    g = read_frame(out / "particles" / "ground" / "frame_00000.vtp")["points"]  # SPH frame: rows northward
+    col, row = np.floor(g[:, 0] + 0.5).astype(int), n - 1 - np.floor(g[:, 1] + 0.5).astype(int)
+    assert len(g) > 0 and not hole[row, col].any()  # no ground particle over the hole
+
+
 def test_water_jet_splashes_and_soaks_in(tmp_path):
     rep = run("water-jet", tmp_path / "jet", set={"run.t_end": 0.3, "run.wetness_frames": 0}).report
     assert rep["impacts"]["count"] > 0

@@ -130,3 +130,74 @@ def test_puddles_are_the_water_standing_in_closed_hollows():
     puddles = standing_water(wet, r, hollows)
     assert puddles[4, 6] == pytest.approx(1.25e-6 / r.cell_area, rel=1e-12)  # the water held, over the cell
     assert puddles.sum() * r.cell_area == pytest.approx(1.25e-6, rel=1e-12)  # the slope's water is not a puddle
+
+
+def _ground_on(z, outside=None, spacing=0.5, layers=3):
+    from erosim.coupling.porous_ground import PorousGround
+
+    r = Raster(0.0, 0.0, 1.0, 1.0, z.shape[1], z.shape[0])
+    return r, PorousGround(r, z, spacing, layers, 0.4, 0.2, 2650.0, outside=outside)
+
+
+def test_no_ground_column_stands_over_nodata_and_points_there_find_the_nearest_one():
+    z = np.zeros((12, 12))
+    hole = np.zeros_like(z, bool)
+    hole[4:7, 5:8] = True
+    r, g = _ground_on(z, hole)
+    ix = np.floor(g.xy[:, 0] / r.dx + 0.5).astype(int)
+    iy = np.floor(g.xy[:, 1] / r.dy + 0.5).astype(int)
+    assert not hole[iy, ix].any() and g.ncol == 22 * 22 - 6 * 6  # the 6 × 6 sites nearest the hole's nodes
+    assert g.n == 3 * g.ncol and np.array_equal(g.column[: g.ncol], np.arange(g.ncol))
+    cols = g.column_of(np.array([[6.0, 5.0], [0.3, 0.3]]))  # the hole's centre, and a corner
+    assert cols.min() >= 0 and np.hypot(*(g.xy[cols[0]] - [6.0, 5.0])) <= 1.8  # nearest kept: beside the hole
+    assert np.array_equal(g.xy[cols[1]], [0.25, 0.25])
+
+
+def test_moving_some_columns_remeasures_their_pairs_exactly_as_a_full_laying():
+    x = np.arange(10.0)
+    z = 0.2 * x[None, :] + 0.1 * np.sin(x[:, None])
+    r, g = _ground_on(z)
+    w0 = g.weights(1e-3)
+    z[3:5, 2:4] -= 0.07  # a crater
+    moved = g.follow()
+    w = w0.copy()
+    w[moved] = g.weights(1e-3, moved)
+    r_part = g._r.copy()
+    assert 0 < len(moved) < len(w0)
+    g.follow(full=True)
+    assert np.array_equal(g._r, r_part) and np.array_equal(g.weights(1e-3), w)  # bit for bit
+    assert not np.array_equal(w, w0)
+    assert len(g.follow()) == 0  # nothing moved since
+
+
+def test_mud_settles_only_on_the_terrain_and_keeps_its_volume():
+    from erosim.coupling.splash_coupler import _scatter
+
+    r = Raster(0.0, 0.0, 1.0, 1.0, 6, 6)
+    valid = np.ones(r.shape, bool)
+    valid[2, 3] = False
+    xy = np.array([[2.6, 2.2], [0.5, 0.5]])
+    vol = np.array([0.3, 0.1])
+    dz = _scatter(r, xy, vol, valid)
+    assert dz[2, 3] == 0.0 and dz.sum() * r.cell_area == pytest.approx(vol.sum(), rel=1e-14)
+    assert np.array_equal(_scatter(r, xy[1:], vol[1:], valid), _scatter(r, xy[1:], vol[1:]))
+
+
+def test_water_over_nodata_leaves_and_is_counted():
+    from erosim.coupling.sources import OutsideOutflow
+    from erosim.simulation.schedules import IterationInterval
+    from erosim.sph.params import SPHParams
+    from erosim.sph.solver import SPHSolver
+
+    r = Raster(0.0, 0.0, 1.0, 1.0, 8, 8)
+    hole = np.zeros(r.shape, bool)
+    hole[3, 4] = True  # the node at x = 4, y = 3
+    pos = np.array([[4.2, 3.3, 1.0], [4.6, 3.0, 1.0], [1.0, 1.0, 1.0]])  # over the hole (nearest node), beside, away
+    p = SPHParams(dim=3, spacing=0.5, sound_speed=10.0)
+    solver = SPHSolver(p, pos, domain_lo=[-2, -2, -2], domain_hi=[10, 10, 5])
+    solver.state.register("water", fill=1.0)
+    solver.state.water[:] = np.where(solver.state.ids[:3] == 0, 0.25, 1.0)  # internal order; label 0 over the hole
+    out = OutsideOutflow(IterationInterval(1), solver, r, hole)
+    out()
+    assert solver.n_fluid == 2 and solver.state.removed == {"outside": 1}
+    assert out.left["water"] == 0.25 and solver.state.removed_sums["water"] == 0.25

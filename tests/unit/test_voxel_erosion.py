@@ -77,10 +77,11 @@ def test_quantised_transfer_keeps_the_total():
     asked = 0.0
     first = None
     for call in range(400):
+        # the rates of this call (the eroded field's gradient turns the wall normals, so they change)
+        asked += e.rates(pos, vel, wl).sum() * p.k_eps * 1e-3 * vt.cell_size**3
         inc = e.increments(pos, vel, 1e-3, wl)
         check_budget(inc, vt.shape, vt.volume_per_unit, "shear stress")
         vt.density[...] = vt.density + inc.dz  # the caller's step (float64 sum, exact back in float32)
-        asked += per_call.sum() * vt.cell_size**3
         if first is None and inc.carried_off > 0:
             first = call
         steps = -inc.dz / e.quantum
@@ -157,3 +158,36 @@ def test_water_scours_a_voxel_floor_through_the_wall_and_the_contract():
     assert e.removed_total > 0
     assert v0 - vt.solid_volume() == pytest.approx(e.removed_total, rel=1e-9)  # float64 sums of 4e4 nodes
     assert np.array_equal(vt.density[vt.axes()[2] < 0.03], base)
+
+
+def test_parallel_speed_is_taken_along_the_wall_normal_from_the_field():
+    """A particle 5 mm above a floor tilted 2:1 (a voxel ramp, 1 cm voxels), moving at 1 m/s down the
+    slope and 0.5 m/s into it: v_p is its speed along the plane, 1 m/s, for every grid point it reaches
+    (the field's normal is exact on a plane — trilinear interpolation of a linear ramp — but for the
+    float32 field's rounding, 6e-8 relative, grown tenfold by the differences of the gradient: 1e-6);
+    the seed's |v| − |v·r̂| varies from point to point (less where r̂ leans along v, more across it)."""
+    from erosim.terrain.voxel import HalfSpace
+
+    slope = np.array([1.0, 0.0, 2.0]) / math.sqrt(5.0)  # normal of the 2:1 plane z = −x/2 + c, into the fluid
+    down = np.array([2.0, 0.0, -1.0]) / math.sqrt(5.0)
+    vt = VoxelTerrain.from_shapes(HalfSpace((0.1, 0.05, 0.05), tuple(slope)), (0, 0, 0), (0.2, 0.1, 0.1), 0.01,
+                                  band=0.05)  # fmt: skip
+    foot = np.array([0.1, 0.05, 0.05])
+    pos = foot + 0.005 * slope
+    vel = 1.0 * down - 0.5 * slope
+    p = ShearStressParams(tau_c=0.0, n=1.0, radius=0.02, parallel="wall")
+    e = ShearStressErosion(vt, p, support=H_SUPPORT)
+    l, nrm = e.wall_distances(pos[None])
+    assert l[0] == pytest.approx(0.005, abs=1e-8) and nrm[0] == pytest.approx(slope, abs=1e-6)
+    rates = e.rates(pos[None], vel[None])
+    x_ax, y_ax, z_ax = vt.axes()
+    zz, yy, xx = np.meshgrid(z_ax, y_ax, x_ax, indexing="ij")
+    r = np.sqrt((xx - pos[0]) ** 2 + (yy - pos[1]) ** 2 + (zz - pos[2]) ** 2) - 0.005  # r' (l < l_min)
+    reached = (r <= p.radius) & (vt.density > vt.value_range[0])
+    # n = 1, K = 1: the rate is θ = v_p/max(r', l_min) with v_p = 1 at every point reached
+    expect = np.where(reached, 1.0 / np.maximum(r, 0.4 * H_SUPPORT), 0.0)
+    assert rates == pytest.approx(expect, rel=1e-6, abs=1e-9)
+    seed = ShearStressErosion(vt, ShearStressParams(tau_c=0.0, n=1.0, radius=0.02, parallel="seed"),
+                              support=H_SUPPORT).rates(pos[None], vel[None])  # fmt: skip
+    ratio = seed[reached] / rates[reached]  # the seed's v_p per point: |v| − |v·r̂| ∈ [0, |v| = 1.118]
+    assert ratio.min() < 0.7 and ratio.max() > 1.05

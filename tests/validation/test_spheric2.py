@@ -24,6 +24,19 @@ def test_measurements_are_labelled_by_gauge_position():
     assert len(EXP["t_s"]) == 7395 and EXP["t_s"][-1] > 7.0
 
 
+def test_no_gauge_wets_faster_than_a_dam_break_front_can_reach_it():
+    """Ritter's front on a dry bed, 2√(gH) = 4.65 m/s, is the fastest a dam break spreads (friction and
+    a real gate only slow it). Each gauge's first 2 mm comes no sooner than that front from the gate at
+    x = 1.992 m reaches it; under the source's labels its "H1" (0.186 s) would sit 1.50 m from the gate,
+    8 m/s. The file's H3 wets at 2.7 m/s on average from rest, H2 at 2.8 m/s."""
+    ritter = 2.0 * np.sqrt(9.81 * sp.H)
+    x = {"H1_m": 0.496, "H2_m": 0.992, "H3_m": 1.488}
+    first = {g: EXP["t_s"][np.argmax(EXP[g] > 0.002)] for g in x}
+    for g, xg in x.items():
+        assert (1.992 - xg) / first[g] < ritter, (g, first[g])
+    assert (1.992 - x["H1_m"]) / first["H3_m"] > ritter  # the source's labelling breaks the bound
+
+
 def test_error_measures_on_known_series():
     t = np.arange(0.0, 1.6, 0.002)
     run = {"t": t}

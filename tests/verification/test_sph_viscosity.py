@@ -99,3 +99,44 @@ def test_density_diffusion_smooths_a_density_wave_at_the_analytic_rate(dim):
     lam, _ = _lattice_moments(dim, s.h)
     expected = -delta * (0.5 * s.h) * s.c * lam * k * k * 1000.0 * eps * np.sin(k * y[inner])
     np.testing.assert_allclose(st.drho[: st.n_fluid][inner], expected, rtol=0.01)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("viscosity", ["artificial", "laminar"])
+def test_walls_are_free_slip_unless_they_take_the_fluids_viscosity(dim, viscosity):
+    """A layer sliding at U along a floor of boundary particles (no gravity, ρ = ρ₀, so no pressure and
+    no fluid–fluid shear): with ``wall_viscosity = "none"`` nothing acts along the floor; with
+    ``"fluid"`` the floor drags each particle within a support of it by the fluid's own pair term with
+    v_wall = 0, summed here from the formulas of :mod:`erosim.sph.forces` over the floor's particles
+    (artificial: m Σ_b k_v min(U x_ib, 0) f x_ib/(2ρ₀(r² + ε²)); laminar: −m Σ_b μ L U/ρ₀²)."""
+    nx, nz = 24, 4
+    axes = [(np.arange(nx) + 0.5) * DX] * (dim - 1) + [(np.arange(nz) + 0.5) * DX]
+    pos = np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)
+    faxes = [(np.arange(-6, nx + 6) + 0.5) * DX] * (dim - 1) + [-(np.arange(3) + 0.5) * DX]
+    floor = np.stack([g.ravel() for g in np.meshgrid(*faxes, indexing="ij")], axis=1)
+    U = 0.2
+    vel = np.zeros_like(pos)
+    vel[:, 0] = U
+    got = {}
+    for wall in ("none", "fluid"):
+        p = SPHParams(dim=dim, spacing=DX, gravity=(0.0,) * dim, sound_speed=10.0, walls="reflect", mu=1.0,
+                      viscosity=viscosity, initial_pressure="zero", wall_viscosity=wall)  # fmt: skip
+        s = SPHSolver(p, pos, fluid_vel=vel, boundary_pos=floor, domain_lo=[-1.0] * dim, domain_hi=[3.0] * dim)
+        got[wall] = s.fluid_accelerations()[:, 0]
+    inner = np.all((pos[:, :-1] > 1.01 * s.h) & (pos[:, :-1] < nx * DX - 1.01 * s.h), axis=1)
+    np.testing.assert_array_equal(got["none"][inner], 0.0)  # exactly: every pair term vanishes
+    expected = np.zeros(len(pos))
+    for i in np.nonzero(inner)[0]:
+        off = pos[i] - floor
+        r2 = (off**2).sum(axis=1)
+        near = r2 < s.h**2
+        off, r2 = off[near], r2[near]
+        r = np.sqrt(r2)
+        if viscosity == "artificial":
+            c_r = s.kv * np.minimum(U * off[:, 0], 0.0) * kernel_f(r, s.h, dim) / (2000.0 * (r2 + s.eps2))
+            expected[i] = s.m * (c_r * off[:, 0]).sum()
+        else:
+            expected[i] = -s.m * (1.0 * kernel_lap(r, s.h, dim) * U / 1000.0**2).sum()
+    touching = inner & (pos[:, -1] + 0.5 * DX < (1 - 1e-9) * s.h)  # within a support of the first floor layer
+    assert np.all(expected[touching] < 0)  # a drag, against the motion
+    np.testing.assert_allclose(got["fluid"][inner], expected[inner], rtol=1e-9, atol=1e-12)

@@ -9,6 +9,9 @@ evaporates. Each layer may have its own permeability (a top soil over a subsoil)
 diffusion then scales with their harmonic-mean conductivity, and water drains down the columns by
 Darcy's law (:func:`erosim.hydrology.seepage_darcy.drain`).
 
+A DEM's nodata cells are outside the terrain: no column stands where the node nearest the column's
+centre is nodata (``outside``), and a point over such a place belongs to the nearest column kept.
+
 The particles are the soil's moisture carriers: when the heightmap changes (a crater, a deposit) every
 column follows its ground (:meth:`PorousGround.follow`), keeping its water; the solid volume the
 terrain gains or loses is the heightmap's (Σ Δz·A), counted by the eroder contract. The fluid feels
@@ -44,8 +47,9 @@ class PorousGround:
     """Layers of porous particles under ``terrain`` (raster.shape, SPH frame, read live)."""
 
     def __init__(self, raster: Raster, terrain: np.ndarray, spacing: float, layers: int, porosity: float,
-                 saturation: float, density: float, permeability=None):  # fmt: skip
-        """``permeability``: None (uniform ground) or one k_p (m²) per layer, top first."""
+                 saturation: float, density: float, permeability=None, outside: np.ndarray | None = None):  # fmt: skip
+        """``permeability``: None (uniform ground) or one k_p (m²) per layer, top first; ``outside``: None
+        or a mask (raster.shape) of the nodes outside the terrain (a DEM's nodata), where no column stands."""
         self.raster, self.terrain = raster, terrain
         self.s = s = float(spacing)
         self.layers = int(layers)
@@ -53,9 +57,29 @@ class PorousGround:
         self.ncx, self.ncy = max(1, int(math.floor(xe / s + 1e-9))), max(1, int(math.floor(ye / s + 1e-9)))
         xs = raster.x0 + (np.arange(self.ncx) + 0.5) * s
         ys = raster.y0 + (np.arange(self.ncy) + 0.5) * s
-        gx, gy = np.meshgrid(xs, ys)  # (ncy, ncx): column c = j·ncx + i
-        self.xy = np.column_stack([gx.ravel(), gy.ravel()])
+        gx, gy = np.meshgrid(xs, ys)  # (ncy, ncx): lattice site k = j·ncx + i
+        sites = np.column_stack([gx.ravel(), gy.ravel()])
+        keep = np.ones(len(sites), bool)
+        if outside is not None and np.any(outside):
+            ix = np.clip(np.floor((sites[:, 0] - raster.x0) / raster.dx + 0.5).astype(np.int64), 0, raster.nx - 1)
+            iy = np.clip(np.floor((sites[:, 1] - raster.y0) / raster.dy + 0.5).astype(np.int64), 0, raster.ny - 1)
+            keep = ~np.asarray(outside, bool)[iy, ix]
+            if not keep.any():
+                from erosim.core.errors import ConfigError
+
+                raise ConfigError("Every ground column would stand over the DEM's nodata cells; give a DEM with more "
+                                  "valid cells or a smaller ground spacing.")  # fmt: skip
+        self.xy = sites[keep]
         self.ncol = len(self.xy)
+        # each lattice site → its column, or the nearest kept column's where none stands there
+        index = np.full(len(sites), -1, np.int64)
+        index[keep] = np.arange(self.ncol)
+        if not keep.all():
+            from scipy import ndimage
+
+            _, (jj, ii) = ndimage.distance_transform_edt(~keep.reshape(self.ncy, self.ncx), return_indices=True)
+            index = index.reshape(self.ncy, self.ncx)[jj, ii].ravel()
+        self.site_column = index
         n = self.ncol * self.layers
         self.pos = np.zeros((n, 3))
         self.pos[:, :2] = np.tile(self.xy, (self.layers, 1))
@@ -75,45 +99,65 @@ class PorousGround:
         self.lower = self.upper + self.ncol
         self.surface = np.zeros(n, bool)
         self.surface[: self.ncol] = True
+        self.column = np.tile(np.arange(self.ncol), self.layers)  # the column of each particle
         self.follow()
 
     @property
     def n(self) -> int:
         return len(self.theta)
 
-    def follow(self) -> None:
+    def follow(self, full: bool = False) -> np.ndarray | None:
         """Lay every column under the current ground (after the terrain changed); the pairs' distances
         follow. The pairs themselves are those within 1.1 h of the first laying (columns only move
         vertically, by a crater's or a deposit's depth, so a pair leaves the support, where its weight is
-        0, long before a new one could enter)."""
+        0, long before a new one could enter). Only the pairs with a column that moved are measured
+        again (the others' distances are unchanged, bit for bit); returns their indices, or None when
+        every pair was (the first laying, ``full``)."""
         top = sample(self.raster, self.terrain, np.column_stack([self.xy, np.zeros(self.ncol)]))
-        self.pos[:, 2] = np.tile(top, self.layers) - self.depth
         self.h = SUPPORT * self.s
-        if not hasattr(self, "i"):
+        first = not hasattr(self, "i")
+        if first:
+            self.pos[:, 2] = np.tile(top, self.layers) - self.depth
             i, j, _ = pairs_within(self.pos, 1.1 * self.h)
             self.i, self.j = i.astype(np.int32), j.astype(np.int32)
-        self._r = _distances(self.pos, self.i, self.j, np.empty(len(self.i)))
+            self._ci, self._cj = self.column[self.i], self.column[self.j]
+        if first or full:
+            self.pos[:, 2] = np.tile(top, self.layers) - self.depth
+            self._top = top
+            self._r = _distances(self.pos, self.i, self.j, np.empty(len(self.i)))
+            return None
+        moved = top != self._top
+        if not moved.any():
+            return np.zeros(0, np.int64)
+        self._top = top
+        self.pos[:, 2] = np.tile(top, self.layers) - self.depth
+        pairs = np.flatnonzero(moved[self._ci] | moved[self._cj])
+        self._r[pairs] = _distances(self.pos, self.i[pairs], self.j[pairs], np.empty(len(pairs)))
+        return pairs
 
     def water(self) -> float:
         """m³ of water held in the pores."""
         return float((self.theta * self.pore).sum())
 
-    def weights(self, diffusivity: float) -> np.ndarray:
+    def weights(self, diffusivity: float, pairs: np.ndarray | None = None) -> np.ndarray:
         """Pair weights D φ̄ V² L(r) of the moisture diffusion (seepage_darcy's docstring); in a layered
-        ground D = ``diffusivity``·K̄_ij/K_top, K̄ the pair's harmonic-mean conductivity."""
-        phi = 0.5 * (self.porosity[self.i] + self.porosity[self.j])
+        ground D = ``diffusivity``·K̄_ij/K_top, K̄ the pair's harmonic-mean conductivity. ``pairs``: only
+        those pairs' weights (in that order), else every pair's."""
+        i, j = (self.i, self.j) if pairs is None else (self.i[pairs], self.j[pairs])
+        r = self._r if pairs is None else self._r[pairs]
+        phi = 0.5 * (self.porosity[i] + self.porosity[j])
         if self.layered and self.permeability[0] > 0:
             from erosim.hydrology.seepage_darcy import harmonic
 
-            phi = phi * harmonic(self.permeability[self.i], self.permeability[self.j]) / self.permeability[0]
-        return phi * pair_weights(self._r, self.h, 3, self.volume, self.volume, diffusivity)
+            phi = phi * harmonic(self.permeability[i], self.permeability[j]) / self.permeability[0]
+        return phi * pair_weights(r, self.h, 3, self.volume, self.volume, diffusivity)
 
     def column_of(self, xy: np.ndarray) -> np.ndarray:
         """Index of the column (= its surface particle) under horizontal points ``xy`` (k, 2)."""
         r = self.raster
         i = np.clip(np.floor((xy[:, 0] - r.x0) / self.s).astype(np.int64), 0, self.ncx - 1)
         j = np.clip(np.floor((xy[:, 1] - r.y0) / self.s).astype(np.int64), 0, self.ncy - 1)
-        return j * self.ncx + i
+        return self.site_column[j * self.ncx + i]
 
     def surface_map(self, values: np.ndarray | None = None) -> np.ndarray:
         """A surface particles' value (default θ) at every node of the raster (the column over the node)."""
@@ -134,4 +178,4 @@ class PorousGround:
 
     def load_state_dict(self, state: dict) -> None:
         self.theta[...] = state["theta"]
-        self.follow()  # the terrain is restored first (by its owner); the columns lie under it
+        self.follow(full=True)  # the terrain is restored first (by its owner); the columns lie under it

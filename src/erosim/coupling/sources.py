@@ -17,7 +17,9 @@ checkpoint state), acting between steps.
   its cell, ``height`` above the ground (or the water already there);
 * :class:`PointInflow` — a vertical jet of discharge Q (m³/s) from a disc of radius r at a height
   above the ground: a lattice layer of the disc every Δx/u seconds at u = Q/(area of the layer);
-* :class:`EdgeOutflow` — particles beyond an open map edge are removed and counted.
+* :class:`EdgeOutflow` — particles beyond an open map edge are removed and counted;
+* :class:`OutsideOutflow` — particles over a DEM's nodata (the node nearest them outside the
+  terrain) are removed and counted, as at an open edge.
 
 Random draws use NumPy generators keyed by (seed, event number), so a resumed run draws the same rain.
 """
@@ -117,7 +119,9 @@ class Rain(_Source):
     """Rain of ``rate`` mm/h by the per-node chance map ``chance`` (raster.shape, SPH frame)."""
 
     def __init__(self, schedule, solver, raster: Raster, ground: np.ndarray, chance: np.ndarray, rate_mm_h: float,
-                 height: float, seed: int, grid=None):  # fmt: skip
+                 height: float, seed: int, grid=None, inset: float = 0.0):  # fmt: skip
+        """``inset`` (m): drops start at least this far inside the map's edges (e.g. one kernel support,
+        out of the reach of closed edges' walls): the map's extent is drawn in by it on every side."""
         super().__init__(schedule, "rain")
         if chance.shape != raster.shape:
             raise ConfigError(
@@ -131,6 +135,7 @@ class Rain(_Source):
         self.rate = float(rate_mm_h)
         self.height = float(height)
         self.seed = int(seed)
+        self.inset = min(float(inset), 0.5 * (raster.nx - 1) * raster.dx, 0.5 * (raster.ny - 1) * raster.dy)
         cdf = np.cumsum(self.chance.ravel())
         self.cdf = cdf / cdf[-1] if cdf[-1] > 0 else cdf
         # m³ of rain per second over the map: R (m/s) × Σ p_k A
@@ -156,8 +161,12 @@ class Rain(_Source):
         iy, ix = np.divmod(node, r.nx)
         x = r.x0 + (ix + rng.random(k) - 0.5) * r.dx
         y = r.y0 + (iy + rng.random(k) - 0.5) * r.dy
-        x = np.clip(x, r.x0, r.x0 + (r.nx - 1) * r.dx)
-        y = np.clip(y, r.y0, r.y0 + (r.ny - 1) * r.dy)
+        xe, ye = (r.nx - 1) * r.dx, (r.ny - 1) * r.dy
+        x = np.clip(x, r.x0, r.x0 + xe)
+        y = np.clip(y, r.y0, r.y0 + ye)
+        if self.inset > 0:  # the map drawn in by the inset on every side (not clipped: drops stay apart)
+            x = r.x0 + self.inset + (x - r.x0) * ((xe - 2 * self.inset) / xe)
+            y = r.y0 + self.inset + (y - r.y0) * ((ye - 2 * self.inset) / ye)
         pts = np.column_stack([x, y, np.zeros(k)])
         z = sample(r, self.ground, pts) + self.height
         if self.grid is not None:
@@ -245,6 +254,45 @@ class EdgeOutflow:
 
     def load_state_dict(self, state) -> None:
         """Stateless."""
+
+    def flush(self, sim) -> None:
+        """Nothing to write."""
+
+    def finalize(self, sim) -> dict[str, Any]:
+        return {}
+
+
+class OutsideOutflow:
+    """Removes fluid particles over the nodes ``outside`` the terrain (raster.shape: a DEM's nodata),
+    those whose nearest node is outside, as an open edge would (sink ``outside``); adds up the water and
+    the mud they carried (registered fields ``water`` and ``mud`` where the solver has them, in V_p)."""
+
+    def __init__(self, schedule, solver, raster: Raster, outside: np.ndarray):
+        if np.shape(outside) != raster.shape:
+            raise ValueError(f"outside mask {np.shape(outside)} does not match the raster {raster.shape}")
+        self.schedule = schedule
+        self.name = "outside"
+        self.solver, self.raster = solver, raster
+        self.outside = np.asarray(outside, bool)
+        self.left = {"water": 0.0, "mud": 0.0}
+
+    def __call__(self, sim=None) -> None:
+        st, r = self.solver.state, self.raster
+        pos = st.pos[: st.n_fluid]
+        ix = np.clip(np.floor((pos[:, 0] - r.x0) / r.dx + 0.5).astype(np.int64), 0, r.nx - 1)
+        iy = np.clip(np.floor((pos[:, 1] - r.y0) / r.dy + 0.5).astype(np.int64), 0, r.ny - 1) if r.ny > 1 else 0
+        out = self.outside[iy, ix]
+        if out.any():
+            for k in self.left:
+                if hasattr(st, k):
+                    self.left[k] += float(getattr(st, k)[: st.n_fluid][out].sum())
+            self.solver.remove_fluid(out, sink="outside")
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"left_water": self.left["water"], "left_mud": self.left["mud"]}
+
+    def load_state_dict(self, state) -> None:
+        self.left = {"water": float(state.get("left_water", 0.0)), "mud": float(state.get("left_mud", 0.0))}
 
     def flush(self, sim) -> None:
         """Nothing to write."""

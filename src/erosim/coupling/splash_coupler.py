@@ -93,8 +93,10 @@ class ScourParams(Section):
     l_min: float = param(0.4, gt=0, le=1, unit="spacing", doc="smallest distance l in the shear rate, in spacings")
 
 
-def _scatter(raster: Raster, xy: np.ndarray, volume: np.ndarray) -> np.ndarray:
-    """Δz (raster.shape) that puts ``volume`` (m³, signed) at points ``xy`` with bilinear weights."""
+def _scatter(raster: Raster, xy: np.ndarray, volume: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
+    """Δz (raster.shape) that puts ``volume`` (m³, signed) at points ``xy`` with bilinear weights; with
+    ``valid`` (raster.shape) only on those nodes, the weights of the others given to them in proportion
+    (each point needs a valid node among its four: the one nearest it, where the fluid still is)."""
     dz = np.zeros(raster.shape)
     if len(volume) == 0:
         return dz
@@ -104,8 +106,13 @@ def _scatter(raster: Raster, xy: np.ndarray, volume: np.ndarray) -> np.ndarray:
     j = np.minimum(np.floor(fy).astype(np.int64), max(raster.ny - 2, 0))
     tx, ty = fx - i, fy - j
     h = volume / raster.cell_area
+    corners = []
     for di, dj, w in ((0, 0, (1 - tx) * (1 - ty)), (1, 0, tx * (1 - ty)), (0, 1, (1 - tx) * ty), (1, 1, tx * ty)):
-        np.add.at(dz, (np.minimum(j + dj, raster.ny - 1), np.minimum(i + di, raster.nx - 1)), w * h)
+        node = (np.minimum(j + dj, raster.ny - 1), np.minimum(i + di, raster.nx - 1))
+        corners.append((node, w if valid is None else w * valid[node]))
+    total = sum(w for _, w in corners) if valid is not None else None
+    for node, w in corners:
+        np.add.at(dz, node, w * h if total is None else w / total * h)
     return dz
 
 
@@ -115,10 +122,14 @@ class WetGround:
     def __init__(self, schedule, solver, raster: Raster, terrain: np.ndarray, ground: PorousGround, *,
                  splash: sp.SplashParams, sigma_dry: float, sigma_wet: float, permeability: float,
                  diffusivity: float, evaporation_mm_h: float, mud: MudParams, scour: ScourParams,
-                 name: str = "wet_ground"):  # fmt: skip
+                 outside: np.ndarray | None = None, name: str = "wet_ground"):  # fmt: skip
+        """``outside``: None or the nodes outside the terrain (a DEM's nodata; raster.shape), which no
+        crater, scour or settling mud changes."""
         self.schedule, self.name = schedule, name
         self.solver, self.raster, self.terrain, self.ground = solver, raster, terrain, ground
         self.splash, self.mud, self.scour = splash, mud, scour
+        self.outside = None if outside is None or not np.any(outside) else np.asarray(outside, bool)
+        self.valid = None if self.outside is None else ~self.outside
         self.sigma_dry, self.sigma_wet = float(sigma_dry), float(sigma_wet)
         g = float(np.linalg.norm(solver.g))
         self.k = conductivity(permeability, gravity=g if g > 0 else 9.81)
@@ -182,6 +193,8 @@ class WetGround:
             sigma = float(strength(theta_here[i], self.sigma_dry, self.sigma_wet))
             d = float(sp.crater_depth(self.radius, speed[i], s.params.rho0, sigma))
             dzi = sp.crater_increment(r, pos[i : i + 1, :2], self.radius, np.array([d]))
+            if self.outside is not None:
+                dzi[self.outside] = 0.0  # outside the terrain nothing is dug
             vol = float(-dzi.sum() * r.cell_area)
             take = min(vol, max(self.splash.mud_max - st.mud[i], 0.0) * self.vp)
             st.mud[i] += take / self.vp
@@ -219,7 +232,7 @@ class WetGround:
             room = np.maximum(self.splash.mud_max - st.mud[idx], 0.0) * self.vp
             vol = np.minimum(vol, room)
             if vol.any():
-                dz -= _scatter(r, pos[idx, :2], vol)
+                dz -= _scatter(r, pos[idx, :2], vol, self.valid)
                 st.mud[idx] += vol / self.vp
                 taken_up += float(vol.sum())
                 self.totals["scoured"] += float(vol.sum())
@@ -236,7 +249,7 @@ class WetGround:
             k = np.flatnonzero(spent)
             gained += np.bincount(cols[k], st.water[k] * self.vp, self.ground.n)
             mud_vol = st.mud[k] * self.vp
-            dz += _scatter(r, pos[k, :2], mud_vol)
+            dz += _scatter(r, pos[k, :2], mud_vol, self.valid)
             settled = float(mud_vol.sum())
             st.water[k] = 0.0
             st.mud[k] = 0.0
@@ -257,8 +270,11 @@ class WetGround:
             self.sx[...], self.sy[...] = node_slopes(self.terrain, r.dx, r.dy)
             for b in s.boundaries:
                 b.refresh(s, terrain=self.terrain, changed=changed)
-            self.ground.follow()
-            self._w = self.ground.weights(self.diffusivity)
+            moved = self.ground.follow()
+            if moved is None:
+                self._w = self.ground.weights(self.diffusivity)
+            elif len(moved):
+                self._w[moved] = self.ground.weights(self.diffusivity, moved)
 
         # ---- 6 moisture, evaporation
         g = self.ground

@@ -7,13 +7,28 @@ surface and l its distance to it. On a voxel grid (seed eq. 4.1) every grid poin
 sums over the fluid particles j within the erosion radius R:
 
     dM_i/dt = −K_ε Σ_j max(0, K θ_ijⁿ − τ_c),
-    θ_ij    = (|v_j| − |v_j · r̂_ij|) / max(r'_ij, l_min),     r'_ij = |r_i − r_j| − min(l_j, l_min),
+    θ_ij    = v_p,j / max(r'_ij, l_min),     r'_ij = |r_i − r_j| − min(l_j, l_min),
+    v_p,j   = |v_j| − |v_j · r̂_ij|             (``parallel = "seed"``, listing 9, the default)
+            = |v_j − (v_j·n_j) n_j|            (``parallel = "wall"``),
 
-r_ij = r_i − r_j, l_j the particle's wall distance (:mod:`erosim.kernels.voxel`, clamped at 0), and
-l_min = 0.4 h (h the kernel support): the seed's "rectified" distance, which measures from the
-particle's own distance to the wall and keeps θ finite for a particle touching it. A particle
-counts where r'_ij ≤ R (default R = h). M is the node's solid fraction, so its density changes by
-(d_solid − d_air)·dM; the area factor L_b² of Krištof's dM_b/dt = −Σ L_b² ε is constant on a voxel
+r_ij = r_i − r_j, l_j the particle's wall distance and n_j the unit wall normal at the particle, both
+from the density field (:mod:`erosim.kernels.voxel`; l clamped at 0), and l_min = 0.4 h (h the
+kernel support): the seed's "rectified" distance, which measures from the particle's own distance to
+the wall and keeps θ finite for a particle touching it. A particle counts where r'_ij ≤ R (default
+R = h).
+
+v_p is the velocity component parallel to the surface (Krištof et al.'s θ = v_p/l). The seed's
+listing approximates it with the direction r̂_ij from the particle to the grid point, which is the
+wall normal only for a point straight below the particle: for a point up- or downstream of it,
+r̂_ij leans along the flow and |v| − |v·r̂| falls below the speed along the wall (to 0 for r̂ ∥ v),
+while across the flow it exceeds it (|v| for r̂ ⊥ v, even for a particle moving straight into the
+wall). With ``parallel = "wall"`` the normal from the field's gradient is the surface's own, so a
+particle's shear is the same for every grid point it reaches and zero for motion normal to the wall;
+it is an option, not the default, because SPEC VX-6 fixes the seed's form, and on the overtopping
+case at 2 cm it puts the first erosion higher on the downstream slope (docs/voxel.md).
+
+M is the node's solid fraction, so its density changes by (d_solid − d_air)·dM; the area factor L_b²
+of Krištof's dM_b/dt = −Σ L_b² ε is constant on a voxel
 grid and folded into K_ε (units: solid fraction per second per unit of excess stress and particle).
 Grid points below ``non_erodible_below`` (m) are never eroded (the non-erodible base of the
 overtopping case), and neither are nodes already at d_air.
@@ -45,6 +60,7 @@ hydrodynamics", Computer Graphics Forum 28(2), 2009; seed 001 (Ōtsubo & Kusama)
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
 from numba import njit
@@ -65,6 +81,8 @@ class ShearStressParams(Section):
     radius: float = param(0.0, ge=0, unit="m", doc="erosion radius R around a grid point; 0 = the kernel support h")
     l_min: float = param(0.4, gt=0, le=1, unit="1", doc="l_min, and the cap of the distance correction, as a "
                          "fraction of h (seed: 0.4)")  # fmt: skip
+    parallel: Literal["seed", "wall"] = param("seed", doc="v_p: the seed's |v| − |v·r̂| ('seed', SPEC VX-6), or the "
+                                              "speed along the wall normal at the particle ('wall')")  # fmt: skip
     quantum: float = param(1.0 / 255.0, gt=0, le=1, unit="1", doc="transfer step as a fraction of the density range "
                            "(seed: one byte, 1/255)")  # fmt: skip
     non_erodible_below: float | None = param(None, unit="m", doc="grid points below this elevation are not eroded")
@@ -88,9 +106,10 @@ def excess_stresses(v_par, dist, l_min, k, expo, tau_c, out):
 
 
 @njit(cache=True)
-def shear_sums(dens, ox, oy, oz, inv, d_air, pos, vel, wall_l, n, radius, l_min, k, expo, tau_c, z_floor, scale,
-               out):  # fmt: skip
-    """out[node] += scale · Σ_j max(0, K θⁿ − τ_c) over the first ``n`` particles (module docstring)."""
+def shear_sums(dens, ox, oy, oz, inv, d_air, pos, vel, wall_l, wall_n, seed_vp, n, radius, l_min, k, expo, tau_c,
+               z_floor, scale, out):  # fmt: skip
+    """out[node] += scale · Σ_j max(0, K θⁿ − τ_c) over the first ``n`` particles (module docstring); v_p is
+    the speed along the wall (normal ``wall_n[j]``), or with ``seed_vp`` the seed's |v| − |v·r̂_ij|."""
     nz, ny, nx = dens.shape
     cell = 1.0 / inv
     for j in range(n):
@@ -98,6 +117,8 @@ def shear_sums(dens, ox, oy, oz, inv, d_air, pos, vel, wall_l, n, radius, l_min,
         speed = math.sqrt(vx * vx + vy * vy + vz * vz)
         if speed == 0.0:
             continue
+        vn = vx * wall_n[j, 0] + vy * wall_n[j, 1] + vz * wall_n[j, 2]
+        v_wall = math.sqrt(max(speed * speed - vn * vn, 0.0))
         px, py, pz = pos[j, 0], pos[j, 1], pos[j, 2]
         lj = min(max(wall_l[j], 0.0), l_min)
         reach = radius + lj
@@ -121,8 +142,12 @@ def shear_sums(dens, ox, oy, oz, inv, d_air, pos, vel, wall_l, n, radius, l_min,
                     rc = r - lj
                     if rc > radius:
                         continue
-                    vr = abs(vx * rx + vy * ry + vz * rz) / r if r > 0.0 else 0.0
-                    e = excess_stress(speed - vr, rc, l_min, k, expo, tau_c)
+                    if seed_vp:
+                        vr = abs(vx * rx + vy * ry + vz * rz) / r if r > 0.0 else 0.0
+                        vp = speed - vr
+                    else:
+                        vp = v_wall
+                    e = excess_stress(vp, rc, l_min, k, expo, tau_c)
                     if e > 0.0:
                         out[kk, jj, ii] += scale * e
 
@@ -176,23 +201,27 @@ class ShearStressErosion:
         ox, oy, oz = t.origin
         return t.density, ox, oy, oz, 1.0 / t.cell_size, t.value_range[0]
 
-    def wall_distances(self, pos: np.ndarray) -> np.ndarray:
-        """l of every particle (m, positive in the fluid) from the terrain's density field."""
+    def wall_distances(self, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(l, n) of every particle: the distance (m, positive in the fluid) and the unit normal into the
+        fluid, from the terrain's density field (:mod:`erosim.kernels.voxel`)."""
         t = self.terrain
         pos = np.ascontiguousarray(pos, np.float64)
         l, nrm = np.empty(len(pos)), np.empty((len(pos), 3))
         wall_distance(t.density, *t.origin, 1.0 / t.cell_size, t.iso, pos, len(pos), l, nrm)
-        return l
+        return l, nrm
 
     def _sums(self, pos, vel, wall_l, scale, out):
         p = self.params
         pos = np.ascontiguousarray(pos, np.float64)
         vel = np.ascontiguousarray(vel, np.float64)
-        wall_l = self.wall_distances(pos) if wall_l is None else np.ascontiguousarray(wall_l, np.float64)
-        if pos.shape != vel.shape or pos.ndim != 2 or pos.shape[1] != 3 or wall_l.shape != (len(pos),):
-            raise ValueError("positions and velocities must be (n, 3) and wall distances (n,)")
-        shear_sums(*self._args(), pos, vel, wall_l, len(pos), self.radius, self.l_min, p.k, p.n, p.tau_c,
-                   self.z_floor, scale, out)  # fmt: skip
+        if pos.shape != vel.shape or pos.ndim != 2 or pos.shape[1] != 3:
+            raise ValueError("positions and velocities must be (n, 3)")
+        field_l, nrm = self.wall_distances(pos)
+        wall_l = field_l if wall_l is None else np.ascontiguousarray(wall_l, np.float64)
+        if wall_l.shape != (len(pos),):
+            raise ValueError("wall distances must be (n,)")
+        shear_sums(*self._args(), pos, vel, wall_l, nrm, p.parallel == "seed", len(pos), self.radius, self.l_min,
+                   p.k, p.n, p.tau_c, self.z_floor, scale, out)  # fmt: skip
 
     def rates(self, pos, vel, wall_l=None) -> np.ndarray:
         """Σ_j max(0, K θⁿ − τ_c) per grid point (the erosion rate is K_ε times it, in solid fraction per second)."""

@@ -8,6 +8,11 @@ northward). The fluid feels the ground as the heightmap's particle-free wall; po
 steps :class:`~erosim.coupling.splash_coupler.WetGround` digs the craters of the particles that
 strike the ground, scours, lets water seep in and spread, and mixes mud.
 
+A DEM's nodata cells are outside the terrain: no ground particle stands there, no rain falls there,
+no crater or deposit changes them, and water that reaches one (the node nearest it) leaves the run,
+counted in ``water_budget.left_nodata`` (part of ``left_edges``) as at an open edge. The fluid meets
+their filled heights (the nearest valid ones) until it leaves: a nodata hole is neither a wall nor a pit.
+
 A ``[drop]`` run: each drop is one fluid particle of the drop's volume, so the crater law's R is the
 drop's radius; the fluid spacing is R·(4π/3)^{1/3}; the patch's cells are R/``cells_per_radius``;
 the drops start one kernel support above the ground, at ``drop.speed`` downward.
@@ -37,11 +42,12 @@ from erosim.core.heightmap import Heightmap, default_transform
 from erosim.coupling.binning import FluidGrid
 from erosim.coupling.porous_ground import PorousGround
 from erosim.coupling.raster import Raster
-from erosim.coupling.sources import EdgeOutflow, PointInflow, Rain
+from erosim.coupling.sources import EdgeOutflow, OutsideOutflow, PointInflow, Rain
 from erosim.coupling.splash_coupler import WetGround
 from erosim.erosion import splash as sp
 from erosim.erosion.wet_strength import strength
 from erosim.scenarios import builders_sph_terrain as terrain_kind
+from erosim.scenarios.schema_common import build_terrain, terrain_facts
 from erosim.scenarios.schema_splash import SplashScenario, ground_spacing
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
@@ -55,7 +61,8 @@ DROP_SPACING = (4.0 * math.pi / 3.0) ** (1.0 / 3.0)
 
 
 def geometry(cfg: SplashScenario) -> tuple[terrain_kind.Geometry, float]:
-    """The terrain in the SPH frame and the fluid spacing."""
+    """The terrain in the SPH frame and the fluid spacing. A DEM's nodata cells keep the nearest valid
+    heights (:func:`erosim.core.heightmap.fill_nodata`) and are marked in ``Geometry.nodata``."""
     if cfg.drop is not None:
         d = cfg.drop
         cell = d.radius / d.cells_per_radius
@@ -64,7 +71,15 @@ def geometry(cfg: SplashScenario) -> tuple[terrain_kind.Geometry, float]:
         raster = Raster(0.0, 0.0, cell, cell, n, n)
         dem = Heightmap(z.copy(), cell, transform=default_transform(n, n, cell))
         return terrain_kind.Geometry(raster, z.copy(), z.copy(), None, dem, 3), d.radius * DROP_SPACING
-    geo = terrain_kind.geometry(cfg)
+    hm = build_terrain(cfg.terrain, cfg.seed)
+    if hm.transform is None:
+        hm = hm.copy()
+        hm.transform = default_transform(*hm.shape, hm.cell_size)
+    ny, nx = hm.shape
+    raster = Raster(0.0, 0.0, hm.cell_size, hm.cell_size, nx, ny)
+    z = np.ascontiguousarray(hm.z[::-1], dtype=np.float64)  # rows northward; nodata cells hold filled heights
+    nodata = None if hm.nodata is None or not hm.nodata.any() else np.ascontiguousarray(hm.nodata[::-1])
+    geo = terrain_kind.Geometry(raster, z.copy(), z.copy(), nodata, hm, 3)
     dx = cfg.scale.spacing_cells * geo.raster.dx if cfg.scale.spacing_cells else cfg.sph.spacing
     return geo, dx
 
@@ -305,6 +320,8 @@ class SplashOutputs(cb.Callback):
         self.grid.bin(w.solver)
         z = w.terrain
         puddles = standing_water(w, g.raster, hollow_depth(z))
+        if g.nodata is not None:
+            puddles[g.nodata] = 0.0  # outside the terrain (the map keeps it as nodata)
         fields = {
             "height": z,
             "height_initial": g.initial,
@@ -385,25 +402,50 @@ def setup(scenario, out) -> Setup:
     perm = None
     if gs.topsoil_layers > 0:
         perm = [gs.permeability] * gs.topsoil_layers + [gs.subsoil_permeability] * (gs.layers - gs.topsoil_layers)
-    ground = PorousGround(r, geo.terrain, s_ground, gs.layers, gs.porosity, gs.saturation, gs.density, perm)
+    ground = PorousGround(r, geo.terrain, s_ground, gs.layers, gs.porosity, gs.saturation, gs.density, perm,
+                          outside=geo.nodata)  # fmt: skip
     wet = WetGround(IterationInterval(cfg.run.every), solver, r, geo.terrain, ground, splash=cfg.splash,
                     sigma_dry=gs.sigma_dry, sigma_wet=gs.sigma_wet, permeability=gs.permeability,
                     diffusivity=gs.diffusivity, evaporation_mm_h=gs.evaporation, mud=cfg.mud,
-                    scour=cfg.scour)  # fmt: skip
+                    scour=cfg.scour, outside=geo.nodata)  # fmt: skip
     callbacks: list = []
+    outside = None
+    if geo.nodata is not None:  # water over nodata leaves first, so that no pass sees it there
+        outside = OutsideOutflow(IterationInterval(1), solver, r, geo.nodata)
+        callbacks.append(outside)
     if cfg.edges.outflow:
         callbacks.append(EdgeOutflow(IterationInterval(1), solver, r, cfg.edges.outflow))
     grid = FluidGrid(r, 3, ground=geo.terrain, near=2.0 * solver.h)
     warnings = list(geo.dem.notes) if geo.dem is not None and cfg.drop is None else []
+    assumed: list[str] = []
+    facts = None
+    if cfg.drop is None:
+        facts, assumed = terrain_facts(geo.dem, cfg.terrain)
+        if facts["nodata_cells"]:
+            warnings.append(f"{facts['nodata_cells']} cells of the terrain are nodata: outside the terrain (no ground "
+                            "particles or rain there; water reaching them leaves and counts in "
+                            "water_budget.left_nodata); the maps keep them as nodata.")  # fmt: skip
+        if lam != 1.0:
+            assumed.append(f"scaled: the scenario's values are for {cfg.scale.reference_cell:g} m cells, scaled to "
+                           f"{r.dx:g} m by Froude similarity (λ = {lam:.4g}; heights and lengths × λ, times and "
+                           f"speeds × √λ): t_end {cfg.run.t_end:.4g} s, rain from {cfg.rain.height:.4g} m")  # fmt: skip
+    cost = run_cost(cfg, solver, ground)
+    if cfg.drop is None:
+        assumed.append(cost["line"])
     if cfg.rain.rate > 0:
         chance = terrain_kind._rain_map(cfg, geo)
+        if geo.nodata is not None:
+            chance = np.where(geo.nodata, 0.0, chance)  # no rain falls outside the terrain
         height = cfg.rain.height
         if height < 2.0 * solver.h:  # drops born inside the ground's reach would never strike it
             height = 2.0 * solver.h
             warnings.append(f"rain.height = {cfg.rain.height:g} m is within two kernel supports of the ground; the "
                             f"drops start {height:.3g} m above it so that they strike it.")  # fmt: skip
+        # drops start one support inside the map: a drop born within a closed edge's wall would be pushed
+        # off it alone, its density (continuity) falling by the wall's share, towards zero at the wall
         callbacks.append(TimedRain(IterationInterval(cfg.rain.every), solver, r, geo.terrain, chance, cfg.rain.rate,
-                                   height, cfg.seed, grid=grid, until=cfg.run.rain_until))  # fmt: skip
+                                   height, cfg.seed, grid=grid, until=cfg.run.rain_until,
+                                   inset=solver.h))  # fmt: skip
     for name, inf in cfg.inflows.items():
         xy = geo.to_local(inf.position, f"inflows.{name}.position")
         callbacks.append(PointInflow(IterationInterval(1), solver, r, geo.terrain, xy, inf.discharge,
@@ -419,6 +461,13 @@ def setup(scenario, out) -> Setup:
     def report(sim) -> dict[str, Any]:
         rep = splash_report(cfg, geo, dx, solver, wet, sim)
         rep["froude_scale"] = lam
+        if facts is not None:
+            rep["terrain"] = {**facts, **rep["terrain"]}
+            rep["assumed"] = assumed
+        rep["cost_estimate"] = {k: v for k, v in cost.items() if k != "line"}
+        left = outside.left if outside is not None else {"water": 0.0, "mud": 0.0}
+        rep["water_budget"]["left_nodata"] = left["water"] * wet.vp  # part of left_edges
+        rep["solid_budget"]["mud_left_nodata"] = left["mud"] * wet.vp  # part of mud_left_edges
         return rep
 
     def summary(sim, rep: dict) -> dict[str, Any]:
@@ -443,8 +492,45 @@ def setup(scenario, out) -> Setup:
 
     return Setup(
         models=[solver], callbacks=callbacks, stop_time=run.t_end, unit="s", report=report, summary=summary,
-        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings,
+        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings, assumed=assumed,
     )  # fmt: skip
+
+
+def surface_wetness(wet: WetGround, geo) -> dict[str, float]:
+    """Mean and largest surface saturation over the terrain's nodes (nodata left out)."""
+    theta = wet.wetness()
+    if geo.nodata is not None:
+        theta = theta[~geo.nodata]
+    return {"mean": float(theta.mean()), "max": float(theta.max())}
+
+
+#: CPU seconds of a splash run on one core, per fluid step, per fluid particle-step and per ground diffusion
+#: pair at each coupling: fitted to the 80 × 80 DEM of docs/splash.md (490 s: 26 s of SPH steps, 442 s of
+#: seepage passes over 5.6·10⁶ pairs) and checked on an 18 × 18 one (estimate 3.6 s, measured 3.1 s)
+STEP_S, PARTICLE_STEP_S, PAIR_COUPLING_S = 2.0e-3, 3.0e-6, 4.5e-8
+
+
+def run_cost(cfg: SplashScenario, solver, ground: PorousGround) -> dict[str, Any]:
+    """The run's sizes and a rough time (within a factor of about three), said before it starts: steps from
+    the first step's limit (sound speed and spacing; the fluid's speed shortens the steps later: 13 % more of
+    them on the DEM of docs/splash.md), the fluid expected (rain over the run), the ground's particles and pairs."""
+    dt = solver.dt_limit() if cfg.sph.dt <= 0 else cfg.sph.dt
+    steps = int(math.ceil(cfg.run.t_end / dt))
+    fluid = solver.n_fluid
+    if cfg.rain.rate > 0:
+        rained = cfg.rain.rate / 3.6e6 * (cfg.run.rain_until or cfg.run.t_end) * ground.ncol * ground.area
+        fluid += int(rained / solver.params.spacing**3)
+    pairs = len(ground.i)
+    seconds = steps * (STEP_S + PARTICLE_STEP_S * 0.5 * fluid + PAIR_COUPLING_S * pairs / cfg.run.every)
+    m = int(round(seconds / 60))
+    when = f"{seconds:.0f} s" if seconds < 90 else f"{m} min"
+    dx = solver.params.spacing
+    line = (f"size: about {steps:,} steps of {dt:.3g} s, up to {fluid:,} fluid particles of {dx:.3g} m, "
+            f"{ground.n:,} ground particles of {ground.s:.3g} m ({ground.ncol:,} columns × {ground.layers} layers, "
+            f"{pairs:,} diffusion pairs): roughly {when} of one core's time; less with a coarser ground.spacing, fewer "
+            "ground.layers or a shorter run.t_end")  # fmt: skip
+    return {"steps": steps, "dt_s": dt, "fluid_particles": fluid, "ground_particles": ground.n,
+            "ground_pairs": pairs, "seconds": seconds, "line": line}  # fmt: skip
 
 
 def splash_report(cfg: SplashScenario, geo, dx: float, solver, wet: WetGround, sim) -> dict[str, Any]:
@@ -480,7 +566,7 @@ def splash_report(cfg: SplashScenario, geo, dx: float, solver, wet: WetGround, s
             if len(imp)
             else None,  # fmt: skip
         },
-        "surface_wetness": {"mean": float(wet.wetness().mean()), "max": float(wet.wetness().max())},
+        "surface_wetness": surface_wetness(wet, geo),
         "wall_cost": wet.costs(sim),
         "couplings": wet.calls,
         "removed": {k: v for k, v in solver.state.removed.items()},

@@ -3,7 +3,7 @@
 The terrain is a :class:`~erosim.terrain.voxel.VoxelTerrain` (a flume's floor, an optional plinth and a
 trapezoidal embankment, :mod:`erosim.terrain.voxel`) felt by the fluid through the wall-weight
 boundary :class:`~erosim.sph.boundaries.voxel_wall.VoxelWall`; the flume's side walls and upstream
-end are analytic planes; water is poured on the reservoir (``[inflow]``); water leaving past
+end are analytic planes; the reservoir fills by layers laid at rest on its surface (``[inflow]``); water leaving past
 the downstream end is removed and counted. Every
 ``erosion.every`` steps the :class:`~erosim.coupling.voxel_coupler.VoxelCoupler` applies the
 shear-stress erosion of :mod:`erosim.erosion.shear_stress_kristof2009` to the field.
@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from erosim.core.errors import ConfigError
+from erosim.core.errors import ConfigError, InstabilityError
 from erosim.coupling.raster import Raster
 from erosim.coupling.sources import EDGES, EdgeOutflow
 from erosim.coupling.voxel_coupler import VoxelCoupler
@@ -161,34 +161,64 @@ class RainDrops(cb.Callback):
 
 
 class Inflow(cb.Callback):
-    """Water poured on the reservoir: a layer of particles on the rectangle ``x0…x1`` × the flume's width at
-    ``height``, moving down at Q/A, added each time the last layer has moved one spacing (a layer always
-    enters free space above the water, so new particles never overlap the fluid)."""
+    """A reservoir filled as in a laboratory flume, its level rising gently: water enters at ``discharge``
+    Q (m³/s) one particle at a time (one every Δx³/Q seconds), each laid **at rest** on the water's
+    surface at its site (:meth:`rest_height`); the sites are the Δx lattice of the
+    rectangle ``x0…x1`` × the flume's width, taken in a fixed scattered order (a stride coprime with
+    their number), so the surface rises evenly.
 
-    def __init__(self, solver, x0: float, x1: float, width: float, height: float, discharge: float):
+    A particle so laid adds potential energy of about Δx/2 and no momentum, and no wave larger than one
+    particle: the reservoir stays still while it fills and the overflow is driven by the level alone,
+    as in Fujisawa et al.'s (2011) flume fed from upstream. Water poured from a height instead hits the
+    surface at √(2gΔz), and whole layers dropped at once start surges: both stir the reservoir into
+    currents of several cm/s that scour its upstream face before any water reaches the crest
+    (docs/voxel.md). A new particle is at least Δx from every other."""
+
+    def __init__(self, solver, x0: float, x1: float, width: float, discharge: float, top: float):
         super().__init__(IterationInterval(1), name="inflow")
         dx = solver.params.spacing
         xs = (np.arange(math.ceil(x0 / dx - 0.5), math.floor(x1 / dx - 0.5) + 1) + 0.5) * dx
         ys = (np.arange(0, math.floor(width / dx - 0.5) + 1) + 0.5) * dx
-        gx, gy = np.meshgrid(xs[xs < x1], ys[ys < width], indexing="ij")
-        self.layer = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, height)])
-        area = len(self.layer) * dx * dx
-        self.speed = discharge / area
-        self.period = dx / self.speed
-        self.vel = np.zeros_like(self.layer)
-        self.vel[:, 2] = -self.speed
+        gx, gy = np.meshgrid(xs[(xs > x0) & (xs < x1)], ys[ys < width], indexing="ij")
+        sites = np.column_stack([gx.ravel(), gy.ravel()])
+        n = len(sites)
+        stride = next(k for k in range(max(1, int(0.618 * n)), 2 * n + 2) if math.gcd(k, n) == 1)
+        self.sites = sites[(np.arange(n) * stride) % n]
+        self.dx, self.top = dx, top
+        self.period = dx**3 / discharge
         self.solver = solver
         self.carry, self.last_t, self.events = 0.0, float(solver.t), 0
+
+    def rest_height(self, pos, xy) -> float:
+        """The lowest z at ``xy`` at least Δx from every fluid particle below it: max over the particles k
+        within Δx horizontally (ρ_k < Δx) of z_k + √(Δx² − ρ_k²) (a ball laid on the surface); Δx/2 (on
+        the floor) when there are none."""
+        r2 = (pos[:, 0] - xy[0]) ** 2 + (pos[:, 1] - xy[1]) ** 2
+        near = r2 < self.dx * self.dx
+        if not near.any():
+            return 0.5 * self.dx
+        return float((pos[near, 2] + np.sqrt(self.dx * self.dx - r2[near])).max())
 
     def __call__(self, sim) -> None:
         s = self.solver
         due = self.carry + (float(s.t) - self.last_t) / self.period
         self.last_t = float(s.t)
-        layers = int(due)
-        self.carry = due - layers
-        for _ in range(layers):
-            self.events += 1
-            s.add_fluid(self.layer, self.vel, source="inflow")
+        count = int(due)
+        self.carry = due - count
+        if count == 0:
+            return
+        pos = s.fluid_positions()
+        pts = np.empty((count, 3))
+        for k in range(count):
+            xy = self.sites[(self.events + k) % len(self.sites)]
+            pts[k] = xy[0], xy[1], self.rest_height(np.concatenate([pos, pts[:k]]), xy)
+        if pts[:, 2].max() > self.top:
+            raise InstabilityError(
+                f"The inflow's water reached the top of the flume's domain ({self.top:g} m) at t = {float(s.t):.3g} s; "
+                "lower inflow.discharge or raise terrain.top."
+            )
+        self.events += count
+        s.add_fluid(pts, np.zeros_like(pts), source="inflow")
 
     def state_dict(self) -> dict[str, Any]:
         return {"carry": self.carry, "last_t": self.last_t, "events": self.events}
@@ -314,6 +344,13 @@ def rain_height(cfg: VoxelScenario, terrain) -> float:
     return float(min(z_top + cfg.rain.height, terrain.hi[2]))
 
 
+def overflow_head(discharge: float, width: float, g: float = 9.81) -> float:
+    """The water's height over a broad crest passing ``discharge`` across ``width``: 3/2 of the critical
+    depth, H = 1.5 (q²/g)^(1/3), q = Q/width (m)."""
+    q = discharge / width
+    return 1.5 * (q * q / g) ** (1.0 / 3.0)
+
+
 def build_solver(cfg: VoxelScenario, terrain):
     """The fluid (a reservoir or lakes at rest), its voxel wall and, in a flume, the planes of its side and
     upstream walls; the sound speed from the highest fall the water can take."""
@@ -335,8 +372,8 @@ def build_solver(cfg: VoxelScenario, terrain):
     if flume:
         if len(fluid) == 0 and cfg.inflow.discharge <= 0:
             raise ConfigError("The scenario has no water: give water.level above the floor or inflow.discharge > 0.")
-        top, floor = max(level or 0.0, cfg.inflow.height if cfg.inflow.discharge > 0 else 0.0, e.base + e.height), 0.0
-        what = "the water level, the inflow and the crest above the floor"
+        top, floor = max(level or 0.0, e.base + e.height + overflow_head(cfg.inflow.discharge, f.width)), 0.0
+        what = "the water level or the crest and the overflow's head above the floor"
     else:
         if len(fluid) == 0 and cfg.rain.rate <= 0:
             raise ConfigError("The scenario has no water: give water.level above some ground or rain.rate > 0.")
@@ -378,7 +415,7 @@ def setup(scenario, out) -> Setup:
     callbacks: list = []
     if cfg.inflow.discharge > 0:
         i = cfg.inflow
-        callbacks.append(Inflow(solver, i.x0, i.x1, cfg.terrain.width, i.height, i.discharge))
+        callbacks.append(Inflow(solver, i.x0, i.x1, cfg.terrain.width, i.discharge, cfg.terrain.top))
     flume = cfg.terrain.shape == "flume"
     if flume:
         # the open downstream end: a raster whose east edge is the flume's end

@@ -53,7 +53,6 @@ class PorousGroundSection(WetStrengthParams):
                                         "(with topsoil_layers > 0)")  # fmt: skip
     diffusivity: float = param(1.0e-4, ge=0, unit="m2/s", doc="moisture diffusivity D_θ between ground particles")
     evaporation: float = param(0.0, ge=0, unit="mm/h", doc="evaporation from the surface particles")
-    nodata_wall: float = param(50.0, gt=0, unit="m", doc="nodata cells of a DEM stand this high above its top")
 
 
 class DropSection(Section):

@@ -13,7 +13,7 @@
     [voxels]       cell size and the density ramp's half-width (0: the narrowest the wall allows)
     [sph]          solver parameters (erosim.sph.params.SPHParams); the walls are the field and the planes
     [water]        the reservoir at rest upstream of the embankment: its level
-    [inflow]       water poured on the reservoir: discharge (m³/s) over x0…x1, released at ``height``
+    [inflow]       the reservoir's filling: discharge (m³/s) laid at rest on its surface over x0…x1
     [erosion]      shear-stress erosion (erosion.shear_stress_kristof2009) every ``every`` steps
     [run]          t_end, output interval (meshes, field, particle frames), profile interval and formats
 
@@ -86,10 +86,10 @@ class WaterSection(Section):
 
 
 class InflowSection(Section):
-    discharge: float = param(0.0, ge=0, unit="m3/s", doc="water poured on the reservoir per second (0: none)")
-    x0: float = param(0.0, ge=0, unit="m", doc="upstream end of the area it is poured on")
+    discharge: float = param(0.0, ge=0, unit="m3/s", doc="water added to the reservoir per second, laid at rest on "
+                             "its surface (0: none)")  # fmt: skip
+    x0: float = param(0.0, ge=0, unit="m", doc="upstream end of the area it is laid on")
     x1: float = param(0.2, gt=0, unit="m", doc="downstream end of that area")
-    height: float = param(0.3, gt=0, unit="m", doc="height it is released at (above the water: it falls on it)")
 
 
 class VoxelErosion(ShearStressParams):

@@ -14,9 +14,14 @@ Per fluid particle i, over its neighbour list (fluid j first, then fixed boundar
 * gravity (SPH-7) added once.
 
 Boundary particles (fixed, "dynamic boundary particles" of Crespo et al. 2007) are neighbours like
-any other (v_j = 0, no density diffusion); their own density passes belong to their boundary model
-(:mod:`erosim.sph.boundaries.particles`). h is the kernel support radius, h_s = h/2 the smoothing
-length used in ν, δ and ε.
+any other (v_j = 0, no density diffusion) except that their viscous term has its own coefficient
+``kvb``: ``kv`` by default (``wall_viscosity = "fluid"``: a no-slip wall with the fluid's viscosity),
+0 with ``"none"`` (free-slip walls, which also lose the damping of the fluid's approach). Water's
+boundary layer, √(νt) ≈ 1 mm after a second, is far thinner than a spacing; the artificial
+viscosity's ν = αh_s c/(4(d + 2)) (5·10⁻³ m²/s at Δx = 3 cm and c = 33 m/s) makes it about 7 cm
+after a second (docs/sph.md, "Walls: no-slip or free-slip", measures both on SPHERIC Test 2).
+Their own density passes belong to their boundary model (:mod:`erosim.sph.boundaries.particles`).
+h is the kernel support radius, h_s = h/2 the smoothing length used in ν, δ and ε.
 
 The variants are scalar Numba functions passed to the per-particle bodies; the parallel loop drivers
 below are one small cached function per combination (Numba cannot cache a driver that takes functions
@@ -87,6 +92,7 @@ def fluid_particle_3d(
     m,
     h,
     kv,
+    kvb,
     eps2,
     kdiff,
     eta2,
@@ -146,7 +152,7 @@ def fluid_particle_3d(
         f = gradf(r, h)
         rhoj = rho[j]
         vdotr = ui * dx + vi * dy + wi * dz
-        cr, cv = visc(vdotr, r2, f, lap(r, h), rhoi, rhoj, kv, eps2)
+        cr, cv = visc(vdotr, r2, f, lap(r, h), rhoi, rhoj, kvb, eps2)
         c = cr - pterm(pi, p[j], rhoi, rhoj) * f
         ax += c * dx + cv * ui
         ay += c * dy + cv * vi
@@ -175,6 +181,7 @@ def fluid_particle_2d(
     m,
     h,
     kv,
+    kvb,
     eps2,
     kdiff,
     eta2,
@@ -227,7 +234,7 @@ def fluid_particle_2d(
         f = gradf(r, h)
         rhoj = rho[j]
         vdotr = ui * dx + vi * dy
-        cr, cv = visc(vdotr, r2, f, lap(r, h), rhoi, rhoj, kv, eps2)
+        cr, cv = visc(vdotr, r2, f, lap(r, h), rhoi, rhoj, kvb, eps2)
         c = cr - pterm(pi, p[j], rhoi, rhoj) * f
         ax += c * dx + cv * ui
         ay += c * dy + cv * vi
@@ -269,177 +276,177 @@ _FAST = {"arcp", "contract"}
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_wcsph_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
             K.wendland_f_2d, no_lap, pterm_wcsph, visc_artificial,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_wcsph_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
             K.wendland_f_2d, K.wendland_lap_2d, pterm_wcsph, visc_laminar,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_symmetric_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
             K.wendland_f_2d, no_lap, pterm_symmetric, visc_artificial,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_symmetric_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
             K.wendland_f_2d, K.wendland_lap_2d, pterm_symmetric, visc_laminar,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_wcsph_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
             K.muller_f_2d, no_lap, pterm_wcsph, visc_artificial,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_wcsph_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
             K.muller_f_2d, K.muller_lap_2d, pterm_wcsph, visc_laminar,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_symmetric_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
             K.muller_f_2d, no_lap, pterm_symmetric, visc_artificial,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_symmetric_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_2d(
             K.muller_f_2d, K.muller_lap_2d, pterm_symmetric, visc_laminar,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_wcsph_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
             K.wendland_f_3d, no_lap, pterm_wcsph, visc_artificial,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_wcsph_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
             K.wendland_f_3d, K.wendland_lap_3d, pterm_wcsph, visc_laminar,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_symmetric_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
             K.wendland_f_3d, no_lap, pterm_symmetric, visc_artificial,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_symmetric_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
             K.wendland_f_3d, K.wendland_lap_3d, pterm_symmetric, visc_laminar,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_wcsph_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
             K.muller_f_3d, no_lap, pterm_wcsph, visc_artificial,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_wcsph_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
             K.muller_f_3d, K.muller_lap_3d, pterm_wcsph, visc_laminar,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_symmetric_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
             K.muller_f_3d, no_lap, pterm_symmetric, visc_artificial,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_symmetric_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
 ):
     for i in prange(n_fluid):
         fluid_particle_3d(
             K.muller_f_3d, K.muller_lap_3d, pterm_symmetric, visc_laminar,
-            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+            i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
 
 

@@ -528,10 +528,10 @@ def fluid_pass(dim: int, kernel: str, pressure_form: str, viscosity: str):
     body = _dev(forces.fluid_particle_3d if dim == 3 else forces.fluid_particle_2d)
 
     @cuda.jit
-    def fused(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    def fused(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
         i = cuda.grid(1)
         if i < n_fluid:
-            body(gradf, lap, pterm, visc, i, pos, vel, rho, p, start, mid, nbr, m, h, kv, eps2, kdiff, eta2, kh,
+            body(gradf, lap, pterm, visc, i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh,
                  gx, gy, gz, acc, drho)  # fmt: skip
 
     return fused

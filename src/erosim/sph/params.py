@@ -84,6 +84,13 @@ class SPHParams(Section):
         "artificial", doc="'artificial' (Monaghan Π, SPH-6b) or 'laminar' (μ∇²v, SPH-6a)"
     )
     alpha: float = param(0.1, ge=0, le=1, unit="1", doc="artificial viscosity coefficient α (SPH-6b)")
+    wall_viscosity: Literal["fluid", "none"] = param(
+        "fluid",
+        doc="viscous term between fluid and boundary particles: 'fluid' (the fluid's own term, artificial "
+        "or laminar, against the wall at rest: no-slip; the artificial ν = αh_s c/(4(d+2)) is thousands "
+        "of times water's at centimetre spacings) or 'none' (free-slip walls: the pressure term alone "
+        "holds the fluid off, nothing damps its approach)",
+    )
     mu: float = param(1.0e-3, ge=0, unit="Pa*s", doc="dynamic viscosity μ for 'laminar' (water: 1e-3)")
     gravity: tuple[float, ...] | None = param(
         None, unit="m/s^2", doc="gravity vector; default (0, −9.81) in 2-D, (0, 0, −9.81) in 3-D (last axis up)"

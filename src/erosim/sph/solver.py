@@ -150,6 +150,7 @@ class SPHSolver:
 
         # ---- variants, chosen once
         self.kv = 2.0 * prm.alpha * self.hs * self.c if prm.viscosity == "artificial" else prm.mu
+        self.kvb = self.kv if prm.wall_viscosity == "fluid" else 0.0  # the fluid–wall pairs' (forces.py)
         self._pass = forces.fluid_driver(d, prm.kernel, prm.pressure_form, prm.viscosity)
         self._sumpass = forces.summation_driver(d, prm.kernel)
         self._leapfrog = prm.integrator == "leapfrog"
@@ -456,7 +457,7 @@ class SPHSolver:
             self._pressure_all()
         self._pass(
             st.pos, st.vel, st.rho, st.p, self.start, self.mid, self.nbr, st.n_fluid, self.m, self.h, self.kv,
-            self.eps2, self.kdiff, self.eps2, self.kh, g[0], g[1], gz, st.acc, st.drho,
+            self.kvb, self.eps2, self.kdiff, self.eps2, self.kh, g[0], g[1], gz, st.acc, st.drho,
         )  # fmt: skip
         if self._summation:
             st.drho.fill(0)
@@ -629,6 +630,7 @@ class SPHSolver:
         self.kv = (
             2.0 * self.params.alpha * self.hs * self.c if self.params.viscosity == "artificial" else self.params.mu
         )
+        self.kvb = self.kv if self.params.wall_viscosity == "fluid" else 0.0
         self.kdiff = 0.0 if self._summation else 2.0 * self.params.density_diffusion * self.hs * self.c
         self.kh = self.params.rho0 / self.c**2
         # lists exactly as built at the last rebuild (from the positions then), without re-sorting

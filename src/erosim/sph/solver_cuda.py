@@ -235,8 +235,8 @@ class CudaSPHSolver(SPHSolver):
         g = self.g
         gz = g[2] if self.dim == 3 else 0.0
         self._fused[bf, kc.TPB](
-            dv["pos"], dv["vel"], dv["rho"], dv["p"], start, mid, nbr, nf, self.m, self.h, self.kv, self.eps2,
-            self.kdiff, self.eps2, self.kh, g[0], g[1], gz, dv["acc"], dv["drho"],
+            dv["pos"], dv["vel"], dv["rho"], dv["p"], start, mid, nbr, nf, self.m, self.h, self.kv, self.kvb,
+            self.eps2, self.kdiff, self.eps2, self.kh, g[0], g[1], gz, dv["acc"], dv["drho"],
         )  # fmt: skip
         kc.zero[1, kc.TPB](self._d_maxima, 2)
         kc.correct[kc.red_blocks(nf), kc.TPB](

@@ -94,10 +94,10 @@ def _load(solver, tree, bpos: np.ndarray, idx_b: np.ndarray, normal: np.ndarray)
     vel = st.vel[a].astype(np.float64)
     if prm.viscosity == "artificial":
         vdotr = np.sum(vel * rab, axis=1)
-        c_r = solver.kv * np.minimum(vdotr, 0.0) * f / ((rho_a + rho_b) * (r2 + solver.eps2))
+        c_r = solver.kvb * np.minimum(vdotr, 0.0) * f / ((rho_a + rho_b) * (r2 + solver.eps2))
         c_v = np.zeros_like(r)
     else:
         c_r = np.zeros_like(r)
-        c_v = -solver.kv * kernel_lap(r, h, dim, prm.kernel) / (rho_a * rho_b)
+        c_v = -solver.kvb * kernel_lap(r, h, dim, prm.kernel) / (rho_a * rho_b)
     on_fluid = m * m * ((c_r - pterm * f)[:, None] * rab + c_v[:, None] * vel)  # the wall's force on the fluid
     return float((on_fluid.sum(axis=0) @ normal) / _face_area(bpos[idx_b], normal, prm.spacing))

@@ -81,11 +81,15 @@ def front_vs_experiment(
     label: str = "erosim",
     ref_label: str = "Martin & Moyce (1952)",
     title: str = "",
+    computed: tuple[np.ndarray, np.ndarray, str] | None = None,
 ) -> Path:
-    """Non-dimensional surge front Z = x/a against T = t√(2g/a), simulation line vs measured points."""
+    """Non-dimensional surge front Z = x/a against T = t√(2g/a), simulation line vs measured points;
+    ``computed`` = (T, Z, label) adds another computation's front as a dashed line."""
     fig, ax = plt.subplots(figsize=(6, 4.5))
     ax.plot(T, Z, "-", label=label)
     ax.plot(ref_T, ref_Z, "o", mfc="none", label=ref_label)
+    if computed is not None:
+        ax.plot(computed[0], computed[1], "--", color="0.4", label=computed[2])
     ax.set_xlabel("T = t √(2g/a)")
     ax.set_ylabel("Z = x_front / a")
     ax.grid(alpha=0.3)
