@@ -25,6 +25,7 @@ import numpy as np
 
 from erosim.core.errors import ConfigError, InstabilityError
 from erosim.kernels import neighbours as nb
+from erosim.sph import diffusion_limit_molteni2009 as diffusion_limit
 from erosim.sph import eos as eos_mod
 from erosim.sph import forces, integrators
 from erosim.sph.boundaries import particles as bparticles
@@ -158,6 +159,7 @@ class SPHSolver:
         self.eps2 = 0.01 * self.hs**2
         self.kdiff = 0.0 if self._summation else 2.0 * prm.density_diffusion * self.hs * self.c
         self.kh = prm.rho0 / self.c**2
+        self._krate = np.empty(0, np.float64)  # K_i of the density diffusion (diffusion_limit_molteni2009)
 
         # ---- state (fluid first, then boundary)
         self.state = st = ParticleState(d, self.dtype, nf, bnd.shape[0])
@@ -440,9 +442,18 @@ class SPHSolver:
         self.amax = math.sqrt(float(self._a2.max()))
 
     def dt_limit(self) -> float:
-        """Largest stable step now: min(C h_s/(c+|v|max), C sqrt(h_s/|a|max), 0.125 h_s²/ν, the boundary
-        models' own limits)."""
+        """Largest stable step now: min(C h_s/(c+|v|max), C sqrt(h_s/|a|max), 0.125 h_s²/ν, the density
+        diffusion's 0.5/max K_i (:mod:`erosim.sph.diffusion_limit_molteni2009`), the boundary models' own
+        limits)."""
         lim = integrators.step_limit(self.params.cfl, self.hs, self.c, self.vmax, self.amax, self.nu)
+        if self.kdiff > 0:  # the density diffusion's own bound: it binds only where particles clump
+            st = self.state
+            if self._krate.shape[0] < st.n_fluid:
+                self._krate = np.empty(st.n, np.float64)
+            k = diffusion_limit.max_rate(self.dim, self.params.kernel, st.pos, st.rho, self.start, self.mid, self.nbr,
+                                         st.n_fluid, self.m, self.h, self.kdiff, self.eps2, self._krate)  # fmt: skip
+            if k > 0:
+                lim = min(lim, diffusion_limit.SAFETY / k)
         for fn in self._step_limits:
             lim = min(lim, fn(self))
         return lim
