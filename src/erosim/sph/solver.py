@@ -446,17 +446,22 @@ class SPHSolver:
         diffusion's 0.5/max K_i (:mod:`erosim.sph.diffusion_limit_molteni2009`), the boundary models' own
         limits)."""
         lim = integrators.step_limit(self.params.cfl, self.hs, self.c, self.vmax, self.amax, self.nu)
-        if self.kdiff > 0:  # the density diffusion's own bound: it binds only where particles clump
-            st = self.state
-            if self._krate.shape[0] < st.n_fluid:
-                self._krate = np.empty(st.n, np.float64)
-            k = diffusion_limit.max_rate(self.dim, self.params.kernel, st.pos, st.rho, self.start, self.mid, self.nbr,
-                                         st.n_fluid, self.m, self.h, self.kdiff, self.eps2, self._krate)  # fmt: skip
-            if k > 0:
-                lim = min(lim, diffusion_limit.SAFETY / k)
+        lim = min(lim, self._diffusion_limit())
         for fn in self._step_limits:
             lim = min(lim, fn(self))
         return lim
+
+    def _diffusion_limit(self) -> float:
+        """The density diffusion's own bound, 0.5/max K_i (inf without diffusion); it binds only where
+        particles clump (:mod:`erosim.sph.diffusion_limit_molteni2009`)."""
+        if self.kdiff <= 0:
+            return math.inf
+        st = self.state
+        if self._krate.shape[0] < st.n_fluid:
+            self._krate = np.empty(st.n, np.float64)
+        k = diffusion_limit.max_rate(self.dim, self.params.kernel, st.pos, st.rho, self.start, self.mid, self.nbr,
+                                     st.n_fluid, self.m, self.h, self.kdiff, self.eps2, self._krate)  # fmt: skip
+        return diffusion_limit.SAFETY / k if k > 0 else math.inf
 
     @property
     def time(self) -> float:
