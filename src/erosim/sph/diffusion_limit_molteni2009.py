@@ -18,11 +18,13 @@ But the rate of a pair does not fall as two particles close in (f(0) is finite: 
 gives |f(0)| = 210/(π h⁵)), so a clump of particles much closer than Δx — particles in a thin
 overflow at pressure zero, several put back on a wall at nearly the same place — adds up to
 m k_δ |f(0)|/ρ per close neighbour (450 s⁻¹ at Δx = 2 cm, c = 21.6 m/s) and crosses the bound while
-the CFL step is unchanged. :func:`max_rate` gives max_i K_i; the solver keeps
-Δt ≤ :data:`SAFETY`/max_i K_i (a ≤ 0.5, |λ| ≤ 0.71).
+the CFL step is unchanged. The solver's fused pair pass (:mod:`erosim.sph.forces`) returns K_i of
+every particle at no extra neighbour loop, and adaptive steps keep Δt ≤ :data:`SAFETY`/max_i K_i
+(a ≤ 0.5, |λ| ≤ 0.71) with the rates of the last force pass (``SPHSolver.kmax``, checkpointed).
 
-Hand-written Numba like the fused pass it mirrors: it walks the solver's own neighbour lists
-(``start``/``mid``/``nbr``), which no library exposes.
+:func:`rates` and :func:`max_rate` are the same sum as a standalone pass over the solver's neighbour
+lists (for checks and diagnostics; the step does not call them). Hand-written Numba like the fused
+pass it mirrors: it walks the solver's own lists (``start``/``mid``/``nbr``), which no library exposes.
 """
 
 from __future__ import annotations
