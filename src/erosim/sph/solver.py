@@ -198,7 +198,8 @@ class SPHSolver:
             if prm.dt > lim:
                 raise ConfigError(
                     f"Setting 'sph.dt' = {prm.dt:g} s is above the stable step limit {lim:.3g} s "
-                    f"(CFL {prm.cfl}·h_s/(c + |v|max) with c = {self.c:.3g} m/s, force and viscous limits); "
+                    f"(CFL {prm.cfl}·h_s/(c + |v|max) with c = {self.c:.3g} m/s, force, viscous and "
+                    "density-diffusion limits); "
                     f"use sph.dt ≤ {lim:.3g} or sph.dt = 0 for adaptive steps."
                 )
 
