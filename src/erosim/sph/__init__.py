@@ -16,7 +16,7 @@ Interface (what the run loop, scenarios and validation code against)::
                                                        # copies, in the order fluid_pos was given
     s.boundary_positions()
     s.state_dict(); s.load_state_dict(d)              # exact resume
-    s.dt_limit()                                       # current stable step (CFL, force, viscous)
+    s.dt_limit()                                       # current stable step (CFL, force, viscous, density diffusion)
     s.neighbour_stats()                                # {"mean": ..., ...}
 
 With ``walls = "particles"`` the solver lays ``wall_layers`` of fixed boundary particles outside

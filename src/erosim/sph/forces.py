@@ -11,7 +11,9 @@ Per fluid particle i, over its neighbour list (fluid j first, then fixed boundar
   diffusion (Molteni & Colagrossi 2009) with the hydrostatic correction of Fourtakas et al. (2019):
   + δ h_s c Σ (m_j/ρ_j) 2 [(ρ_j − ρ_i) − (ρ_j^H − ρ_i^H)] (−f_ij r²)/(r² + η²),
   ρ_j^H − ρ_i^H = −ρ₀ g·r_ij / c²  (r_ij = r_i − r_j, ∇W_ij = f_ij r_ij, η² = 0.01 h_s²);
-* gravity (SPH-7) added once.
+* gravity (SPH-7) added once;
+* the density diffusion's rate K_i = m k_δ Σ_j (−f_ij) r²/((r² + η²)ρ_j) (``krate``, k_δ = ``kdiff``), from
+  which the solver keeps its step stable (:mod:`erosim.sph.diffusion_limit_molteni2009`).
 
 Boundary particles (fixed, "dynamic boundary particles" of Crespo et al. 2007) are neighbours like
 any other (v_j = 0, no density diffusion) except that their viscous term has its own coefficient
@@ -103,7 +105,8 @@ def fluid_particle_3d(
     acc,
     drho,
 ):
-    """3-D: acceleration and dρ/dt of fluid particle i (see the module docstring)."""
+    """3-D: acceleration and dρ/dt of fluid particle i (see the module docstring); returns the density
+    diffusion's rate K_i (:mod:`erosim.sph.diffusion_limit_molteni2009`)."""
     h2 = h * h
     xi = pos[i, 0]
     yi = pos[i, 1]
@@ -118,6 +121,7 @@ def fluid_particle_3d(
     az = 0.0
     dr = 0.0
     dd = 0.0
+    kd = 0.0
     for s in range(start[i], mid[i]):
         j = nbr[s]
         dx = xi - pos[j, 0]
@@ -140,6 +144,7 @@ def fluid_particle_3d(
         az += c * dz + cv * dw
         dr += vdotr * f
         dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy + gz * dz)) * (-f) * r2 / ((r2 + eta2) * rhoj)
+        kd += (-f) * r2 / ((r2 + eta2) * rhoj)
     for s in range(mid[i], start[i + 1]):
         j = nbr[s]
         dx = xi - pos[j, 0]
@@ -162,6 +167,7 @@ def fluid_particle_3d(
     acc[i, 1] = m * ay + gy
     acc[i, 2] = m * az + gz
     drho[i] = m * (dr + kdiff * dd)
+    return m * kdiff * kd
 
 
 @njit(inline="always")
@@ -192,7 +198,7 @@ def fluid_particle_2d(
     acc,
     drho,
 ):
-    """2-D: acceleration and dρ/dt of fluid particle i (``gz`` unused)."""
+    """2-D: acceleration and dρ/dt of fluid particle i (``gz`` unused); returns K_i like the 3-D body."""
     h2 = h * h
     xi = pos[i, 0]
     yi = pos[i, 1]
@@ -204,6 +210,7 @@ def fluid_particle_2d(
     ay = 0.0
     dr = 0.0
     dd = 0.0
+    kd = 0.0
     for s in range(start[i], mid[i]):
         j = nbr[s]
         dx = xi - pos[j, 0]
@@ -223,6 +230,7 @@ def fluid_particle_2d(
         ay += c * dy + cv * dv
         dr += vdotr * f
         dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy)) * (-f) * r2 / ((r2 + eta2) * rhoj)
+        kd += (-f) * r2 / ((r2 + eta2) * rhoj)
     for s in range(mid[i], start[i + 1]):
         j = nbr[s]
         dx = xi - pos[j, 0]
@@ -242,6 +250,7 @@ def fluid_particle_2d(
     acc[i, 0] = m * ax + gx
     acc[i, 1] = m * ay + gy
     drho[i] = m * (dr + kdiff * dd)
+    return m * kdiff * kd
 
 
 @njit(inline="always")
@@ -276,10 +285,10 @@ _FAST = {"arcp", "contract"}
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_wcsph_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_2d(
+        krate[i] = fluid_particle_2d(
             K.wendland_f_2d, no_lap, pterm_wcsph, visc_artificial,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -287,10 +296,10 @@ def fluid_pass_2d_wendland_wcsph_artificial(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_wcsph_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_2d(
+        krate[i] = fluid_particle_2d(
             K.wendland_f_2d, K.wendland_lap_2d, pterm_wcsph, visc_laminar,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -298,10 +307,10 @@ def fluid_pass_2d_wendland_wcsph_laminar(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_symmetric_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_2d(
+        krate[i] = fluid_particle_2d(
             K.wendland_f_2d, no_lap, pterm_symmetric, visc_artificial,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -309,10 +318,10 @@ def fluid_pass_2d_wendland_symmetric_artificial(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_wendland_symmetric_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_2d(
+        krate[i] = fluid_particle_2d(
             K.wendland_f_2d, K.wendland_lap_2d, pterm_symmetric, visc_laminar,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -320,10 +329,10 @@ def fluid_pass_2d_wendland_symmetric_laminar(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_wcsph_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_2d(
+        krate[i] = fluid_particle_2d(
             K.muller_f_2d, no_lap, pterm_wcsph, visc_artificial,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -331,10 +340,10 @@ def fluid_pass_2d_muller_wcsph_artificial(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_wcsph_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_2d(
+        krate[i] = fluid_particle_2d(
             K.muller_f_2d, K.muller_lap_2d, pterm_wcsph, visc_laminar,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -342,10 +351,10 @@ def fluid_pass_2d_muller_wcsph_laminar(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_symmetric_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_2d(
+        krate[i] = fluid_particle_2d(
             K.muller_f_2d, no_lap, pterm_symmetric, visc_artificial,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -353,10 +362,10 @@ def fluid_pass_2d_muller_symmetric_artificial(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_2d_muller_symmetric_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_2d(
+        krate[i] = fluid_particle_2d(
             K.muller_f_2d, K.muller_lap_2d, pterm_symmetric, visc_laminar,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -364,10 +373,10 @@ def fluid_pass_2d_muller_symmetric_laminar(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_wcsph_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_3d(
+        krate[i] = fluid_particle_3d(
             K.wendland_f_3d, no_lap, pterm_wcsph, visc_artificial,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -375,10 +384,10 @@ def fluid_pass_3d_wendland_wcsph_artificial(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_wcsph_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_3d(
+        krate[i] = fluid_particle_3d(
             K.wendland_f_3d, K.wendland_lap_3d, pterm_wcsph, visc_laminar,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -386,10 +395,10 @@ def fluid_pass_3d_wendland_wcsph_laminar(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_symmetric_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_3d(
+        krate[i] = fluid_particle_3d(
             K.wendland_f_3d, no_lap, pterm_symmetric, visc_artificial,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -397,10 +406,10 @@ def fluid_pass_3d_wendland_symmetric_artificial(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_wendland_symmetric_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_3d(
+        krate[i] = fluid_particle_3d(
             K.wendland_f_3d, K.wendland_lap_3d, pterm_symmetric, visc_laminar,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -408,10 +417,10 @@ def fluid_pass_3d_wendland_symmetric_laminar(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_wcsph_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_3d(
+        krate[i] = fluid_particle_3d(
             K.muller_f_3d, no_lap, pterm_wcsph, visc_artificial,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -419,10 +428,10 @@ def fluid_pass_3d_muller_wcsph_artificial(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_wcsph_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_3d(
+        krate[i] = fluid_particle_3d(
             K.muller_f_3d, K.muller_lap_3d, pterm_wcsph, visc_laminar,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -430,10 +439,10 @@ def fluid_pass_3d_muller_wcsph_laminar(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_symmetric_artificial(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_3d(
+        krate[i] = fluid_particle_3d(
             K.muller_f_3d, no_lap, pterm_symmetric, visc_artificial,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip
@@ -441,10 +450,10 @@ def fluid_pass_3d_muller_symmetric_artificial(
 
 @njit(parallel=True, cache=True, fastmath=_FAST)
 def fluid_pass_3d_muller_symmetric_laminar(
-    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho
+    pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho, krate
 ):
     for i in prange(n_fluid):
-        fluid_particle_3d(
+        krate[i] = fluid_particle_3d(
             K.muller_f_3d, K.muller_lap_3d, pterm_symmetric, visc_laminar,
             i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
         )  # fmt: skip

@@ -98,7 +98,9 @@ class SPHParams(Section):
     integrator: Literal["leapfrog", "symplectic-euler"] = param(
         "leapfrog", doc="'leapfrog' (kick-drift-kick, SPH-10) or 'symplectic-euler' (seed 001)"
     )
-    dt: float = param(0.0, ge=0, unit="s", doc="fixed time step; 0 = adaptive from the CFL, force and viscous limits")
+    dt: float = param(
+        0.0, ge=0, unit="s", doc="fixed time step; 0 = adaptive (CFL, force, viscous and density diffusion limits)"
+    )
     cfl: float = param(
         0.2, gt=0, le=1, unit="1", doc="Courant number of the adaptive step (and of the fixed-step check)"
     )

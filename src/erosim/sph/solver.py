@@ -25,6 +25,7 @@ import numpy as np
 
 from erosim.core.errors import ConfigError, InstabilityError
 from erosim.kernels import neighbours as nb
+from erosim.sph import diffusion_limit_molteni2009 as diffusion_limit
 from erosim.sph import eos as eos_mod
 from erosim.sph import forces, integrators
 from erosim.sph.boundaries import particles as bparticles
@@ -33,7 +34,7 @@ from erosim.sph.boundaries.box import BoxWalls
 from erosim.sph.params import SPHParams
 from erosim.sph.state import ParticleState
 
-_STATE_SCALARS = ("t", "steps", "c", "b", "gamma", "m", "rebuilds", "vmax", "amax")
+_STATE_SCALARS = ("t", "steps", "c", "b", "gamma", "m", "rebuilds", "vmax", "amax", "kmax")
 _FIELDS = ("pos", "vel", "rho", "p", "acc", "drho", "rho_old", "ids", "ref")
 
 
@@ -158,6 +159,7 @@ class SPHSolver:
         self.eps2 = 0.01 * self.hs**2
         self.kdiff = 0.0 if self._summation else 2.0 * prm.density_diffusion * self.hs * self.c
         self.kh = prm.rho0 / self.c**2
+        self.kmax = 0.0  # max K_i of the density diffusion at the last force pass (diffusion_limit_molteni2009)
 
         # ---- state (fluid first, then boundary)
         self.state = st = ParticleState(d, self.dtype, nf, bnd.shape[0])
@@ -196,7 +198,8 @@ class SPHSolver:
             if prm.dt > lim:
                 raise ConfigError(
                     f"Setting 'sph.dt' = {prm.dt:g} s is above the stable step limit {lim:.3g} s "
-                    f"(CFL {prm.cfl}·h_s/(c + |v|max) with c = {self.c:.3g} m/s, force and viscous limits); "
+                    f"(CFL {prm.cfl}·h_s/(c + |v|max) with c = {self.c:.3g} m/s, force, viscous and "
+                    "density-diffusion limits); "
                     f"use sph.dt ≤ {lim:.3g} or sph.dt = 0 for adaptive steps."
                 )
 
@@ -239,6 +242,7 @@ class SPHSolver:
         self._cstart = np.empty(nf + 1, np.int64)
         self._tcount = np.empty(max(1, nb_), np.int64)
         self._have_counts = False
+        self._krate = np.zeros(n, np.float64)  # K_i per particle, written by the fused pass
 
     def _calibrate_mass(self) -> None:
         """Summation density: m such that an interior lattice particle has ρ = ρ₀ (not ρ₀Δx^d·ΣW)."""
@@ -457,8 +461,9 @@ class SPHSolver:
             self._pressure_all()
         self._pass(
             st.pos, st.vel, st.rho, st.p, self.start, self.mid, self.nbr, st.n_fluid, self.m, self.h, self.kv,
-            self.kvb, self.eps2, self.kdiff, self.eps2, self.kh, g[0], g[1], gz, st.acc, st.drho,
+            self.kvb, self.eps2, self.kdiff, self.eps2, self.kh, g[0], g[1], gz, st.acc, st.drho, self._krate,
         )  # fmt: skip
+        self.kmax = float(self._krate[: st.n_fluid].max()) if self.kdiff > 0 and st.n_fluid else 0.0
         if self._summation:
             st.drho.fill(0)
         for fn in self._forces:
@@ -470,12 +475,19 @@ class SPHSolver:
         self.amax = math.sqrt(float(self._a2.max()))
 
     def dt_limit(self) -> float:
-        """Largest stable step now: min(C h_s/(c+|v|max), C sqrt(h_s/|a|max), 0.125 h_s²/ν, the boundary
-        models' own limits)."""
+        """Largest stable step now: min(C h_s/(c+|v|max), C sqrt(h_s/|a|max), 0.125 h_s²/ν, the density
+        diffusion's 0.5/max K_i (:mod:`erosim.sph.diffusion_limit_molteni2009`), the boundary models' own
+        limits)."""
         lim = integrators.step_limit(self.params.cfl, self.hs, self.c, self.vmax, self.amax, self.nu)
+        lim = min(lim, self._diffusion_limit())
         for fn in self._step_limits:
             lim = min(lim, fn(self))
         return lim
+
+    def _diffusion_limit(self) -> float:
+        """The density diffusion's own bound, 0.5/max K_i (inf without diffusion), K_i from the last force
+        pass; it binds only where particles clump (:mod:`erosim.sph.diffusion_limit_molteni2009`)."""
+        return diffusion_limit.SAFETY / self.kmax if self.kmax > 0 else math.inf
 
     @property
     def time(self) -> float:
@@ -624,6 +636,7 @@ class SPHSolver:
             setattr(self, k, float(np.asarray(state[k])))
         for k in ("steps", "rebuilds"):
             setattr(self, k, int(np.asarray(state[k])))
+        self.kmax = float(np.asarray(state.get("kmax", 0.0)))  # checkpoints before the diffusion's bound: 0
         for bd in self.boundaries:
             prefix = f"boundary.{bd.name}."
             bd.load_state_dict({k[len(prefix) :]: v for k, v in state.items() if k.startswith(prefix)})

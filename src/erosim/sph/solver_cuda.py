@@ -200,6 +200,10 @@ class CudaSPHSolver(SPHSolver):
 
     # ------------------------------------------------------------------ the step
 
+    def _diffusion_limit(self) -> float:
+        """Not evaluated on the device yet (the CPU solver's bound on the density diffusion's rate)."""
+        return math.inf
+
     def _step(self) -> float:
         prm, st, kc = self.params, self.state, self._kc
         nf, n = st.n_fluid, st.n
