@@ -143,8 +143,9 @@ def fluid_particle_3d(
         ay += c * dy + cv * dv
         az += c * dz + cv * dw
         dr += vdotr * f
-        dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy + gz * dz)) * (-f) * r2 / ((r2 + eta2) * rhoj)
-        kd += (-f) * r2 / ((r2 + eta2) * rhoj)
+        wd = (-f) * r2 / ((r2 + eta2) * rhoj)
+        dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy + gz * dz)) * wd
+        kd += wd
     for s in range(mid[i], start[i + 1]):
         j = nbr[s]
         dx = xi - pos[j, 0]
@@ -229,8 +230,9 @@ def fluid_particle_2d(
         ax += c * dx + cv * du
         ay += c * dy + cv * dv
         dr += vdotr * f
-        dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy)) * (-f) * r2 / ((r2 + eta2) * rhoj)
-        kd += (-f) * r2 / ((r2 + eta2) * rhoj)
+        wd = (-f) * r2 / ((r2 + eta2) * rhoj)
+        dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy)) * wd
+        kd += wd
     for s in range(mid[i], start[i + 1]):
         j = nbr[s]
         dx = xi - pos[j, 0]
