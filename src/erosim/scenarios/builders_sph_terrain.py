@@ -83,9 +83,6 @@ class Geometry:
 
 def geometry(cfg: SPHTerrainScenario) -> Geometry:
     """The scenario's terrain as a :class:`Geometry` (nodata cells raised into walls)."""
-    from erosim.io.heightmaps import default_transform
-    from erosim.sph.boundaries.heightfield import wall_heights
-
     if cfg.profile is not None:
         p = cfg.profile
         nx = int(round(p.length / p.cell_size)) + 1
@@ -93,7 +90,17 @@ def geometry(cfg: SPHTerrainScenario) -> Geometry:
         z = (p.height + p.slope * x)[None, :]
         raster = Raster(0.0, 0.0, p.cell_size, 1.0, nx, 1)
         return Geometry(raster, z.copy(), z.copy(), None, None, 2)
-    hm = build_terrain(cfg.terrain, cfg.seed)
+    return dem_geometry(cfg.terrain, cfg.seed, cfg.ground.nodata_wall)
+
+
+def dem_geometry(terrain, seed: int, nodata_wall: float | None) -> Geometry:
+    """A scenario's ``[terrain]`` in the SPH frame (rows northward). Nodata cells keep the nearest valid
+    heights (as every kind reads a DEM) and are marked in ``Geometry.nodata``; with ``nodata_wall`` they
+    are raised into walls that many metres above the DEM's top."""
+    from erosim.io.heightmaps import default_transform
+    from erosim.sph.boundaries.heightfield import wall_heights
+
+    hm = build_terrain(terrain, seed)
     if hm.transform is None:
         hm = hm.copy()
         hm.transform = default_transform(*hm.shape, hm.cell_size)
@@ -101,8 +108,8 @@ def geometry(cfg: SPHTerrainScenario) -> Geometry:
     raster = Raster(0.0, 0.0, hm.cell_size, hm.cell_size, nx, ny)
     z = np.ascontiguousarray(hm.z[::-1], dtype=np.float64)
     nodata = None if hm.nodata is None or not hm.nodata.any() else np.ascontiguousarray(hm.nodata[::-1])
-    if nodata is not None:
-        z = wall_heights(z, nodata, float(z[~nodata].max()) + cfg.ground.nodata_wall)
+    if nodata is not None and nodata_wall is not None:
+        z = wall_heights(z, nodata, float(z[~nodata].max()) + nodata_wall)
     return Geometry(raster, z.copy(), z.copy(), nodata, hm, 3)
 
 

@@ -47,7 +47,7 @@ from erosim.coupling.splash_coupler import WetGround
 from erosim.erosion import splash as sp
 from erosim.erosion.wet_strength import strength
 from erosim.scenarios import builders_sph_terrain as terrain_kind
-from erosim.scenarios.schema_common import build_terrain, terrain_facts
+from erosim.scenarios.schema_common import terrain_facts
 from erosim.scenarios.schema_splash import SplashScenario, ground_spacing
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
@@ -71,15 +71,7 @@ def geometry(cfg: SplashScenario) -> tuple[terrain_kind.Geometry, float]:
         raster = Raster(0.0, 0.0, cell, cell, n, n)
         dem = Heightmap(z.copy(), cell, transform=default_transform(n, n, cell))
         return terrain_kind.Geometry(raster, z.copy(), z.copy(), None, dem, 3), d.radius * DROP_SPACING
-    hm = build_terrain(cfg.terrain, cfg.seed)
-    if hm.transform is None:
-        hm = hm.copy()
-        hm.transform = default_transform(*hm.shape, hm.cell_size)
-    ny, nx = hm.shape
-    raster = Raster(0.0, 0.0, hm.cell_size, hm.cell_size, nx, ny)
-    z = np.ascontiguousarray(hm.z[::-1], dtype=np.float64)  # rows northward; nodata cells hold filled heights
-    nodata = None if hm.nodata is None or not hm.nodata.any() else np.ascontiguousarray(hm.nodata[::-1])
-    geo = terrain_kind.Geometry(raster, z.copy(), z.copy(), nodata, hm, 3)
+    geo = terrain_kind.dem_geometry(cfg.terrain, cfg.seed, nodata_wall=None)  # nodata: outside, not walls
     dx = cfg.scale.spacing_cells * geo.raster.dx if cfg.scale.spacing_cells else cfg.sph.spacing
     return geo, dx
 

@@ -86,10 +86,7 @@ class SPHParams(Section):
     alpha: float = param(0.1, ge=0, le=1, unit="1", doc="artificial viscosity coefficient α (SPH-6b)")
     wall_viscosity: Literal["fluid", "none"] = param(
         "fluid",
-        doc="viscous term between fluid and boundary particles: 'fluid' (the fluid's own term, artificial "
-        "or laminar, against the wall at rest: no-slip; the artificial ν = αh_s c/(4(d+2)) is thousands "
-        "of times water's at centimetre spacings) or 'none' (free-slip walls: the pressure term alone "
-        "holds the fluid off, nothing damps its approach)",
+        doc="fluid–wall viscous term: 'fluid' (no-slip with the fluid's viscosity) or 'none' (free-slip; docs/sph.md)",
     )
     mu: float = param(1.0e-3, ge=0, unit="Pa*s", doc="dynamic viscosity μ for 'laminar' (water: 1e-3)")
     gravity: tuple[float, ...] | None = param(
@@ -107,11 +104,8 @@ class SPHParams(Section):
     precision: Literal["float32", "float64"] = param("float64", doc="floating point type of the particle fields")
     initial_pressure: Literal["hydrostatic", "hydrostatic-consistent", "zero"] = param(
         "hydrostatic",
-        doc="start-up density: 'hydrostatic' sets ρ from p = ρ₀|g|(H − z) below the fluid's top H; "
-        "'hydrostatic-consistent' (continuity density) also lowers or raises each particle deeper than h by its "
-        "kernel sum's departure from the lattice's (fluid neighbours plus particle-free walls' share), so a "
-        "fill that does not fit a curved wall or an edge does not turn into over-pressure as it settles; "
-        "'zero' starts at ρ₀",
+        doc="start-up density: 'hydrostatic' (ρ from ρ₀|g|(H − z)), 'hydrostatic-consistent' (also corrected "
+        "by each deep particle's kernel-sum shortfall at walls; docs/voxel.md) or 'zero' (ρ₀)",
     )
     walls: Literal["particles", "reflect"] = param(
         "particles",
