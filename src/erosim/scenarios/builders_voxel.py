@@ -193,11 +193,14 @@ class Inflow(cb.Callback):
         """The lowest z at ``xy`` at least Δx from every fluid particle below it: max over the particles k
         within Δx horizontally (ρ_k < Δx) of z_k + √(Δx² − ρ_k²) (a ball laid on the surface); Δx/2 (on
         the floor) when there are none."""
+        z = self._ball_top(pos, xy)
+        return z if z > -math.inf else 0.5 * self.dx
+
+    def _ball_top(self, pos, xy) -> float:
+        """max of z_k + √(Δx² − ρ_k²) over the particles within Δx horizontally; −∞ when there are none."""
         r2 = (pos[:, 0] - xy[0]) ** 2 + (pos[:, 1] - xy[1]) ** 2
         near = r2 < self.dx * self.dx
-        if not near.any():
-            return 0.5 * self.dx
-        return float((pos[near, 2] + np.sqrt(self.dx * self.dx - r2[near])).max())
+        return float((pos[near, 2] + np.sqrt(self.dx * self.dx - r2[near])).max()) if near.any() else -math.inf
 
     def __call__(self, sim) -> None:
         s = self.solver
@@ -211,7 +214,8 @@ class Inflow(cb.Callback):
         pts = np.empty((count, 3))
         for k in range(count):
             xy = self.sites[(self.events + k) % len(self.sites)]
-            pts[k] = xy[0], xy[1], self.rest_height(np.concatenate([pos, pts[:k]]), xy)
+            z = max(self._ball_top(pos, xy), self._ball_top(pts[:k], xy))  # the fluid and this step's arrivals
+            pts[k] = xy[0], xy[1], z if z > -math.inf else 0.5 * self.dx
         if pts[:, 2].max() > self.top:
             raise InstabilityError(
                 f"The inflow's water reached the top of the flume's domain ({self.top:g} m) at t = {float(s.t):.3g} s; "
