@@ -31,6 +31,11 @@ as arguments, so each combination is spelled out; :func:`fluid_driver` picks one
 ``gradf(r, h)``, ``lap(r, h)`` (from :mod:`erosim.kernels.sph_kernels`),
 ``pterm(p_i, p_j, ρ_i, ρ_j)`` and ``visc(v·r, r², f, L, ρ_i, ρ_j, k_visc, ε²) -> (c_r, c_v)`` where
 the viscous acceleration is m_j (c_r r_ij + c_v v_ij).
+
+One form in the per-particle loops is there for speed and gives the same bits as the plain one:
+the density diffusion's pair weight is summed with f's sign, w⁻ = f r²/((r² + η²)ρ_j) ≤ 0
+(dd −= [...] w⁻, K_i = m k_δ (0 − Σ w⁻)): negation and IEEE rounding commute, so this is the sum
+of (−f) r²/(…) without a negation per pair; 0 − Σ keeps K_i = +0 where no pair counts.
 """
 
 from __future__ import annotations
@@ -121,7 +126,7 @@ def fluid_particle_3d(
     az = 0.0
     dr = 0.0
     dd = 0.0
-    kd = 0.0
+    kn = 0.0
     for s in range(start[i], mid[i]):
         j = nbr[s]
         dx = xi - pos[j, 0]
@@ -143,9 +148,9 @@ def fluid_particle_3d(
         ay += c * dy + cv * dv
         az += c * dz + cv * dw
         dr += vdotr * f
-        wd = (-f) * r2 / ((r2 + eta2) * rhoj)
-        dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy + gz * dz)) * wd
-        kd += wd
+        wn = f * r2 / ((r2 + eta2) * rhoj)  # −(the pair's diffusion weight), exactly: see the module docstring
+        dd -= ((rhoj - rhoi) + kh * (gx * dx + gy * dy + gz * dz)) * wn
+        kn += wn
     for s in range(mid[i], start[i + 1]):
         j = nbr[s]
         dx = xi - pos[j, 0]
@@ -168,7 +173,7 @@ def fluid_particle_3d(
     acc[i, 1] = m * ay + gy
     acc[i, 2] = m * az + gz
     drho[i] = m * (dr + kdiff * dd)
-    return m * kdiff * kd
+    return m * kdiff * (0.0 - kn)
 
 
 @njit(inline="always")
@@ -211,7 +216,7 @@ def fluid_particle_2d(
     ay = 0.0
     dr = 0.0
     dd = 0.0
-    kd = 0.0
+    kn = 0.0
     for s in range(start[i], mid[i]):
         j = nbr[s]
         dx = xi - pos[j, 0]
@@ -230,9 +235,9 @@ def fluid_particle_2d(
         ax += c * dx + cv * du
         ay += c * dy + cv * dv
         dr += vdotr * f
-        wd = (-f) * r2 / ((r2 + eta2) * rhoj)
-        dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy)) * wd
-        kd += wd
+        wn = f * r2 / ((r2 + eta2) * rhoj)  # −(the pair's diffusion weight), exactly: see the module docstring
+        dd -= ((rhoj - rhoi) + kh * (gx * dx + gy * dy)) * wn
+        kn += wn
     for s in range(mid[i], start[i + 1]):
         j = nbr[s]
         dx = xi - pos[j, 0]
@@ -252,7 +257,7 @@ def fluid_particle_2d(
     acc[i, 0] = m * ax + gx
     acc[i, 1] = m * ay + gy
     drho[i] = m * (dr + kdiff * dd)
-    return m * kdiff * kd
+    return m * kdiff * (0.0 - kn)
 
 
 @njit(inline="always")
