@@ -32,16 +32,20 @@ as arguments, so each combination is spelled out; :func:`fluid_driver` picks one
 ``pterm(p_i, p_j, ρ_i, ρ_j)`` and ``visc(v·r, r², f, L, ρ_i, ρ_j, k_visc, ε²) -> (c_r, c_v)`` where
 the viscous acceleration is m_j (c_r r_ij + c_v v_ij).
 
-One form in the per-particle loops is there for speed and gives the same bits as the plain one:
-the density diffusion's pair weight is summed with f's sign, w⁻ = f r²/((r² + η²)ρ_j) ≤ 0
-(dd −= [...] w⁻, K_i = m k_δ (0 − Σ w⁻)): negation and IEEE rounding commute, so this is the sum
-of (−f) r²/(…) without a negation per pair; 0 − Σ keeps K_i = +0 where no pair counts.
+Two forms in the per-particle loops are there for speed and give the same bits as the plain ones:
+
+* the density diffusion's pair weight is summed with f's sign, w⁻ = f r²/((r² + η²)ρ_j) ≤ 0
+  (dd −= [...] w⁻, K_i = m k_δ (0 − Σ w⁻)): negation and IEEE rounding commute, so this is the sum
+  of (−f) r²/(…) without a negation per pair; 0 − Σ keeps K_i = +0 where no pair counts;
+* neighbour indices are unsigned (``np.uint64``): with a signed index Numba adds a negative-index
+  wraparound to every array access (about 15 % of the pass's time, docs/performance.md).
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit, prange
 
 from erosim.kernels import sph_kernels as K
@@ -127,8 +131,8 @@ def fluid_particle_3d(
     dr = 0.0
     dd = 0.0
     kn = 0.0
-    for s in range(start[i], mid[i]):
-        j = nbr[s]
+    for s in range(np.uint64(start[i]), np.uint64(mid[i])):
+        j = np.uint64(nbr[s])
         dx = xi - pos[j, 0]
         dy = yi - pos[j, 1]
         dz = zi - pos[j, 2]
@@ -151,8 +155,8 @@ def fluid_particle_3d(
         wn = f * r2 / ((r2 + eta2) * rhoj)  # −(the pair's diffusion weight), exactly: see the module docstring
         dd -= ((rhoj - rhoi) + kh * (gx * dx + gy * dy + gz * dz)) * wn
         kn += wn
-    for s in range(mid[i], start[i + 1]):
-        j = nbr[s]
+    for s in range(np.uint64(mid[i]), np.uint64(start[i + 1])):
+        j = np.uint64(nbr[s])
         dx = xi - pos[j, 0]
         dy = yi - pos[j, 1]
         dz = zi - pos[j, 2]
@@ -217,8 +221,8 @@ def fluid_particle_2d(
     dr = 0.0
     dd = 0.0
     kn = 0.0
-    for s in range(start[i], mid[i]):
-        j = nbr[s]
+    for s in range(np.uint64(start[i]), np.uint64(mid[i])):
+        j = np.uint64(nbr[s])
         dx = xi - pos[j, 0]
         dy = yi - pos[j, 1]
         r2 = dx * dx + dy * dy
@@ -238,8 +242,8 @@ def fluid_particle_2d(
         wn = f * r2 / ((r2 + eta2) * rhoj)  # −(the pair's diffusion weight), exactly: see the module docstring
         dd -= ((rhoj - rhoi) + kh * (gx * dx + gy * dy)) * wn
         kn += wn
-    for s in range(mid[i], start[i + 1]):
-        j = nbr[s]
+    for s in range(np.uint64(mid[i]), np.uint64(start[i + 1])):
+        j = np.uint64(nbr[s])
         dx = xi - pos[j, 0]
         dy = yi - pos[j, 1]
         r2 = dx * dx + dy * dy
