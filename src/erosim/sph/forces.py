@@ -32,13 +32,9 @@ as arguments, so each combination is spelled out; :func:`fluid_driver` picks one
 ``pterm(p_i, p_j, ρ_i, ρ_j)`` and ``visc(v·r, r², f, L, ρ_i, ρ_j, k_visc, ε²) -> (c_r, c_v)`` where
 the viscous acceleration is m_j (c_r r_ij + c_v v_ij).
 
-Two forms in the per-particle loops are there for speed and give the same bits as the plain ones:
-
-* the density diffusion's pair weight is summed with f's sign, w⁻ = f r²/((r² + η²)ρ_j) ≤ 0
-  (dd −= [...] w⁻, K_i = m k_δ (0 − Σ w⁻)): negation and IEEE rounding commute, so this is the sum
-  of (−f) r²/(…) without a negation per pair; 0 − Σ keeps K_i = +0 where no pair counts;
-* neighbour indices are unsigned (``np.uint64``): with a signed index Numba adds a negative-index
-  wraparound to every array access (about 15 % of the pass's time, docs/performance.md).
+Neighbour indices are read as unsigned integers (``np.uint64``): with a signed index Numba adds a
+negative-index wraparound to every array access, about 15 % of the pass's time (docs/performance.md).
+The arithmetic, and so every result, is the same.
 """
 
 from __future__ import annotations
@@ -130,7 +126,7 @@ def fluid_particle_3d(
     az = 0.0
     dr = 0.0
     dd = 0.0
-    kn = 0.0
+    kd = 0.0
     for s in range(np.uint64(start[i]), np.uint64(mid[i])):
         j = np.uint64(nbr[s])
         dx = xi - pos[j, 0]
@@ -152,9 +148,9 @@ def fluid_particle_3d(
         ay += c * dy + cv * dv
         az += c * dz + cv * dw
         dr += vdotr * f
-        wn = f * r2 / ((r2 + eta2) * rhoj)  # −(the pair's diffusion weight), exactly: see the module docstring
-        dd -= ((rhoj - rhoi) + kh * (gx * dx + gy * dy + gz * dz)) * wn
-        kn += wn
+        wd = (-f) * r2 / ((r2 + eta2) * rhoj)
+        dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy + gz * dz)) * wd
+        kd += wd
     for s in range(np.uint64(mid[i]), np.uint64(start[i + 1])):
         j = np.uint64(nbr[s])
         dx = xi - pos[j, 0]
@@ -177,7 +173,7 @@ def fluid_particle_3d(
     acc[i, 1] = m * ay + gy
     acc[i, 2] = m * az + gz
     drho[i] = m * (dr + kdiff * dd)
-    return m * kdiff * (0.0 - kn)
+    return m * kdiff * kd
 
 
 @njit(inline="always")
@@ -220,7 +216,7 @@ def fluid_particle_2d(
     ay = 0.0
     dr = 0.0
     dd = 0.0
-    kn = 0.0
+    kd = 0.0
     for s in range(np.uint64(start[i]), np.uint64(mid[i])):
         j = np.uint64(nbr[s])
         dx = xi - pos[j, 0]
@@ -239,9 +235,9 @@ def fluid_particle_2d(
         ax += c * dx + cv * du
         ay += c * dy + cv * dv
         dr += vdotr * f
-        wn = f * r2 / ((r2 + eta2) * rhoj)  # −(the pair's diffusion weight), exactly: see the module docstring
-        dd -= ((rhoj - rhoi) + kh * (gx * dx + gy * dy)) * wn
-        kn += wn
+        wd = (-f) * r2 / ((r2 + eta2) * rhoj)
+        dd += ((rhoj - rhoi) + kh * (gx * dx + gy * dy)) * wd
+        kd += wd
     for s in range(np.uint64(mid[i]), np.uint64(start[i + 1])):
         j = np.uint64(nbr[s])
         dx = xi - pos[j, 0]
@@ -261,7 +257,7 @@ def fluid_particle_2d(
     acc[i, 0] = m * ax + gx
     acc[i, 1] = m * ay + gy
     drho[i] = m * (dr + kdiff * dd)
-    return m * kdiff * (0.0 - kn)
+    return m * kdiff * kd
 
 
 @njit(inline="always")
