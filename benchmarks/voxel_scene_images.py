@@ -1,0 +1,116 @@
+"""The pictures of docs/voxel.md's `mountain-lake` and `canyon-caves` runs, from their run folders.
+
+    python benchmarks/voxel_scene_images.py mountain-lake RUN OUT.png
+    python benchmarks/voxel_scene_images.py canyon RUN1 RUN2 OUT.png [--at Y]
+
+`mountain-lake`: the surface (marching cubes of fields/density_0000.npz and of the last field) drawn by
+erosim.viz.surface_render, before tinted by height, after coloured by the lowering of the top surface
+(m) with the last particle frame's water as blue dots. `canyon`: the cross-sections across the canyon
+after the first run (its start dashed) and after the second (its start, the first's end, dashed),
+side by side, at y = Y (default: the node row the two runs lowered most). It prints what it measures:
+the solid volume (the closed mesh's) before and after, and the top surface's largest lowering.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from erosim.io.particles import read_vtp
+from erosim.scenarios.builders_voxel import surface_profile
+from erosim.terrain.voxel import VoxelTerrain
+from erosim.viz.surface_render import surface_panels
+
+
+def fields(run: str) -> list[str]:
+    return sorted(glob.glob(f"{run}/fields/density_*.npz"))
+
+
+def top_surface(t: VoxelTerrain) -> np.ndarray:
+    """z[iy, ix] of the highest iso crossing in every node column."""
+    return np.array([surface_profile(t, y)[1] for y in t.axes()[1]])
+
+
+def small_png(path: str | Path, image: Image.Image) -> None:
+    """Save as a 256-colour PNG (the pictures stay well under 300 kB)."""
+    image.convert("RGB").quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(path, optimize=True)
+
+
+def mountain_lake(run: str, out: str) -> None:
+    fs = fields(run)
+    t0, t1 = VoxelTerrain.load(fs[0]), VoxelTerrain.load(fs[-1])
+    a, b = t0.surface_mesh(), t1.surface_mesh()
+    dz = top_surface(t1) - top_surface(t0)
+    x, y, _ = t1.axes()
+    tri = b.vertices[b.faces]
+    c = tri.mean(axis=1)
+    ix = np.clip(np.rint((c[:, 0] - x[0]) / t1.cell_size).astype(int), 0, len(x) - 1)
+    iy = np.clip(np.rint((c[:, 1] - y[0]) / t1.cell_size).astype(int), 0, len(y) - 1)
+    lowering = np.where(b.face_normals[:, 2] > 0.3, -dz[iy, ix], 0.0)
+    frames = sorted(glob.glob(f"{run}/particles/frame_*.vtp"))
+    last = read_vtp(frames[-1])
+    top = max(0.05, float(np.percentile(-dz, 99.5)))
+    print(f"solid volume (closed mesh) {a.volume:.1f} -> {b.volume:.1f} m3 (removed {a.volume - b.volume:.1f}); "
+          f"top surface lowered at most {-dz.min():.3f} m; {len(last['points'])} particles at t = {last['time']:.3g} s")
+    with tempfile.TemporaryDirectory() as tmp:
+        png = Path(tmp) / "ml.png"
+        surface_panels(png, [
+            {"vertices": a.vertices, "faces": a.faces, "title": "before (t = 0), tinted by height"},
+            {"vertices": b.vertices, "faces": b.faces, "points": last["points"], "face_values": lowering,
+             "value_range": (0.0, top), "value_cmap": "magma_r", "value_label": "lowering of the surface (m)",
+             "title": f"after (t = {last['time']:.3g} s), water as dots"},
+        ], size=(11.0, 4.6))  # fmt: skip
+        small_png(out, Image.open(png))
+
+
+def canyon(run1: str, run2: str, out: str, at: float | None) -> None:
+    f1, f2 = fields(run1), fields(run2)
+    t0, t1 = VoxelTerrain.load(f1[0]), VoxelTerrain.load(f1[-1])
+    s2, t2 = VoxelTerrain.load(f2[0]), VoxelTerrain.load(f2[-1])
+    if not np.array_equal(s2.density, t1.density):
+        raise SystemExit(f"{run2} did not start from {f1[-1]}.")
+    z0, z1, z2 = top_surface(t0), top_surface(t1), top_surface(t2)
+    y = t0.axes()[1]
+    if at is None:
+        at = float(y[np.argmin((z2 - z0).sum(axis=1))])
+    v = [t.surface_mesh().volume for t in (t0, t1, t2)]
+    print(f"solid volume (closed mesh) {v[0]:.1f} -> {v[1]:.1f} -> {v[2]:.1f} m3 (removed {v[0] - v[1]:.1f} in run 1, "
+          f"{v[1] - v[2]:.1f} in run 2); top surface lowered at most {-(z1 - z0).min():.3f} m (run 1), "
+          f"{-(z2 - z1).min():.3f} m (run 2); section at y = {at:g} m")
+    with tempfile.TemporaryDirectory() as tmp:
+        p1, p2 = Path(tmp) / "a.png", Path(tmp) / "b.png"
+        t1.cross_section(p1, "y", at, title=f"after run 1 (start dashed), y = {at:g} m", reference=t0)
+        t2.cross_section(p2, "y", at, title=f"after run 2 (run 2's start dashed), y = {at:g} m", reference=s2)
+        a, b = Image.open(p1).convert("RGB"), Image.open(p2).convert("RGB")
+        both = Image.new("RGB", (a.width + b.width, max(a.height, b.height)), "white")
+        both.paste(a, (0, 0))
+        both.paste(b, (a.width, 0))
+        both = both.resize((both.width * 3 // 4, both.height * 3 // 4), Image.Resampling.LANCZOS)
+        small_png(out, both)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="what", required=True)
+    m = sub.add_parser("mountain-lake")
+    m.add_argument("run")
+    m.add_argument("out")
+    c = sub.add_parser("canyon")
+    c.add_argument("run1")
+    c.add_argument("run2")
+    c.add_argument("out")
+    c.add_argument("--at", type=float, default=None)
+    a = ap.parse_args()
+    if a.what == "mountain-lake":
+        mountain_lake(a.run, a.out)
+    else:
+        canyon(a.run1, a.run2, a.out, a.at)
+
+
+if __name__ == "__main__":
+    main()
