@@ -55,8 +55,10 @@ def mountain_lake(run: str, out: str) -> None:
     frames = sorted(glob.glob(f"{run}/particles/frame_*.vtp"))
     last = read_vtp(frames[-1])
     top = max(0.05, float(np.percentile(-dz, 99.5)))
-    print(f"solid volume (closed mesh) {a.volume:.1f} -> {b.volume:.1f} m3 (removed {a.volume - b.volume:.1f}); "
-          f"top surface lowered at most {-dz.min():.3f} m; {len(last['points'])} particles at t = {last['time']:.3g} s")
+    print(
+        f"solid volume (closed mesh) {a.volume:.1f} -> {b.volume:.1f} m3 (removed {a.volume - b.volume:.1f}); "
+        f"top surface lowered at most {-dz.min():.3f} m; {len(last['points'])} particles at t = {last['time']:.3g} s"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         png = Path(tmp) / "ml.png"
         surface_panels(png, [
@@ -79,9 +81,11 @@ def canyon(run1: str, run2: str, out: str, at: float | None) -> None:
     if at is None:
         at = float(y[np.argmin((z2 - z0).sum(axis=1))])
     v = [t.surface_mesh().volume for t in (t0, t1, t2)]
-    print(f"solid volume (closed mesh) {v[0]:.1f} -> {v[1]:.1f} -> {v[2]:.1f} m3 (removed {v[0] - v[1]:.1f} in run 1, "
-          f"{v[1] - v[2]:.1f} in run 2); top surface lowered at most {-(z1 - z0).min():.3f} m (run 1), "
-          f"{-(z2 - z1).min():.3f} m (run 2); section at y = {at:g} m")
+    print(
+        f"solid volume (closed mesh) {v[0]:.1f} -> {v[1]:.1f} -> {v[2]:.1f} m3 (removed {v[0] - v[1]:.1f} in run 1, "
+        f"{v[1] - v[2]:.1f} in run 2); top surface lowered at most {-(z1 - z0).min():.3f} m (run 1), "
+        f"{-(z2 - z1).min():.3f} m (run 2); section at y = {at:g} m"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         p1, p2 = Path(tmp) / "a.png", Path(tmp) / "b.png"
         t1.cross_section(p1, "y", at, title=f"after run 1 (start dashed), y = {at:g} m", reference=t0)
