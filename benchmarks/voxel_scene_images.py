@@ -7,7 +7,8 @@
 erosim.viz.surface_render, before tinted by height, after coloured by the lowering of the top surface
 (m) with the last particle frame's water as blue dots. `canyon`: the cross-sections across the canyon
 after the first run (its start dashed) and after the second (its start, the first's end, dashed),
-side by side, at y = Y (default: the node row the two runs lowered most). It prints what it measures:
+side by side, at y = Y (default: the node row the two runs lowered most), over plan views of the top
+surface's lowering in each run (the section's row dashed). It prints what it measures:
 the solid volume (the closed mesh's) before and after, and the top surface's largest lowering.
 """
 
@@ -70,6 +71,26 @@ def mountain_lake(run: str, out: str) -> None:
         small_png(out, Image.open(png))
 
 
+def lowering_maps(path: Path, t: VoxelTerrain, maps: list[tuple[str, np.ndarray]], at: float) -> None:
+    """Plan views of the top surface's lowering (m) in each run, the section's row dashed; the colours
+    saturate at 0.5 m (a few single columns, thin lips losing their top, drop further)."""
+    from erosim.viz.plots import plt, save_figure
+
+    x, y, _ = t.axes()
+    top = 0.5
+    fig, axes = plt.subplots(1, len(maps), figsize=(4.2 * len(maps), 3.4))
+    for ax, (name, m) in zip(np.atleast_1d(axes), maps, strict=True):
+        im = ax.imshow(np.maximum(m, 0.0), origin="lower", extent=(x[0], x[-1], y[0], y[-1]), cmap="magma_r",
+                       vmin=0.0, vmax=top)  # fmt: skip
+        ax.axhline(at, color="tab:blue", ls="--", lw=1.0)
+        ax.set_title(f"lowering of the top surface in {name} (m)", fontsize=9)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        fig.colorbar(im, ax=ax, shrink=0.85, extend="max")
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
 def canyon(run1: str, run2: str, out: str, at: float | None) -> None:
     f1, f2 = fields(run1), fields(run2)
     t0, t1 = VoxelTerrain.load(f1[0]), VoxelTerrain.load(f1[-1])
@@ -90,10 +111,15 @@ def canyon(run1: str, run2: str, out: str, at: float | None) -> None:
         p1, p2 = Path(tmp) / "a.png", Path(tmp) / "b.png"
         t1.cross_section(p1, "y", at, title=f"after run 1 (start dashed), y = {at:g} m", reference=t0)
         t2.cross_section(p2, "y", at, title=f"after run 2 (run 2's start dashed), y = {at:g} m", reference=s2)
+        p3 = Path(tmp) / "c.png"
+        lowering_maps(p3, t0, [("run 1", z0 - z1), ("run 2", z1 - z2)], at)
         a, b = Image.open(p1).convert("RGB"), Image.open(p2).convert("RGB")
-        both = Image.new("RGB", (a.width + b.width, max(a.height, b.height)), "white")
+        c = Image.open(p3).convert("RGB")
+        c = c.resize((a.width + b.width, c.height * (a.width + b.width) // c.width), Image.Resampling.LANCZOS)
+        both = Image.new("RGB", (a.width + b.width, max(a.height, b.height) + c.height), "white")
         both.paste(a, (0, 0))
         both.paste(b, (a.width, 0))
+        both.paste(c, (0, max(a.height, b.height)))
         both = both.resize((both.width * 3 // 4, both.height * 3 // 4), Image.Resampling.LANCZOS)
         small_png(out, both)
 
