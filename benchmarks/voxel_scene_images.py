@@ -3,13 +3,14 @@
     python benchmarks/voxel_scene_images.py mountain-lake RUN OUT.png
     python benchmarks/voxel_scene_images.py canyon RUN1 RUN2 OUT.png [--at Y]
 
-`mountain-lake`: the surface (marching cubes of fields/density_0000.npz and of the last field) drawn by
-erosim.viz.surface_render, before tinted by height, after coloured by the lowering of the top surface
-(m) with the last particle frame's water as blue dots. `canyon`: the cross-sections across the canyon
-after the first run (its start dashed) and after the second (its start, the first's end, dashed),
-side by side, at y = Y (default: the node row the two runs lowered most), over plan views of the top
-surface's lowering in each run (the section's row dashed). It prints what it measures:
-the solid volume (the closed mesh's) before and after, and the top surface's largest lowering.
+`mountain-lake`: the surface (marching cubes of fields/density_0000.npz and of the last field) as the run's
+figures/surface.png draws it (erosim.scenarios.builders_voxel.surface_figure): before tinted by height,
+after coloured by the lowering of the top surface (m), the last particle frame's water as blue dots.
+`canyon`: the cross-sections across the canyon after the first run (its start dashed) and after the
+second (its start, the first's end, dashed), side by side, at y = Y (default: the node row the two runs
+lowered most), over plan views of the top surface's lowering in each run (the section's row dashed).
+It prints what it measures: the solid volume (the closed mesh's) before and after, and the top
+surface's largest lowering.
 """
 
 from __future__ import annotations
@@ -23,18 +24,12 @@ import numpy as np
 from PIL import Image
 
 from erosim.io.particles import read_vtp
-from erosim.scenarios.builders_voxel import surface_profile
+from erosim.scenarios.builders_voxel import surface_figure, top_surface
 from erosim.terrain.voxel import VoxelTerrain
-from erosim.viz.surface_render import surface_panels
 
 
 def fields(run: str) -> list[str]:
     return sorted(glob.glob(f"{run}/fields/density_*.npz"))
-
-
-def top_surface(t: VoxelTerrain) -> np.ndarray:
-    """z[iy, ix] of the highest iso crossing in every node column."""
-    return np.array([surface_profile(t, y)[1] for y in t.axes()[1]])
 
 
 def small_png(path: str | Path, image: Image.Image) -> None:
@@ -45,29 +40,16 @@ def small_png(path: str | Path, image: Image.Image) -> None:
 def mountain_lake(run: str, out: str) -> None:
     fs = fields(run)
     t0, t1 = VoxelTerrain.load(fs[0]), VoxelTerrain.load(fs[-1])
-    a, b = t0.surface_mesh(), t1.surface_mesh()
     dz = top_surface(t1) - top_surface(t0)
-    x, y, _ = t1.axes()
-    tri = b.vertices[b.faces]
-    c = tri.mean(axis=1)
-    ix = np.clip(np.rint((c[:, 0] - x[0]) / t1.cell_size).astype(int), 0, len(x) - 1)
-    iy = np.clip(np.rint((c[:, 1] - y[0]) / t1.cell_size).astype(int), 0, len(y) - 1)
-    lowering = np.where(b.face_normals[:, 2] > 0.3, -dz[iy, ix], 0.0)
-    frames = sorted(glob.glob(f"{run}/particles/frame_*.vtp"))
-    last = read_vtp(frames[-1])
-    top = max(0.05, float(np.percentile(-dz, 99.5)))
+    last = read_vtp(sorted(glob.glob(f"{run}/particles/frame_*.vtp"))[-1])
+    v0, v1 = t0.surface_mesh().volume, t1.surface_mesh().volume
     print(
-        f"solid volume (closed mesh) {a.volume:.1f} -> {b.volume:.1f} m3 (removed {a.volume - b.volume:.1f}); "
+        f"solid volume (closed mesh) {v0:.1f} -> {v1:.1f} m3 (removed {v0 - v1:.1f}); "
         f"top surface lowered at most {-dz.min():.3f} m; {len(last['points'])} particles at t = {last['time']:.3g} s"
     )
     with tempfile.TemporaryDirectory() as tmp:
         png = Path(tmp) / "ml.png"
-        surface_panels(png, [
-            {"vertices": a.vertices, "faces": a.faces, "title": "before (t = 0), tinted by height"},
-            {"vertices": b.vertices, "faces": b.faces, "points": last["points"], "face_values": lowering,
-             "value_range": (0.0, top), "value_cmap": "magma_r", "value_label": "lowering of the surface (m)",
-             "title": f"after (t = {last['time']:.3g} s), water as dots"},
-        ], size=(11.0, 4.6))  # fmt: skip
+        surface_figure(png, t0, t1, last["points"], float(last["time"]), "mountain-lake")
         small_png(out, Image.open(png))
 
 

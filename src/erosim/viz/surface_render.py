@@ -74,7 +74,7 @@ def surface_panels(path: str | os.PathLike, panels: list[dict], *, elev: float =
             ax.scatter(pts[:, 0], pts[:, 1], pts[:, 2], s=4, c="tab:blue", depthshade=False, alpha=0.8, linewidths=0,
                        zorder=2)  # fmt: skip
         if values is not None:
-            bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=vmap), ax=ax, shrink=0.5, pad=0.08)
+            bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=vmap), ax=ax, shrink=0.5, pad=0.14)
             bar.set_label(p.get("value_label", ""), fontsize=8)
             bar.ax.tick_params(labelsize=7)
         ax.set_xlim(lo[0], hi[0])
