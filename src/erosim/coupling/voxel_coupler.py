@@ -12,9 +12,17 @@ Each time its schedule fires (an ``IterationInterval`` of ``erosion.every`` step
    field takes exactly the eroder's new values);
 4. refreshes every boundary of the solver (``refresh(solver, terrain=density)``: the wall's distance is
    read from the changed field and particles left inside the solid are pushed out), and adds the
-   terms to the run's budget. The *first erosion* is the time and place of the first transfer that
-   lowers a solid node (density above the iso level; the node it lowers most): the ramp's nodes on the
-   air side hold material too and are eroded by the same law, but their loss only steepens the ramp.
+   terms to the run's budget.
+
+Two onsets are recorded. The *first transfer* is the time and place of the first transfer that lowers
+a solid node (density above the iso level; the node it lowers most): the ramp's nodes on the air side
+hold material too and are eroded by the same law, but their loss only steepens the ramp. One quantum
+(1/255 of a node) may come from a single particle's passing excess, which no observer would call the
+start of a breach. The *onset* (``first_erosion`` of a run's report) is where erosion first becomes
+visible: the first coupling after which the material removed in all has reached ``onset_volume``
+(default one node's volume Δ³, the least the field can show as a moved surface), placed at the
+initially solid node that has lost most by then. It is the counterpart of a laboratory's first
+observed scour, and the one the overtopping validation judges (:mod:`erosim.validation.overtopping`).
 
 Before ``start`` (s) the coupler does nothing: a fluid laid on a lattice settles in its first moments
 (particles slide into the corners of the terrain at speeds no still reservoir has), and that motion
@@ -39,7 +47,8 @@ _TERMS = ("eroded", "deposited", "suspended", "carried_off")
 class VoxelCoupler:
     """Couple ``solver`` to ``terrain`` (a :class:`~erosim.terrain.voxel.VoxelTerrain`) through ``eroder``."""
 
-    def __init__(self, schedule, solver, eroder, terrain, *, start: float = 0.0, name: str = "coupler"):
+    def __init__(self, schedule, solver, eroder, terrain, *, start: float = 0.0, onset_volume: float | None = None,
+                 name: str = "coupler"):  # fmt: skip
         self.schedule = schedule
         self.name = name
         self.solver = solver
@@ -51,6 +60,8 @@ class VoxelCoupler:
         self.last_t = float(solver.t)
         self.first = np.full(3, np.nan)  # (t, x, z) of the first transfer
         self.first_y = np.nan
+        self.onset = np.full(4, np.nan)  # (t, x, y, z) where erosion first became visible
+        self.onset_volume = terrain.cell_size**3 if onset_volume is None else float(onset_volume)
         self.wall = 0.0
         self.start = float(start)  # no erosion before this time (s): the fluid settles first
 
@@ -85,6 +96,13 @@ class VoxelCoupler:
                 self.first[:] = (float(s.t), ox + c * kx, oz + c * kz)
                 self.first_y = oy + c * ky
         t.density += dd  # float32 += exact float64 differences of float32 values
+        if np.isnan(self.onset[0]) and self.totals["eroded"] >= self.onset_volume:
+            solid = self.initial > t.iso
+            loss = np.where(solid, self.initial - t.density, -np.inf)
+            kz, ky, kx = np.unravel_index(int(np.argmax(loss)), loss.shape)  # lost most (first in C order)
+            ox, oy, oz = t.origin
+            c = t.cell_size
+            self.onset[:] = (float(s.t), ox + c * kx, oy + c * ky, oz + c * kz)
         for b in s.boundaries:
             b.refresh(s, terrain=t.density, changed=changed)
 
@@ -111,6 +129,7 @@ class VoxelCoupler:
             "density": self.terrain.density.copy(),
             "totals": np.array([self.totals[k] for k in _TERMS]),
             "first": np.append(self.first, self.first_y),
+            "onset": self.onset.copy(),
             "calls": self.calls,
             "last_t": self.last_t,
         }
@@ -126,6 +145,7 @@ class VoxelCoupler:
         self.totals = dict(zip(_TERMS, np.asarray(state["totals"]).tolist(), strict=True))
         first = np.asarray(state["first"], np.float64)
         self.first[:], self.first_y = first[:3], float(first[3])
+        self.onset[:] = state["onset"] if "onset" in state else np.nan  # checkpoints before the onset was kept
         self.calls = int(state["calls"])
         self.last_t = float(state["last_t"])
         if self.eroder is not None:
