@@ -18,11 +18,12 @@ Two onsets are recorded. The *first transfer* is the time and place of the first
 a solid node (density above the iso level; the node it lowers most): the ramp's nodes on the air side
 hold material too and are eroded by the same law, but their loss only steepens the ramp. One quantum
 (1/255 of a node) may come from a single particle's passing excess, which no observer would call the
-start of a breach. The *onset* (``first_erosion`` of a run's report) is where erosion first becomes
-visible: the first coupling after which the material removed in all has reached ``onset_volume``
-(default one node's volume Δ³, the least the field can show as a moved surface), placed at the
-initially solid node that has lost most by then. It is the counterpart of a laboratory's first
-observed scour, and the one the overtopping validation judges (:mod:`erosim.validation.overtopping`).
+start of a breach. The *onset* (``first_erosion`` of a run's report) is where the surface has first
+retreated past a grid point: the first coupling after which a node that was solid at the start (above
+the iso level) is at or below it — of several, the one that lost most. It is a local change of the
+surface by up to one cell, the least the field resolves as a moved surface at a place, and the
+counterpart of a laboratory's first visible scour; the overtopping validation judges it
+(:mod:`erosim.validation.overtopping`).
 
 Before ``start`` (s) the coupler does nothing: a fluid laid on a lattice settles in its first moments
 (particles slide into the corners of the terrain at speeds no still reservoir has), and that motion
@@ -47,8 +48,7 @@ _TERMS = ("eroded", "deposited", "suspended", "carried_off")
 class VoxelCoupler:
     """Couple ``solver`` to ``terrain`` (a :class:`~erosim.terrain.voxel.VoxelTerrain`) through ``eroder``."""
 
-    def __init__(self, schedule, solver, eroder, terrain, *, start: float = 0.0, onset_volume: float | None = None,
-                 name: str = "coupler"):  # fmt: skip
+    def __init__(self, schedule, solver, eroder, terrain, *, start: float = 0.0, name: str = "coupler"):
         self.schedule = schedule
         self.name = name
         self.solver = solver
@@ -60,8 +60,8 @@ class VoxelCoupler:
         self.last_t = float(solver.t)
         self.first = np.full(3, np.nan)  # (t, x, z) of the first transfer
         self.first_y = np.nan
-        self.onset = np.full(4, np.nan)  # (t, x, y, z) where erosion first became visible
-        self.onset_volume = terrain.cell_size**3 if onset_volume is None else float(onset_volume)
+        self.onset = np.full(4, np.nan)  # (t, x, y, z) of the first solid node the surface passed
+        self._solid0 = self.initial > terrain.iso
         self.wall = 0.0
         self.start = float(start)  # no erosion before this time (s): the fluid settles first
 
@@ -96,9 +96,9 @@ class VoxelCoupler:
                 self.first[:] = (float(s.t), ox + c * kx, oz + c * kz)
                 self.first_y = oy + c * ky
         t.density += dd  # float32 += exact float64 differences of float32 values
-        if np.isnan(self.onset[0]) and self.totals["eroded"] >= self.onset_volume:
-            solid = self.initial > t.iso
-            loss = np.where(solid, self.initial - t.density, -np.inf)
+        passed = self._solid0 & (t.density <= t.iso) if np.isnan(self.onset[0]) else None
+        if passed is not None and passed.any():
+            loss = np.where(passed, self.initial - t.density, -np.inf)
             kz, ky, kx = np.unravel_index(int(np.argmax(loss)), loss.shape)  # lost most (first in C order)
             ox, oy, oz = t.origin
             c = t.cell_size

@@ -18,8 +18,8 @@ A run leaves
   embankment's upstream toe (a heightmap: along the middle row, x in the terrain's frame), every
   ``run.profile_interval``; ``figures/profiles.png`` with the profiles every ``run.figure_interval``
   (and the last);
-* ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y}: where
-  erosion first became visible (one node's volume removed in all; the node that had lost most),
+* ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y}: the first
+  node, solid at the start, that the eroded surface has passed (density at or below the iso level),
   ``first_transfer`` the same for the first quantum moved (:mod:`erosim.coupling.voxel_coupler`), the
   ``budget`` (m³: eroded = carried off;
   pending, unmet, the field's change, closure), ``particles_inside_solid`` (the most seen after any
@@ -485,9 +485,9 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
             "eroded_volume_m3": coupler.totals["eroded"],
             "first_erosion": None if math.isnan(onset[0]) else {
                 "t": float(onset[0]), "x": float(onset[1]) - x0, "z": float(onset[3]), "y": float(onset[2]),
-                "x_frame": frame, "removed_m3": coupler.onset_volume,
-                "definition": "where the removed material first reached removed_m3 (one node's volume): the "
-                              "initially solid node that had lost most"},
+                "x_frame": frame,
+                "definition": "the first node, solid at the start, that the eroded surface passed (density at or "
+                              "below the iso level)"},
             "first_transfer": None if math.isnan(first[0]) else {
                 "t": float(first[0]), "x": float(first[1]) - x0, "z": float(first[2]),
                 "y": float(coupler.first_y), "x_frame": frame,

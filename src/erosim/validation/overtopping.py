@@ -14,11 +14,11 @@ reproduces, and the criteria checked here:
   the centre line's highest point has dropped by more than ``DROP``·H (a run whose crest stands to the
   end has lived at least ``t_end``); passed when partial's life exceeds full's.
 
-"Where erosion begins" is the report's ``first_erosion``: the onset, where the material removed first
-amounts to one node's volume, at the node that has lost most (:mod:`erosim.coupling.voxel_coupler`) —
-the counterpart of the laboratory's first visible scour. The first quantum moved (``first_transfer``)
-is reported beside it and not judged: at K_ε = 2 a single particle of the overflow's thin front moves
-one as soon as it passes the threshold speed, wherever that happens to be.
+"Where erosion begins" is the report's ``first_erosion``: the onset, the first node solid at the start
+that the eroded surface has passed (:mod:`erosim.coupling.voxel_coupler`) — a local retreat of the
+surface by up to one cell, the counterpart of the laboratory's first visible scour. The first quantum
+moved (``first_transfer``) is reported beside it and not judged: at K_ε = 2 a single particle of the
+overflow's thin front moves one as soon as it passes the threshold speed, wherever that happens to be.
 
 The reservoir starts at the crest's height (the library case): the run is the overtopping phase. In
 the 0.4 m model reservoir, filling it from below the crest at the overflow's rate would raise it
