@@ -148,6 +148,45 @@ def test_crest_life_is_the_first_profile_lowered_by_the_fraction():
     assert crest_life(prof, 0.9, 0.2, 60.0) == (60.0, False)  # never below 0.02: lasted the run
 
 
+def _judge(tmp_path, preset, first, tops):
+    """``assess`` on a scripted run folder: the onset ``first`` (x, z from the toe) and the crest's height
+    at 0, 20, 40, 60 s."""
+    import json
+
+    from erosim.scenarios import loader
+    from erosim.validation.overtopping import assess
+
+    cfg = loader.load("overtopping", ["sph.spacing=0.02", "voxels.cell_size=0.02"], preset=preset).config
+    x = np.linspace(0.0, 1.0, 51)
+    prof = np.concatenate([np.column_stack([np.full(51, t), x, np.minimum(top, 0.4 * x)])
+                           for t, top in zip((0.0, 20.0, 40.0, 60.0), tops, strict=True)])  # fmt: skip
+    np.savetxt(tmp_path / "profiles.csv", prof, delimiter=",", header="t,x,z", comments="")
+    rep = {"status": "completed", "t": 60.0, "eroded_volume_m3": 1e-3, "particles_inside_solid": 0,
+           "first_erosion": {"t": 2.6, "x": first[0], "z": first[1]}, "timings": {"wall_time_s": 1.0}}  # fmt: skip
+    (tmp_path / "report.json").write_text(json.dumps(rep))
+    return assess(preset, cfg, tmp_path, 60.0)
+
+
+@pytest.mark.parametrize(
+    "preset, first, ok",
+    [
+        # partial: the lower half of the 2:1 downstream slope (0.5 … 0.9 m from the toe) begins at 0.7 m; one
+        # voxel (2 cm) of tolerance, so the node at 0.68 m (computed as 1.08 − 0.4) passes and 0.66 m does not
+        ("partial", (1.08 - 0.4, 0.10), True),
+        ("partial", (0.66, 0.12), False),
+        ("partial", (0.93, 0.0), False),
+        # full: the crest, 0.4 … 0.5 m, ± one voxel, and no lower than 2 voxels under its 0.22 m top
+        ("full", (0.78 - 0.4, 0.2016), True),
+        ("full", (0.06, 0.04), False),
+        ("full", (0.45, 0.17), False),
+    ],
+)
+def test_assess_judges_where_erosion_began(tmp_path, preset, first, ok):
+    res = _judge(tmp_path, preset, first, (0.2, 0.2, 0.2, 0.2))
+    assert res["first_erosion_ok"] is ok
+    assert res["crest_life_s"] == 60.0 and not res["crest_lowered"]
+
+
 def test_bench_voxel_reports_its_keys():
     from erosim.bench.voxel import run
 
