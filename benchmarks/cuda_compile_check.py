@@ -74,7 +74,7 @@ def signatures(dtype: str, dim: int):
             (
                 f"fluid_pass[{kernel},{form},{visc}]",
                 kc.fluid_pass(dim, kernel, form, visc),
-                (A2, A2, A1, A1, I1, I1, int32[:], int64) + (float64,) * 10 + (A2, A1),
+                (A2, A2, A1, A1, I1, I1, int32[:], int64) + (float64,) * 10 + (A2, A1, D1, int64),
             )
         )
     return out

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import trimesh
 from click.testing import CliRunner
+from PIL import Image
 
 from erosim.cli import cli
 from erosim.core.errors import Interrupted
@@ -189,6 +190,8 @@ def test_canyon_caves_second_run_starts_from_the_first_runs_field(tmp_path):
     assert np.array_equal(a.density, b.density) and a.cell_size == b.cell_size and a.origin == b.origin
     for run in (first, second):
         assert all((run / "figures" / f"section_{k:04d}.png").stat().st_size > 0 for k in range(3))
+        with Image.open(run / "figures" / "surface.png") as im:  # run.surface_figure: 11 × 4.6 in at 110 dpi
+            assert im.size == (1210, 506)
         rep = json.loads((run / "report.json").read_text())
         assert rep["particles_inside_solid"] == 0
         assert rep["water"]["added"].get("rain", 0) > 0  # drops of 5 particles

@@ -17,6 +17,7 @@ physical difference (one Δt changes a position by |v|Δt/L ≈ 1e-4 of the tank
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -68,9 +69,11 @@ def rel_diff(a, b):
     return res
 
 
+out["bound"] = []  # per step: Δt, and the density diffusion's bound 0.5/max K_i it was chosen under
 for _ in range(2):
-    cpu.step()
-    dev.step()
+    lims = [s_._diffusion_limit() for s_ in (cpu, dev)]
+    out["bound"].append([cpu.step(), dev.step()] + lims)
+out["kmax"] = [cpu.kmax, dev.kmax]
 out["steps"] = [cpu.steps, dev.steps]
 out["rebuilds"] = [cpu.rebuilds, dev.rebuilds]
 out["dt"] = [cpu.last_dt, dev.last_dt]
@@ -91,6 +94,7 @@ cpu_from_dev.load_state_dict(ck_dev)
 for s_ in (cpu, dev, dev_from_cpu, cpu_from_dev):
     s_.step()
 out["resumed_steps"] = [dev_from_cpu.steps, cpu_from_dev.steps]
+out["checkpoint_kmax"] = [float(ck_cpu["kmax"]), float(ck_dev["kmax"])]
 out["cpu_checkpoint_on_device"] = rel_diff(cpu, dev_from_cpu)
 out["device_checkpoint_on_cpu"] = rel_diff(dev, cpu_from_dev)
 # the device resumed from its own checkpoint: the step is bit for bit the uninterrupted one
@@ -130,6 +134,78 @@ def test_device_steps_agree_with_cpu_to_rounding(simulated):
     assert simulated["moved"] > 0  # the fluid moved: the comparison is not of a state at rest
     for field, diff in simulated["after_steps"].items():
         assert diff <= TOL, field
+
+
+def test_diffusion_bound_agrees_where_it_does_not_bind(simulated):
+    """The dam break's particles sit near Δx apart: the density diffusion's bound 0.5/max K_i is far
+    above the CFL step (K_iΔt ≈ 0.06 at CFL 0.2, diffusion_limit_molteni2009), and both devices compute
+    the same K_i (tolerance TOL: the same sum over the same lists, module docstring)."""
+    for dt_cpu, dt_dev, lim_cpu, lim_dev in simulated["bound"]:
+        assert math.isfinite(lim_dev) and lim_dev == pytest.approx(lim_cpu, rel=TOL)
+        assert dt_cpu < 0.5 * lim_cpu and dt_dev < 0.5 * lim_dev  # not binding, by a margin of 2 at least
+    assert simulated["kmax"][0] > 0 and simulated["kmax"][1] == pytest.approx(simulated["kmax"][0], rel=TOL)
+    assert simulated["checkpoint_kmax"][1] == pytest.approx(simulated["checkpoint_kmax"][0], rel=TOL)
+
+
+CLUMP_SCRIPT = r"""
+import json
+import numpy as np
+from erosim.sph import integrators
+from erosim.sph.params import SPHParams
+from erosim.sph.solver import SPHSolver
+from erosim.sph.solver_cuda import CudaSPHSolver
+
+# the clump of tests/unit/test_diffusion_limit.py in a reflecting box (the device has no voxel wall):
+# a 3 × 3 layer on the floor and 16 particles within 1 mm of a point 2 mm above it, densities 900 ± 1
+DX = 0.02
+rng = np.random.default_rng(0)
+layer = np.array([[x, y, 0.5 * DX] for x in 0.01 + DX * np.arange(3) for y in 0.01 + DX * np.arange(3)])
+clump = np.array([0.03, 0.03, 0.002]) + rng.uniform(-1e-3, 1e-3, (16, 3))
+fluid = np.concatenate([layer, clump])
+prm = SPHParams(dim=3, spacing=DX, walls="reflect", sound_speed=20.0)
+kw = dict(domain_lo=(0.0, 0.0, 0.0), domain_hi=(3 * DX, 3 * DX, 0.1))
+cpu = SPHSolver(prm, fluid, **kw)
+st = cpu.state
+st.rho[: st.n_fluid] = 900.0 + rng.uniform(-1.0, 1.0, st.n_fluid)
+st.p[: st.n_fluid] = 0.0
+cpu._evaluate()
+dev = CudaSPHSolver(prm, fluid, **kw)
+dev.load_state_dict(cpu.state_dict())  # the same start on the device, through the CPU's checkpoint
+out = {}
+for name, s in (("cpu", cpu), ("dev", dev)):
+    rows = []
+    for k in range(6):
+        if k == 3:
+            ck = s.state_dict()
+        kmax = s.kmax
+        cfl = integrators.step_limit(prm.cfl, s.hs, s.c, s.vmax, s.amax, s.nu)
+        rows.append([s.step(), kmax, cfl])
+    out[name] = rows
+again = CudaSPHSolver(prm, fluid, **kw)
+again.load_state_dict(ck)  # the device's checkpoint after 3 steps (its kmax included)
+out["dev_resumed"] = [again.step() for _ in range(3)]
+print(json.dumps(out))
+"""
+
+
+@needs_simulator
+def test_diffusion_bound_binds_alike_on_both_devices():
+    """A clump of 16 particles within 1 mm starts at K_iΔt = 0.77 at the CFL step, past the density
+    update's bound 2/3. On both devices every step is the diffusion's 0.5/max K_i (K_i of the last
+    force pass), well below the CFL step, and the step sequences agree to TOL (the same K_i summed
+    over the same lists; module docstring); the device resumed from its own checkpoint takes the same
+    steps bit for bit (its max K_i is checkpointed). About 9 s of wall time under load."""
+    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
+    proc = subprocess.run([sys.executable, "-c", CLUMP_SCRIPT], env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["cpu"][0][1] * out["cpu"][0][2] > 2.0 / 3.0  # unstable at the CFL step alone
+    for (dt_c, k_c, cfl_c), (dt_d, k_d, _) in zip(out["cpu"], out["dev"], strict=True):
+        assert dt_c == pytest.approx(0.5 / k_c, rel=1e-12)  # the bound binds (not the CFL step) ...
+        assert dt_c < 0.8 * cfl_c
+        assert dt_d == pytest.approx(0.5 / k_d, rel=1e-12)  # ... on the device too
+        assert dt_d == pytest.approx(dt_c, rel=TOL) and k_d == pytest.approx(k_c, rel=TOL)
+    assert out["dev_resumed"] == [row[0] for row in out["dev"][3:]]
 
 
 def test_checkpoints_resume_across_devices(simulated):

@@ -11,6 +11,8 @@ shear-stress erosion of :mod:`erosim.erosion.shear_stress_kristof2009` to the fi
 A run leaves
 
 * ``figures/section_NNNN.png`` (``run.sections``): cross-sections, the run's starting surface dashed;
+* ``figures/surface.png`` (``run.surface_figure``), at the end: the surface at the start and at the end,
+  the latter coloured by its lowering, the water as dots (:mod:`erosim.viz.surface_render`);
 * ``meshes/surface_NNNN.{obj,ply,glb}`` (``run.meshes``) and ``fields/density_NNNN.{npz,vti}``
   (``run.field_format``) per output time (every ``run.output_interval``, and at the start and end),
   ``particles/`` frames at the same times (``run.particle_frames``);
@@ -322,8 +324,41 @@ class VoxelOutputs(cb.Callback):
 
     def finalize(self, sim) -> dict[str, Any]:
         self(sim)
-        return {"outputs": {"times": self.count, "meshes": [f"meshes/surface_NNNN.{k}" for k in self.cfg.run.meshes],
-                            "field": f"fields/density_NNNN.{self.cfg.run.field_format}"}}  # fmt: skip
+        out = {"outputs": {"times": self.count, "meshes": [f"meshes/surface_NNNN.{k}" for k in self.cfg.run.meshes],
+                           "field": f"fields/density_NNNN.{self.cfg.run.field_format}"}}  # fmt: skip
+        if self.cfg.run.surface_figure:
+            first = self.out.path / "fields" / "density_0000.npz"
+            start = type(self.terrain).load(first) if first.exists() else self.terrain.like(self.initial)
+            surface_figure(self.out.path / "figures" / "surface.png", start, self.terrain,
+                           self.solver.fluid_positions(), float(self.solver.t), self.cfg_name)  # fmt: skip
+            out["outputs"]["surface_figure"] = "figures/surface.png"
+        return out
+
+
+def top_surface(terrain) -> np.ndarray:
+    """z[iy, ix]: the highest crossing of the iso level in every node column (:func:`surface_profile`)."""
+    return np.array([surface_profile(terrain, y)[1] for y in terrain.axes()[1]])
+
+
+def surface_figure(path, start, end, water: np.ndarray, t: float, name: str) -> Path:
+    """``figures/surface.png``: the surface at the start tinted by height, and at ``t`` coloured by the lowering
+    of the top surface (per node column, on faces facing up) with the ``water`` particles as dots."""
+    from erosim.viz.surface_render import surface_panels
+
+    a, b = start.surface_mesh(), end.surface_mesh()
+    dz = top_surface(end) - top_surface(start)
+    x, y, _ = end.axes()
+    c = b.vertices[b.faces].mean(axis=1)
+    ix = np.clip(np.rint((c[:, 0] - x[0]) / end.cell_size).astype(int), 0, len(x) - 1)
+    iy = np.clip(np.rint((c[:, 1] - y[0]) / end.cell_size).astype(int), 0, len(y) - 1)
+    lowering = np.where(b.face_normals[:, 2] > 0.3, -dz[iy, ix], 0.0)
+    top = max(0.05, float(np.percentile(-dz, 99.5)))
+    return surface_panels(path, [
+        {"vertices": a.vertices, "faces": a.faces, "title": "start, tinted by height"},
+        {"vertices": b.vertices, "faces": b.faces, "points": water, "face_values": lowering,
+         "value_range": (0.0, top), "value_cmap": "magma_r", "value_label": "lowering of the surface (m)",
+         "title": f"t = {t:.3g} s, water as dots"},
+    ], size=(11.0, 4.6), title=name)  # fmt: skip
 
 
 class Inside(cb.Callback):

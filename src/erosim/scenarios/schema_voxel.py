@@ -108,6 +108,8 @@ class VoxelRun(Section):
     particle_frames: bool = param(True, doc="particle frames (.vtp) per output time")
     sections: bool = param(False, doc="a cross-section figure per output time (figures/section_NNNN.png), the "
                            "surface at the start of the run dashed")  # fmt: skip
+    surface_figure: bool = param(False, doc="figures/surface.png at the end: the surface at the start and at the "
+                                 "end (coloured by its lowering), the water as dots")  # fmt: skip
     section_axis: Literal["x", "y"] = param("y", doc="the section's plane is across this axis")
     section_at: float | None = param(None, unit="m", doc="where along that axis (none: the middle)")
     checkpoint_wall_s: float = param(300.0, gt=0, unit="s", doc="wall-clock time between checkpoints")

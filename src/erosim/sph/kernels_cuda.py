@@ -29,8 +29,9 @@ Helpers shared by several kernels are inlined ``njit`` functions (numba-cuda com
 kernel that calls them; plain Python in the simulator) rather than ``cuda.jit(device=True)`` ones, so
 every kernel also compiles to PTX on a machine without a GPU (``benchmarks/cuda_compile_check.py``).
 
-Reductions (largest |r − r_ref|², |v|², |a|²) are maxima (block reduction in shared memory, then one
-atomic max per block), so they do not depend on the launch order: the device path is deterministic.
+Reductions (largest |r − r_ref|², |v|², |a|² and the density diffusion's rate K_i) are maxima
+(block reduction in shared memory, then one atomic max per block), so they do not depend on the
+launch order: the device path is deterministic.
 Under Numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``) the same kernels run as Python on the CPU
 (for tests); there the CPU functions that take arrays are called through their Python source.
 """
@@ -520,7 +521,9 @@ def boundary_density_rate(dim: int, kernel: str):
 @functools.cache
 def fluid_pass(dim: int, kernel: str, pressure_form: str, viscosity: str):
     """The fused pressure/viscosity/continuity pass (:mod:`erosim.sph.forces`) for this combination of
-    variants, one thread per fluid particle."""
+    variants, one thread per fluid particle; ``kmax[slot]`` (0 before the launch) gets max_i K_i, the
+    density diffusion's rate that bounds the step (:mod:`erosim.sph.diffusion_limit_molteni2009`), by a
+    block reduction and one atomic max per block (no second neighbour loop)."""
     _, gradf, lapf = K.kernel_functions(kernel, dim)
     lap = lapf if viscosity == "laminar" else forces.no_lap
     pterm = forces.pterm_wcsph if pressure_form == "wcsph" else forces.pterm_symmetric
@@ -528,10 +531,17 @@ def fluid_pass(dim: int, kernel: str, pressure_form: str, viscosity: str):
     body = _dev(forces.fluid_particle_3d if dim == 3 else forces.fluid_particle_2d)
 
     @cuda.jit
-    def fused(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho):
+    def fused(pos, vel, rho, p, start, mid, nbr, n_fluid, m, h, kv, kvb, eps2, kdiff, eta2, kh, gx, gy, gz, acc, drho,
+              kmax, slot):  # fmt: skip
+        sh = cuda.shared.array(TPB, np.float64)
         i = cuda.grid(1)
+        k = 0.0
         if i < n_fluid:
-            body(gradf, lap, pterm, visc, i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2, kh,
-                 gx, gy, gz, acc, drho)  # fmt: skip
+            k = body(gradf, lap, pterm, visc, i, pos, vel, rho, p, start, mid, nbr, m, h, kv, kvb, eps2, kdiff, eta2,
+                     kh, gx, gy, gz, acc, drho)  # fmt: skip
+        # the density diffusion's largest rate K_i (the body's return), reduced in the same pass
+        k = _block_max(sh, k)
+        if cuda.threadIdx.x == 0:
+            cuda.atomic.max(kmax, slot, k)
 
     return fused

@@ -7,9 +7,11 @@ steps. Each step runs the CPU step's passes in the CPU's order (SPEC SPH-13): ki
 box reflection → boundary particles' predictor → neighbour lists rebuilt (cell sort, particle
 re-sort, Verlet lists; :mod:`erosim.sph.kernels_cuda`) when a particle moved half the skin →
 boundary particles' continuity rate → the fused fluid pass → kick + corrector → boundary corrector.
-Per step only three numbers come back to the host (the largest displacement, speed and
-acceleration, for the rebuild test and the adaptive Δt); the particle fields are copied back only
-when an output, a probe or a checkpoint reads them.
+Per step only four numbers come back to the host (the largest displacement, speed, acceleration
+and density-diffusion rate K_i, for the rebuild test and the adaptive Δt, which keeps K_iΔt ≤ 0.5 as
+on the CPU: :mod:`erosim.sph.diffusion_limit_molteni2009`; K_i comes out of the fused pass and its
+maximum is reduced there, on the device); the particle fields are copied back only when an output,
+a probe or a checkpoint reads them.
 
 The kernels call the CPU's own per-particle functions, so the two devices solve the same equations
 in the same order and differ by rounding only (the GPU contracts a·b + c into fused multiply-adds
@@ -88,7 +90,7 @@ class CudaSPHSolver(SPHSolver):
         self._spare = {name: cuda.device_array_like(self.d[name]) for name in _PERMUTED}
         self._have_boundary_particles = any(isinstance(bd, BoundaryParticles) for bd in self.boundaries)
         self._d_disp2 = cuda.device_array(1, np.float64)
-        self._d_maxima = cuda.device_array(2, np.float64)
+        self._d_maxima = cuda.device_array(3, np.float64)  # max |v|², |a|², K_i of a step
         self._d_start = cuda.device_array(n + 1, np.int64)
         self._d_mid = cuda.device_array(n, np.int64)
         self._d_nbr = cuda.device_array(max(1, self.nbr.size), np.int32)
@@ -200,10 +202,6 @@ class CudaSPHSolver(SPHSolver):
 
     # ------------------------------------------------------------------ the step
 
-    def _diffusion_limit(self) -> float:
-        """Not evaluated on the device yet (the CPU solver's bound on the density diffusion's rate)."""
-        return math.inf
-
     def _step(self) -> float:
         prm, st, kc = self.params, self.state, self._kc
         nf, n = st.n_fluid, st.n
@@ -238,11 +236,11 @@ class CudaSPHSolver(SPHSolver):
             self._brate[bb, kc.TPB](dv["pos"], dv["vel"], start, mid, nbr, nf, n, self.m, self.h, dv["drho"])
         g = self.g
         gz = g[2] if self.dim == 3 else 0.0
+        kc.zero[1, kc.TPB](self._d_maxima, 3)
         self._fused[bf, kc.TPB](
             dv["pos"], dv["vel"], dv["rho"], dv["p"], start, mid, nbr, nf, self.m, self.h, self.kv, self.kvb,
-            self.eps2, self.kdiff, self.eps2, self.kh, g[0], g[1], gz, dv["acc"], dv["drho"],
+            self.eps2, self.kdiff, self.eps2, self.kh, g[0], g[1], gz, dv["acc"], dv["drho"], self._d_maxima, 2,
         )  # fmt: skip
-        kc.zero[1, kc.TPB](self._d_maxima, 2)
         kc.correct[kc.red_blocks(nf), kc.TPB](
             dv["vel"], dv["acc"], dv["rho"], dv["rho_old"], dv["drho"], dv["p"], nf, k2, dt, rho0, b, gamma, pmin,
             self._d_maxima,
@@ -251,9 +249,10 @@ class CudaSPHSolver(SPHSolver):
             kc.boundary_update_density[bb, kc.TPB](
                 dv["rho"], dv["rho_old"], dv["drho"], dv["p"], start, nf, n, dt, rho0, b, gamma, pmin, False
             )  # fmt: skip
-        v2, a2 = self._d_maxima.copy_to_host()
+        v2, a2, kmax = self._d_maxima.copy_to_host()
         self.vmax = math.sqrt(float(v2))
         self.amax = math.sqrt(float(a2))
+        self.kmax = float(kmax)  # the density diffusion's step bound reads it (SPHSolver._diffusion_limit)
         self._advance_clock(dt)
         return dt
 

@@ -114,7 +114,10 @@ def summation_particle(w, i, pos, start, nbr, m, h, rho_base, rho0, rho):
 @njit(parallel=True, cache=True)
 def update_density(rho, rho_old, drho, p, active, dt, rho0, b, gamma, pmin, predictor):
     """Active boundary particles: ρ = max(ρ₀, ρ_old + dt·dρ/dt), p = EOS(ρ); the predictor first keeps
-    ρ in ρ_old (so it steps from the current ρ), the corrector steps from the kept one."""
+    ρ in ρ_old (so it steps from the current ρ), the corrector steps from the kept one. A particle listed
+    for the first time at a rebuild between the two has ρ_old = 0 and so steps from ρ₀: the density of a
+    wall no water reached yet (its hydrostatic start counts depth below the fluid's top, water above it
+    or not; tests/unit/test_sph_boundaries.py, first-reached test)."""
     for k in prange(active.size):
         i = active[k]
         if predictor:
