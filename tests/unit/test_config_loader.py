@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from erosim.core.config import Section, describe_section, param, validate_section
@@ -95,6 +97,16 @@ def test_bad_override_and_unknown_preset(toy_kind):
 def test_unknown_scenario_name_suggests():
     with pytest.raises(ConfigError, match="No scenario named"):
         loader.load("surely-not-a-scenario")
+
+
+def test_a_name_both_in_the_library_and_here_is_refused_as_ambiguous(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "overtopping").mkdir()
+    (tmp_path / "overtopping" / "scenario.toml").write_text('kind = "voxel"\n')
+    with pytest.raises(ConfigError, match=r"names both a library scenario and the path 'overtopping'"):
+        loader.find("overtopping")
+    assert loader.find("./overtopping") == Path("./overtopping/scenario.toml")  # the folder, written as a path
+    assert loader.find("hydrostatic") == loader.LIBRARY / "hydrostatic.toml"  # no such folder here: the library's
 
 
 def test_a_users_dem_keeps_its_cell_size_unless_one_is_set():

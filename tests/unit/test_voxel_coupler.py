@@ -75,6 +75,41 @@ def test_coupler_applies_the_increments_closes_the_budget_and_refreshes_the_wall
     assert -H <= z <= 0.01
 
 
+def test_onset_is_the_first_solid_node_the_surface_passes():
+    terrain = _floor()
+    # one particle passing over x = 0.1 once; a stream sliding over x = 0.3 at every coupling
+    fluid = Fluid(np.array([0.1, 0.3]))
+    c = _coupler(terrain, fluid)
+    fluid.t = 0.05
+    c()  # the settling time ends
+    fluid.t = 0.0502
+    c()
+    solid0 = c.initial > terrain.iso
+    # one short coupling moved quanta (the first transfer) but left every solid node solid: no onset yet
+    assert not np.isnan(c.first[0]) and c.budget()["eroded"] > 0
+    assert not (solid0 & (terrain.density <= terrain.iso)).any()
+    assert np.isnan(c.onset[0])
+    fluid.pos = fluid.pos[1:]
+    fluid.vel = fluid.vel[1:]
+    k = 0
+    while np.isnan(c.onset[0]):
+        k += 1
+        fluid.t = 0.0502 + 0.01 * k
+        c()
+        assert k < 10_000  # the stream keeps eroding, so the surface retreats past a node
+    # it came at the first coupling that left a node solid at the start at or below the iso level ...
+    t, x, y, z = c.onset
+    assert t == fluid.t
+    ix, iy, iz = (np.round((np.array([x, y, z]) - terrain.origin) / CELL)).astype(int)
+    assert solid0[iz, iy, ix] and terrain.density[iz, iy, ix] <= terrain.iso
+    # ... under the stream (within the erosion radius h + l_min of it), not under the lone particle
+    assert abs(x - 0.3) <= H + 0.4 * H + 1e-12
+    # and it is kept in the checkpoint
+    fresh = _coupler(_floor(), Fluid(np.array([0.3])))
+    fresh.load_state_dict(c.state_dict())
+    assert np.array_equal(fresh.onset, c.onset)
+
+
 def test_non_erodible_below_keeps_those_nodes():
     terrain = _floor()
     before = terrain.density.copy()
@@ -111,6 +146,45 @@ def test_crest_life_is_the_first_profile_lowered_by_the_fraction():
     prof = np.concatenate(rows)
     assert crest_life(prof, 0.25, 0.2, 60.0) == (40.0, True)  # 0.14 < 0.2 − 0.05
     assert crest_life(prof, 0.9, 0.2, 60.0) == (60.0, False)  # never below 0.02: lasted the run
+
+
+def _judge(tmp_path, preset, first, tops):
+    """``assess`` on a scripted run folder: the onset ``first`` (x, z from the toe) and the crest's height
+    at 0, 20, 40, 60 s."""
+    import json
+
+    from erosim.scenarios import loader
+    from erosim.validation.overtopping import assess
+
+    cfg = loader.load("overtopping", ["sph.spacing=0.02", "voxels.cell_size=0.02"], preset=preset).config
+    x = np.linspace(0.0, 1.0, 51)
+    prof = np.concatenate([np.column_stack([np.full(51, t), x, np.minimum(top, 0.4 * x)])
+                           for t, top in zip((0.0, 20.0, 40.0, 60.0), tops, strict=True)])  # fmt: skip
+    np.savetxt(tmp_path / "profiles.csv", prof, delimiter=",", header="t,x,z", comments="")
+    rep = {"status": "completed", "t": 60.0, "eroded_volume_m3": 1e-3, "particles_inside_solid": 0,
+           "first_erosion": {"t": 2.6, "x": first[0], "z": first[1]}, "timings": {"wall_time_s": 1.0}}  # fmt: skip
+    (tmp_path / "report.json").write_text(json.dumps(rep))
+    return assess(preset, cfg, tmp_path, 60.0)
+
+
+@pytest.mark.parametrize(
+    "preset, first, ok",
+    [
+        # partial: the lower half of the 2:1 downstream slope (0.5 … 0.9 m from the toe) begins at 0.7 m; one
+        # voxel (2 cm) of tolerance, so the node at 0.68 m (computed as 1.08 − 0.4) passes and 0.66 m does not
+        ("partial", (1.08 - 0.4, 0.10), True),
+        ("partial", (0.66, 0.12), False),
+        ("partial", (0.93, 0.0), False),
+        # full: the crest, 0.4 … 0.5 m, ± one voxel, and no lower than 2 voxels under its 0.22 m top
+        ("full", (0.78 - 0.4, 0.2016), True),
+        ("full", (0.06, 0.04), False),
+        ("full", (0.45, 0.17), False),
+    ],
+)
+def test_assess_judges_where_erosion_began(tmp_path, preset, first, ok):
+    res = _judge(tmp_path, preset, first, (0.2, 0.2, 0.2, 0.2))
+    assert res["first_erosion_ok"] is ok
+    assert res["crest_life_s"] == 60.0 and not res["crest_lowered"]
 
 
 def test_bench_voxel_reports_its_keys():

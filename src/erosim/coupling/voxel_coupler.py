@@ -12,9 +12,18 @@ Each time its schedule fires (an ``IterationInterval`` of ``erosion.every`` step
    field takes exactly the eroder's new values);
 4. refreshes every boundary of the solver (``refresh(solver, terrain=density)``: the wall's distance is
    read from the changed field and particles left inside the solid are pushed out), and adds the
-   terms to the run's budget. The *first erosion* is the time and place of the first transfer that
-   lowers a solid node (density above the iso level; the node it lowers most): the ramp's nodes on the
-   air side hold material too and are eroded by the same law, but their loss only steepens the ramp.
+   terms to the run's budget.
+
+Two onsets are recorded. The *first transfer* is the time and place of the first transfer that lowers
+a solid node (density above the iso level; the node it lowers most): the ramp's nodes on the air side
+hold material too and are eroded by the same law, but their loss only steepens the ramp. One quantum
+(1/255 of a node) may come from a single particle's passing excess, which no observer would call the
+start of a breach. The *onset* (``first_erosion`` of a run's report) is where the surface has first
+retreated past a grid point: the first coupling after which a node that was solid at the start (above
+the iso level) is at or below it — of several, the one that lost most. It is a local change of the
+surface by up to one cell, the least the field resolves as a moved surface at a place, and the
+counterpart of a laboratory's first visible scour; the overtopping validation judges it
+(:mod:`erosim.validation.overtopping`).
 
 Before ``start`` (s) the coupler does nothing: a fluid laid on a lattice settles in its first moments
 (particles slide into the corners of the terrain at speeds no still reservoir has), and that motion
@@ -51,6 +60,8 @@ class VoxelCoupler:
         self.last_t = float(solver.t)
         self.first = np.full(3, np.nan)  # (t, x, z) of the first transfer
         self.first_y = np.nan
+        self.onset = np.full(4, np.nan)  # (t, x, y, z) of the first solid node the surface passed
+        self._solid0 = self.initial > terrain.iso
         self.wall = 0.0
         self.start = float(start)  # no erosion before this time (s): the fluid settles first
 
@@ -85,6 +96,13 @@ class VoxelCoupler:
                 self.first[:] = (float(s.t), ox + c * kx, oz + c * kz)
                 self.first_y = oy + c * ky
         t.density += dd  # float32 += exact float64 differences of float32 values
+        passed = self._solid0 & (t.density <= t.iso) if np.isnan(self.onset[0]) else None
+        if passed is not None and passed.any():
+            loss = np.where(passed, self.initial - t.density, -np.inf)
+            kz, ky, kx = np.unravel_index(int(np.argmax(loss)), loss.shape)  # lost most (first in C order)
+            ox, oy, oz = t.origin
+            c = t.cell_size
+            self.onset[:] = (float(s.t), ox + c * kx, oy + c * ky, oz + c * kz)
         for b in s.boundaries:
             b.refresh(s, terrain=t.density, changed=changed)
 
@@ -111,6 +129,7 @@ class VoxelCoupler:
             "density": self.terrain.density.copy(),
             "totals": np.array([self.totals[k] for k in _TERMS]),
             "first": np.append(self.first, self.first_y),
+            "onset": self.onset.copy(),
             "calls": self.calls,
             "last_t": self.last_t,
         }
@@ -126,6 +145,7 @@ class VoxelCoupler:
         self.totals = dict(zip(_TERMS, np.asarray(state["totals"]).tolist(), strict=True))
         first = np.asarray(state["first"], np.float64)
         self.first[:], self.first_y = first[:3], float(first[3])
+        self.onset[:] = state["onset"] if "onset" in state else np.nan  # checkpoints before the onset was kept
         self.calls = int(state["calls"])
         self.last_t = float(state["last_t"])
         if self.eroder is not None:

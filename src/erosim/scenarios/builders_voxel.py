@@ -20,8 +20,10 @@ A run leaves
   embankment's upstream toe (a heightmap: along the middle row, x in the terrain's frame), every
   ``run.profile_interval``; ``figures/profiles.png`` with the profiles every ``run.figure_interval``
   (and the last);
-* ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y} of the
-  solid node the first transfer to lower one lowered most, the ``budget`` (m³: eroded = carried off;
+* ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y}: the first
+  node, solid at the start, that the eroded surface has passed (density at or below the iso level),
+  ``first_transfer`` the same for the first quantum moved (:mod:`erosim.coupling.voxel_coupler`), the
+  ``budget`` (m³: eroded = carried off;
   pending, unmet, the field's change, closure), ``particles_inside_solid`` (the most seen after any
   coupling; 0) and the timings.
 """
@@ -502,7 +504,8 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
     def report(sim) -> dict[str, Any]:
         from erosim.terrain.voxel import memory_bytes
 
-        first = coupler.first
+        first, onset = coupler.first, coupler.onset
+        frame = "from the embankment's upstream toe" if flume else "the terrain's frame (m from its south-west node)"
         steps = sim.iteration - sim.iteration_start
         st = solver.state
         return {
@@ -515,10 +518,15 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
                        "memory_bytes": memory_bytes(int(np.prod(terrain.shape)), erosion=eroder is not None)},
             "resolution": {"spacing": cfg.sph.spacing, "support_h": solver.h, **derived},
             "eroded_volume_m3": coupler.totals["eroded"],
-            "first_erosion": None if math.isnan(first[0]) else {
+            "first_erosion": None if math.isnan(onset[0]) else {
+                "t": float(onset[0]), "x": float(onset[1]) - x0, "z": float(onset[3]), "y": float(onset[2]),
+                "x_frame": frame,
+                "definition": "the first node, solid at the start, that the eroded surface passed (density at or "
+                              "below the iso level)"},
+            "first_transfer": None if math.isnan(first[0]) else {
                 "t": float(first[0]), "x": float(first[1]) - x0, "z": float(first[2]),
-                "y": float(coupler.first_y), "x_frame": "from the embankment's upstream toe" if flume else
-                "the terrain's frame (m from its south-west node)"},
+                "y": float(coupler.first_y), "x_frame": frame,
+                "definition": "the first quantum moved off a solid node (the node it lowered most)"},
             "budget": coupler.budget(),
             "particles_inside_solid": max(inside.most, solver.n_fluid and wall_inside(solver)),
             "timings": {

@@ -97,6 +97,12 @@ def library_names() -> list[str]:
 def find(name_or_path: str | os.PathLike) -> Path:
     """The file of a library scenario name or a path; a clear error (with a suggestion) otherwise."""
     p = Path(name_or_path)
+    bare = isinstance(name_or_path, str) and p.suffix == "" and os.sep not in name_or_path and "/" not in name_or_path
+    if bare and p.exists() and (LIBRARY / f"{name_or_path}.toml").is_file():
+        raise ConfigError(
+            f"'{name_or_path}' names both a library scenario and the path '{p}' in this folder; write "
+            f"'.{os.sep}{name_or_path}' for the path, or run from another folder for the library's."
+        )
     if p.suffix == ".toml" or p.exists():
         if p.is_dir() and (p / "scenario.toml").is_file():
             return p / "scenario.toml"

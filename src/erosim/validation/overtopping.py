@@ -5,14 +5,25 @@ The library ``overtopping`` scenario is run with its two presets. The laboratory
 reproduces, and the criteria checked here:
 
 * ``partial`` (τ_c = 6, K_ε = 2, a resistant embankment): erosion begins in the **lower half of the
-  downstream slope** — the first transfer's position x (from the upstream toe) lies between the
+  downstream slope** — the onset's position x (from the upstream toe) lies between the
   slope's mid-height and its toe, x ∈ [x_c + ½ H m_d − Δ, x_heel + Δ] (x_c the crest's downstream edge,
-  H the height, m_d the slope H:V, Δ one voxel: the first transfer's centroid is a node position);
+  H the height, m_d the slope H:V, Δ one voxel: the onset is a node position);
 * ``full`` (τ_c = 1.2, K_ε = 0.05, a weak one on a non-erodible base): erosion begins **at the crest** —
   x within the crest ± Δ and z above the crest less 2Δ (the ramp's nodes just under the surface);
 * the crest **survives longer in ``partial``**: the crest's life is the first profile time at which
   the centre line's highest point has dropped by more than ``DROP``·H (a run whose crest stands to the
   end has lived at least ``t_end``); passed when partial's life exceeds full's.
+
+"Where erosion begins" is the report's ``first_erosion``: the onset, the first node solid at the start
+that the eroded surface has passed (:mod:`erosim.coupling.voxel_coupler`) — a local retreat of the
+surface by up to one cell, the counterpart of the laboratory's first visible scour. The first quantum
+moved (``first_transfer``) is reported beside it and not judged: at K_ε = 2 a single particle of the
+overflow's thin front moves one as soon as it passes the threshold speed, wherever that happens to be.
+
+The reservoir starts at the crest's height (the library case): the run is the overtopping phase. In
+the 0.4 m model reservoir, filling it from below the crest at the overflow's rate would raise it
+at 1.7 cm/s and drive currents of 3–4 cm/s along the upstream face, above the 2.3 cm/s at which
+``full``'s τ_c = 1.2 is exceeded; a laboratory reservoir, metres long, fills several times slower.
 
 A run that goes unstable is judged on the time it ran (its ``status`` and ``t`` are in the rows) and the
 case is not passed; :func:`assess` judges a finished run folder, so the presets can also be run apart.
@@ -62,14 +73,15 @@ def assess(preset: str, cfg, sub: Path, t_end: float) -> dict:
     crest_hi = crest_lo + e.crest_width
     heel = crest_hi + e.height * e.downstream
     fe = rep["first_erosion"]
+    tol = 1e-6 * cell  # node positions against bounds built from the geometry: rounding only
     if preset == "partial":
         lo, hi = crest_hi + 0.5 * e.height * e.downstream - cell, heel + cell
-        where_ok = fe is not None and lo <= fe["x"] <= hi
+        where_ok = fe is not None and lo - tol <= fe["x"] <= hi + tol
         expected = f"lower half of the downstream slope: x in [{lo:.3g}, {hi:.3g}] m"
     else:
         lo, hi = crest_lo - cell, crest_hi + cell
         crest_z = e.base + e.height
-        where_ok = fe is not None and lo <= fe["x"] <= hi and fe["z"] >= crest_z - 2 * cell
+        where_ok = fe is not None and lo - tol <= fe["x"] <= hi + tol and fe["z"] >= crest_z - 2 * cell - tol
         expected = f"crest: x in [{lo:.3g}, {hi:.3g}] m, z ≥ {crest_z - 2 * cell:.3g} m"
     ran = t_end if rep["status"] == "completed" else float(rep["t"])  # a crest standing at a failure lived that long
     life, lowered = crest_life(prof, DROP, e.height, ran)
