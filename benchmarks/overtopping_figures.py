@@ -16,7 +16,7 @@ import numpy as np
 from erosim.viz.plots import profiles_figure
 
 #: the seed's snapshots are every 20 s (partial); the weak embankment is gone within seconds
-TIMES = {"partial": [0, 10, 20, 30, 40, 50, 60], "full": [0, 1, 2, 3, 4, 5, 6, 60]}
+TIMES = {"partial": [0, 5, 10, 20, 30, 34.4], "full": [0, 1, 2, 3, 4, 5, 6, 60]}
 
 
 def main(partial: str, full: str, out: str) -> None:
