@@ -45,6 +45,14 @@ from erosim.core.increments import check_budget
 _TERMS = ("eroded", "deposited", "suspended", "carried_off")
 
 
+def _node(terrain, flat: int) -> tuple[float, float, float]:
+    """(x, y, z) of the field's node with C-order index ``flat``."""
+    kz, ky, kx = np.unravel_index(flat, terrain.shape)
+    ox, oy, oz = terrain.origin
+    c = terrain.cell_size
+    return ox + c * kx, oy + c * ky, oz + c * kz
+
+
 class VoxelCoupler:
     """Couple ``solver`` to ``terrain`` (a :class:`~erosim.terrain.voxel.VoxelTerrain`) through ``eroder``."""
 
@@ -90,19 +98,15 @@ class VoxelCoupler:
         if np.isnan(self.first[0]):
             lowered = np.where((dd < 0) & (t.density > t.iso), dd, 0.0)  # solid nodes (above the iso level) only
             if lowered.any():
-                kz, ky, kx = np.unravel_index(int(np.argmin(lowered)), dd.shape)  # lowered most (first in C order)
-                ox, oy, oz = t.origin
-                c = t.cell_size
-                self.first[:] = (float(s.t), ox + c * kx, oz + c * kz)
-                self.first_y = oy + c * ky
+                x, y, z = _node(t, int(np.argmin(lowered)))  # lowered most (first in C order)
+                self.first[:] = (float(s.t), x, z)
+                self.first_y = y
         t.density += dd  # float32 += exact float64 differences of float32 values
-        passed = self._solid0 & (t.density <= t.iso) if np.isnan(self.onset[0]) else None
-        if passed is not None and passed.any():
-            loss = np.where(passed, self.initial - t.density, -np.inf)
-            kz, ky, kx = np.unravel_index(int(np.argmax(loss)), loss.shape)  # lost most (first in C order)
-            ox, oy, oz = t.origin
-            c = t.cell_size
-            self.onset[:] = (float(s.t), ox + c * kx, oy + c * ky, oz + c * kz)
+        if np.isnan(self.onset[0]):
+            passed = self._solid0 & (t.density <= t.iso)
+            if passed.any():
+                loss = np.where(passed, self.initial - t.density, -np.inf)
+                self.onset[:] = (float(s.t), *_node(t, int(np.argmax(loss))))  # lost most (first in C order)
         for b in s.boundaries:
             b.refresh(s, terrain=t.density, changed=changed)
 

@@ -103,25 +103,32 @@ def build_terrain(cfg: VoxelScenario):
 
 
 def surface_profile(terrain, y: float) -> tuple[np.ndarray, np.ndarray]:
-    """(x, z) of the terrain's top surface along the node row nearest ``y``: per column, the highest
-    crossing of the iso level (linear between the topmost solid node and the air node above it)."""
-    x_ax, y_ax, z_ax = terrain.axes()
+    """(x, z) of the terrain's top surface along the node row nearest ``y`` (:func:`top_surface`)."""
+    x_ax, y_ax, _ = terrain.axes()
     j = int(np.clip(round((y - y_ax[0]) / terrain.cell_size), 0, len(y_ax) - 1))
-    col = terrain.density[:, j, :].astype(np.float64)  # (nz, nx)
-    iso = terrain.iso
-    solid = col > iso
+    return x_ax, _iso_top(terrain, terrain.density[:, j, :])
+
+
+def top_surface(terrain) -> np.ndarray:
+    """z[iy, ix]: the terrain's top surface, the highest crossing of the iso level in every node column."""
+    return _iso_top(terrain, terrain.density)
+
+
+def _iso_top(terrain, slab: np.ndarray) -> np.ndarray:
+    """The highest crossing of the iso level in every node column of ``slab`` (the field's nodes, z first):
+    linear between the topmost solid node and the air node above it; the field's top where that node is
+    solid, its bottom where the column has none."""
+    col = slab.astype(np.float64)
+    z_ax = terrain.axes()[2]
+    solid = col > terrain.iso
     nz = col.shape[0]
-    top = np.where(solid.any(axis=0), nz - 1 - np.argmax(solid[::-1], axis=0), -1)
-    z = np.full(col.shape[1], z_ax[0])
-    for i, k in enumerate(top):
-        if k < 0:
-            continue
-        if k == nz - 1:
-            z[i] = z_ax[-1]
-            continue
-        d0, d1 = col[k, i], col[k + 1, i]
-        z[i] = z_ax[k] + terrain.cell_size * (d0 - iso) / (d0 - d1)
-    return x_ax, z
+    k = nz - 1 - np.argmax(solid[::-1], axis=0)  # topmost solid node (nz − 1 where none: masked below)
+    k1 = np.minimum(k + 1, nz - 1)
+    d0 = np.take_along_axis(col, k[None], axis=0)[0]
+    d1 = np.take_along_axis(col, k1[None], axis=0)[0]
+    inner = k < nz - 1
+    z = np.where(inner, z_ax[k] + terrain.cell_size * (d0 - terrain.iso) / np.where(inner, d0 - d1, 1.0), z_ax[-1])
+    return np.where(solid.any(axis=0), z, z_ax[0])
 
 
 class RainDrops(cb.Callback):
@@ -218,8 +225,7 @@ class Inflow(cb.Callback):
         pts = np.empty((count, 3))
         for k in range(count):
             xy = self.sites[(self.events + k) % len(self.sites)]
-            z = max(self._ball_top(pos, xy), self._ball_top(pts[:k], xy))  # the fluid and this step's arrivals
-            pts[k] = xy[0], xy[1], z if z > -math.inf else 0.5 * self.dx
+            pts[k] = xy[0], xy[1], max(self.rest_height(pos, xy), self._ball_top(pts[:k], xy))  # and this step's
         if pts[:, 2].max() > self.top:
             raise InstabilityError(
                 f"The inflow's water reached the top of the flume's domain ({self.top:g} m) at t = {float(s.t):.3g} s; "
@@ -327,17 +333,10 @@ class VoxelOutputs(cb.Callback):
         out = {"outputs": {"times": self.count, "meshes": [f"meshes/surface_NNNN.{k}" for k in self.cfg.run.meshes],
                            "field": f"fields/density_NNNN.{self.cfg.run.field_format}"}}  # fmt: skip
         if self.cfg.run.surface_figure:
-            first = self.out.path / "fields" / "density_0000.npz"
-            start = type(self.terrain).load(first) if first.exists() else self.terrain.like(self.initial)
-            surface_figure(self.out.path / "figures" / "surface.png", start, self.terrain,
+            surface_figure(self.out.path / "figures" / "surface.png", self.terrain.like(self.initial), self.terrain,
                            self.solver.fluid_positions(), float(self.solver.t), self.cfg_name)  # fmt: skip
             out["outputs"]["surface_figure"] = "figures/surface.png"
         return out
-
-
-def top_surface(terrain) -> np.ndarray:
-    """z[iy, ix]: the highest crossing of the iso level in every node column (:func:`surface_profile`)."""
-    return np.array([surface_profile(terrain, y)[1] for y in terrain.axes()[1]])
 
 
 def surface_figure(path, start, end, water: np.ndarray, t: float, name: str) -> Path:

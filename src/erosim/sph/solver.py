@@ -150,15 +150,12 @@ class SPHSolver:
         self.nu = prm.mu / prm.rho0 if prm.viscosity == "laminar" else 0.0
 
         # ---- variants, chosen once
-        self.kv = 2.0 * prm.alpha * self.hs * self.c if prm.viscosity == "artificial" else prm.mu
-        self.kvb = self.kv if prm.wall_viscosity == "fluid" else 0.0  # the fluid–wall pairs' (forces.py)
         self._pass = forces.fluid_driver(d, prm.kernel, prm.pressure_form, prm.viscosity)
         self._sumpass = forces.summation_driver(d, prm.kernel)
         self._leapfrog = prm.integrator == "leapfrog"
         self._summation = self.summation = prm.density == "summation"
         self.eps2 = 0.01 * self.hs**2
-        self.kdiff = 0.0 if self._summation else 2.0 * prm.density_diffusion * self.hs * self.c
-        self.kh = prm.rho0 / self.c**2
+        self._coefficients()
         self.kmax = 0.0  # max K_i of the density diffusion at the last force pass (diffusion_limit_molteni2009)
 
         # ---- state (fluid first, then boundary)
@@ -243,6 +240,16 @@ class SPHSolver:
         self._tcount = np.empty(max(1, nb_), np.int64)
         self._have_counts = False
         self._krate = np.zeros(n, np.float64)  # K_i per particle, written by the fused pass
+
+    def _coefficients(self) -> None:
+        """The pair pass's coefficients from the parameters and the sound speed c: k_v (artificial: 2αh_s c;
+        laminar: μ), its fluid–wall pairs' k_vb (k_v, or 0 for free-slip walls), the density diffusion's
+        k_δ = 2δh_s c (0 with summation density) and k_h = ρ₀/c²."""
+        prm = self.params
+        self.kv = 2.0 * prm.alpha * self.hs * self.c if prm.viscosity == "artificial" else prm.mu
+        self.kvb = self.kv if prm.wall_viscosity == "fluid" else 0.0
+        self.kdiff = 0.0 if self._summation else 2.0 * prm.density_diffusion * self.hs * self.c
+        self.kh = prm.rho0 / self.c**2
 
     def _calibrate_mass(self) -> None:
         """Summation density: m such that an interior lattice particle has ρ = ρ₀ (not ρ₀Δx^d·ΣW)."""
@@ -640,12 +647,7 @@ class SPHSolver:
         for bd in self.boundaries:
             prefix = f"boundary.{bd.name}."
             bd.load_state_dict({k[len(prefix) :]: v for k, v in state.items() if k.startswith(prefix)})
-        self.kv = (
-            2.0 * self.params.alpha * self.hs * self.c if self.params.viscosity == "artificial" else self.params.mu
-        )
-        self.kvb = self.kv if self.params.wall_viscosity == "fluid" else 0.0
-        self.kdiff = 0.0 if self._summation else 2.0 * self.params.density_diffusion * self.hs * self.c
-        self.kh = self.params.rho0 / self.c**2
+        self._coefficients()
         # lists exactly as built at the last rebuild (from the positions then), without re-sorting
         self._workspace()
         rebuilds = self.rebuilds
