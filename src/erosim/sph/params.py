@@ -80,6 +80,12 @@ class SPHParams(Section):
         doc="'zero' clamps negative pressure to 0 (stable free surfaces); "
         "'none' keeps tension (unstable at free surfaces)",
     )
+    shifting: Literal["off", "fickian"] = param(
+        "off", doc="particle shifting: 'off' or 'fickian' (Lind et al. 2012; keeps thin sheets and spray from clumping)"
+    )
+    shifting_coefficient: float = param(
+        2.0, gt=0, le=6, unit="1", doc="A of the shifting's D = A h_s U Δt (Skillen et al. 2013: 1–6, 2 by default)"
+    )
     viscosity: Literal["artificial", "laminar"] = param(
         "artificial", doc="'artificial' (Monaghan Π, SPH-6b) or 'laminar' (μ∇²v, SPH-6a)"
     )

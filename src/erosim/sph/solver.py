@@ -32,6 +32,7 @@ from erosim.sph.boundaries import particles as bparticles
 from erosim.sph.boundaries.base import Boundary
 from erosim.sph.boundaries.box import BoxWalls
 from erosim.sph.params import SPHParams
+from erosim.sph.shifting_lind2012 import FickianShifting
 from erosim.sph.state import ParticleState
 
 _STATE_SCALARS = ("t", "steps", "c", "b", "gamma", "m", "rebuilds", "vmax", "amax", "kmax")
@@ -184,6 +185,7 @@ class SPHSolver:
         for bd in self.boundaries:
             bd.bind(self)
         self._hooks()
+        self._shifting = FickianShifting(self) if self.params.shifting == "fickian" else None
         if prm.initial_pressure != "zero" and gnorm > 0:
             self._hydrostatic_start(up, gnorm)
         self._pressure_all()
@@ -542,6 +544,8 @@ class SPHSolver:
         dt = prm.dt if prm.dt > 0 else self.dt_limit()
         args = self.eos_args()
         k1, k2 = (0.5 * dt, 0.5 * dt) if self._leapfrog else (dt, 0.0)
+        if self._shifting is not None:  # at the step's start, where the neighbour lists are valid
+            self._shifting.apply(dt)
         integrators.kick_drift(st.pos, st.vel, st.acc, st.rho, st.rho_old, st.drho, st.p, st.n_fluid, k1, dt, *args)
         for fn in self._constrain:
             fn(self)

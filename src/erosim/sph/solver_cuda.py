@@ -54,6 +54,8 @@ class CudaSPHSolver(SPHSolver):
     device = "cuda"
 
     def __init__(self, params, fluid_pos, **kwargs):
+        if params.shifting != "off":
+            raise _unsupported("Particle shifting (sph.shifting)")
         devices.require("cuda")
         if params.density == "summation":
             raise _unsupported("Summation density (sph.density = 'summation')")

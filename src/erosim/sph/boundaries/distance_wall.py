@@ -19,7 +19,7 @@ import numpy as np
 
 from erosim.core.errors import ConfigError
 from erosim.sph.boundaries.base import Boundary
-from erosim.sph.boundaries.wall_weight_harada2007 import bake_cached, seed_rho1
+from erosim.sph.boundaries.wall_weight_harada2007 import G, H, T, Z, bake_cached, seed_rho1
 
 #: a particle put back on a wall sits this fraction of Δx above it
 GAP = 1e-3
@@ -76,6 +76,26 @@ class DistanceWall(Boundary):
             st.pos, st.vel, st.rho, st.p, st.acc, st.drho, st.n_fluid, *self._geometry(), *self._curve_args(),
             self.m, solver.params.rho0, self.gvec, self.wcsph, self.cvisc, self._summation,
         )  # fmt: skip
+
+    def wall_distances(self, solver) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(l, n) of the fluid particles to each of this boundary's walls: distance (m, positive in the
+        fluid) and unit normal into the fluid, (n_fluid,) and (n_fluid, dim)."""
+        raise NotImplementedError
+
+    def shifting_share(self, solver, gc, gct, divr, conc) -> None:
+        """The wall's share of particle shifting's sums (:mod:`erosim.sph.shifting_lind2012`): a flat
+        layer of wall particles at ρ₀, ∇C += (m/ρ₀) G(l) n, ∇·r −= (m/ρ₀)(H(l) + (d − 1) T(l)), C += Z(l)/ρ₀."""
+        tab, dl = self.curves.table, self.curves.dl
+        ls = np.arange(tab.shape[1]) * dl
+        vol = self.m / solver.params.rho0
+        for l, n in self.wall_distances(solver):
+            near = l < self.curves.support
+            lc = np.maximum(l[near], 0.0)
+            g = vol * np.interp(lc, ls, tab[G])
+            gc[near] += g[:, None] * n[near]
+            gct[near] += g[:, None] * n[near]
+            divr[near] -= vol * (np.interp(lc, ls, tab[H]) + (solver.dim - 1) * np.interp(lc, ls, tab[T]))
+            conc[near] += np.interp(lc, ls, tab[Z]) / solver.params.rho0
 
     def constrain(self, solver) -> None:
         st = solver.state

@@ -75,6 +75,21 @@ def heightfield_forces(pos, vel, rho, p, acc, drho, n_fluid, z, sx, sy, x0, y0, 
 
 
 @njit(parallel=True, cache=True)
+def heightfield_distance(pos, n_fluid, z, sx, sy, x0, y0, inv_dx, inv_dy, out_l, out_n):
+    """l and n of the fluid particles (the ground's normal distance and unit normal, up)."""
+    d = pos.shape[1]
+    for i in prange(n_fluid):
+        hgt, nx, ny, nz = ground(z, sx, sy, x0, y0, inv_dx, inv_dy, pos, i)
+        out_l[i] = (pos[i, d - 1] - hgt) * nz
+        out_n[i, 0] = nx
+        if d == 3:
+            out_n[i, 1] = ny
+            out_n[i, 2] = nz
+        else:
+            out_n[i, 1] = nz
+
+
+@njit(parallel=True, cache=True)
 def heightfield_density(pos, rho, n_fluid, z, sx, sy, x0, y0, inv_dx, inv_dy, table, dl):
     d = pos.shape[1]
     for i in prange(n_fluid):
@@ -163,6 +178,12 @@ class HeightfieldGround(DistanceWall):
     def _geometry(self):
         r = self.raster
         return self.terrain, self.sx, self.sy, r.x0, r.y0, 1.0 / r.dx, 1.0 / r.dy
+
+    def wall_distances(self, solver) -> list[tuple[np.ndarray, np.ndarray]]:
+        st = solver.state
+        l, n = np.empty(st.n_fluid), np.empty((st.n_fluid, solver.dim))
+        heightfield_distance(st.pos, st.n_fluid, *self._geometry(), l, n)
+        return [(l, n)]
 
     def refresh(self, solver, *, terrain=None, **changed) -> None:
         """The terrain changed (it is read live): recompute the nodes' slopes and lift the particles a

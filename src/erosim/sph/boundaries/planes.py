@@ -76,3 +76,7 @@ class PlaneWalls(DistanceWall):
 
     def _geometry(self):
         return self.points, self.normals
+
+    def wall_distances(self, solver) -> list[tuple[np.ndarray, np.ndarray]]:
+        x = solver.state.pos[: solver.state.n_fluid]
+        return [((x - p) @ n, np.broadcast_to(n, x.shape)) for p, n in zip(self.points, self.normals, strict=True)]

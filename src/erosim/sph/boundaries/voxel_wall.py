@@ -156,6 +156,9 @@ class VoxelWall(DistanceWall):
         st = solver.state
         return int(count_inside(st.pos, st.n_fluid, *self._geometry(), tol))
 
+    def wall_distances(self, solver) -> list[tuple[np.ndarray, np.ndarray]]:
+        return [self.distances(solver)]
+
     def distances(self, solver) -> tuple[np.ndarray, np.ndarray]:
         """(l, n) of the fluid particles: wall distance (m, positive in the fluid) and unit normal."""
         from erosim.kernels.voxel import wall_distance
