@@ -89,6 +89,12 @@ def test_overtopping_runs_and_writes_its_outputs(tmp_path):
     assert b["closure_rel"] < 1e-9
     assert rep["particles_inside_solid"] == 0
     assert rep["timings"]["particle_steps_per_s"] > 0
+    w = rep["water"]
+    water_m3 = (w["initial_particles"] + sum(w["added"].values())) * 0.04**3  # every particle's volume at rest
+    assert rep["eroded_to_water_volume"] == pytest.approx(rep["eroded_volume_m3"] / water_m3, rel=1e-12)
+    # this test's τ_c = 0.5, K_ε = 2 erode fast on purpose (1.6 times the water's volume in 0.3 s): warned
+    assert rep["eroded_to_water_volume"] > 0.2
+    assert [w for w in rep["warnings"] if w.startswith("The ground removed")]
     # profiles.csv: t,x,z along the centre line, x from the upstream toe; the first is the embankment's crest
     rows = np.loadtxt(out / "profiles.csv", delimiter=",", skiprows=1)
     assert (out / "profiles.csv").read_text().startswith("t,x,z\n")
@@ -114,6 +120,16 @@ def test_overtopping_runs_and_writes_its_outputs(tmp_path):
     low = z < 0.03
     assert np.array_equal(start.density[low], end.density[low])
     assert not np.array_equal(start.density[~low], end.density[~low])
+
+
+def test_eroding_more_than_a_fifth_of_the_waters_volume_is_warned():
+    """Clear water carries up to about 20 % sediment by volume (Costa 1988); the fluid carries none, so a
+    run that removes more is told so, with the setting to change."""
+    from erosim.scenarios.builders_voxel import sediment_warning
+
+    assert sediment_warning(0.19, 1.0) is None and sediment_warning(1.0, 0.0) is None
+    note = sediment_warning(0.32, 1.0)
+    assert "0.32 of the water's volume" in note and "erosion.k_eps" in note
 
 
 def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch):

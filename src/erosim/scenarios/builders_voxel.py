@@ -479,7 +479,7 @@ def setup(scenario, out) -> Setup:
     profiles.figure = lambda p: _profile_figure(cfg, p, out)
     outputs.cfg_name = scenario.name
     callbacks += [inside, profiles, outputs]
-    report_fn = _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x0, flume)
+    report_fn = _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x0, flume, out)
 
     def summary(sim, rep: dict) -> dict[str, Any]:
         return {
@@ -491,6 +491,7 @@ def setup(scenario, out) -> Setup:
             "first_erosion": rep["first_erosion"],
             "particles_inside_solid": rep["particles_inside_solid"],
             "wall_time_s": round(sim.wall_time, 2),
+            **{"warning": w for w in out.warnings if w.startswith("The ground removed")},
         }
 
     return Setup(
@@ -499,7 +500,23 @@ def setup(scenario, out) -> Setup:
     )  # fmt: skip
 
 
-def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x0, flume):
+#: clear water holds while the ground it has removed stays below this fraction of its volume (the start
+#: of hyperconcentrated flow, Costa 1988); the fluid here carries no sediment, so a run beyond it is warned
+CLEAR_WATER_LIMIT = 0.2
+
+
+def sediment_warning(eroded_m3: float, water_m3: float) -> str | None:
+    """One sentence when the eroded volume exceeds :data:`CLEAR_WATER_LIMIT` of the water's volume, else None."""
+    if water_m3 <= 0 or eroded_m3 <= CLEAR_WATER_LIMIT * water_m3:
+        return None
+    return (
+        f"The ground removed ({eroded_m3:.3g} m³) is {eroded_m3 / water_m3:.2f} of the water's volume "
+        f"({water_m3:.3g} m³), above the {CLEAR_WATER_LIMIT * 100:g} % up to which clear-water flow holds (Costa 1988): "
+        "the erosion is too strong for this terrain's scale; lower erosion.k_eps (docs/voxel.md)."
+    )
+
+
+def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x0, flume, out):
     def report(sim) -> dict[str, Any]:
         from erosim.terrain.voxel import memory_bytes
 
@@ -507,6 +524,10 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
         frame = "from the embankment's upstream toe" if flume else "the terrain's frame (m from its south-west node)"
         steps = sim.iteration - sim.iteration_start
         st = solver.state
+        water_m3 = (st.initial + sum(st.added.values())) * solver.m / solver.params.rho0  # all the water, at rest
+        note = sediment_warning(coupler.totals["eroded"], water_m3)
+        if note is not None and note not in out.warnings:
+            out.warnings[:] = [w for w in out.warnings if not w.startswith("The ground removed")] + [note]
         return {
             "t": float(solver.t),
             "t_end": cfg.run.t_end,
@@ -517,6 +538,7 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
                        "memory_bytes": memory_bytes(int(np.prod(terrain.shape)), erosion=eroder is not None)},
             "resolution": {"spacing": cfg.sph.spacing, "support_h": solver.h, **derived},
             "eroded_volume_m3": coupler.totals["eroded"],
+            "eroded_to_water_volume": coupler.totals["eroded"] / water_m3 if water_m3 > 0 else None,
             "first_erosion": None if math.isnan(onset[0]) else {
                 "t": float(onset[0]), "x": float(onset[1]) - x0, "z": float(onset[3]), "y": float(onset[2]),
                 "x_frame": frame,
