@@ -491,7 +491,7 @@ def setup(scenario, out) -> Setup:
             "first_erosion": rep["first_erosion"],
             "particles_inside_solid": rep["particles_inside_solid"],
             "wall_time_s": round(sim.wall_time, 2),
-            **{"warning": w for w in out.warnings if w.startswith("The ground removed")},
+            **{"warning": w for w in out.warnings[-1:] if w.startswith("The ground removed")},  # noqa: B035
         }
 
     return Setup(
@@ -511,8 +511,8 @@ def sediment_warning(eroded_m3: float, water_m3: float) -> str | None:
         return None
     return (
         f"The ground removed ({eroded_m3:.3g} m³) is {eroded_m3 / water_m3:.2f} of the water's volume "
-        f"({water_m3:.3g} m³), above the {CLEAR_WATER_LIMIT * 100:g} % up to which clear-water flow holds (Costa 1988): "
-        "the erosion is too strong for this terrain's scale; lower erosion.k_eps (docs/voxel.md)."
+        f"({water_m3:.3g} m³), above the {CLEAR_WATER_LIMIT * 100:g} % up to which clear-water flow holds "
+        "(Costa 1988): the erosion is too strong for this terrain's scale; lower erosion.k_eps (docs/voxel.md)."
     )
 
 
