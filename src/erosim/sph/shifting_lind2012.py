@@ -73,8 +73,8 @@ def _gradients(w, gradf, i, pos, rho, start, nbr, m, h, inv_wdx, gc, gct, divr, 
     t0 = t1 = t2 = 0.0
     dv = 0.0
     h2 = h * h
-    for s in range(start[i], start[i + 1]):
-        j = nbr[s]
+    for s in range(np.uint64(start[i]), np.uint64(start[i + 1])):  # unsigned: no wraparound checks (forces.py)
+        j = np.uint64(nbr[s])
         dx = pos[i, 0] - pos[j, 0]
         dy = pos[i, 1] - pos[j, 1]
         dz = pos[i, 2] - pos[j, 2] if d == 3 else 0.0
