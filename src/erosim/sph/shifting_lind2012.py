@@ -106,6 +106,8 @@ def _gradients(w, gradf, i, pos, rho, start, nbr, m, h, inv_wdx, gc, gct, divr, 
     conc[i] = cs
 
 
+# one small cached driver per kernel and dimension: Numba cannot cache a driver that takes functions as
+# arguments (the same pattern as the force pass's drivers, erosim.sph.forces)
 @njit(parallel=True, cache=True)
 def gradients_wendland_3d(pos, rho, start, nbr, n_fluid, m, h, inv_wdx, gc, gct, divr, conc):
     for i in prange(n_fluid):
