@@ -133,3 +133,31 @@ def test_shifting_is_refused_on_the_gpu_solver():
     with pytest.raises(ConfigError, match="shifting"):
         CudaSPHSolver(SPHParams(dim=3, spacing=DX, shifting="fickian"), np.zeros((1, 3)) + 0.1,
                       domain_lo=[0, 0, 0], domain_hi=[0.2, 0.2, 0.2])  # fmt: skip
+
+
+def test_a_voxel_floor_gives_the_same_share_as_a_heightfield_floor():
+    """The voxel wall's share (distance and normal from the density field) on a flat floor: a lattice
+    resting on it has ∇·r within 3 % of 3 and |∇C| below 3 % of the surface's in its lower layers
+    (more than h below the surface), as on the heightfield floor; a sign error in l or n would show
+    as a gradient of the free surface's size there."""
+    from erosim.sph.boundaries.voxel_wall import VoxelWall
+    from erosim.terrain.voxel import HalfSpace, VoxelTerrain
+
+    L = 0.2
+    vt = VoxelTerrain.from_shapes([HalfSpace((0, 0, 0), (0, 0, 1))], (-0.05, -0.05, -0.08), (L + 0.05, L + 0.05, 0.3),
+                                  DX)  # fmt: skip
+    xs = (np.arange(round(L / DX)) + 0.5) * DX
+    zs = (np.arange(LAYERS) + 0.5) * DX
+    fluid = np.stack([g.ravel() for g in np.meshgrid(xs, xs, zs, indexing="ij")], axis=1)
+    s = SPHSolver(SPHParams(dim=3, spacing=DX, walls="reflect", shifting="fickian"), fluid, domain_lo=vt.lo,
+                  domain_hi=vt.hi, boundaries=[VoxelWall(vt)])  # fmt: skip
+    gc, _, divr, _ = s._shifting.gradients()
+    order = np.argsort(s.ids)
+    gc, divr = gc[order], divr[order]
+    x = s.fluid_positions()
+    inner = np.all((x[:, :2] > s.h) & (x[:, :2] < L - s.h), axis=1)  # away from the block's open sides
+    low = inner & (x[:, 2] < (LAYERS - 0.5) * DX - s.h)
+    top = inner & (x[:, 2] > (LAYERS - 1) * DX)
+    assert low.sum() > 0 and (low & (x[:, 2] < s.h)).sum() > 0
+    assert np.abs(divr[low] - 3.0).max() < 0.09
+    assert np.linalg.norm(gc[low], axis=1).max() < 0.03 * np.linalg.norm(gc[top], axis=1).min()
