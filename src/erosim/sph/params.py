@@ -84,7 +84,7 @@ class SPHParams(Section):
         "off", doc="particle shifting: 'off' or 'fickian' (Lind et al. 2012; keeps thin sheets and spray from clumping)"
     )
     shifting_coefficient: float = param(
-        2.0, gt=0, le=6, unit="1", doc="A of the shifting's D = A h_s U Δt (Skillen et al. 2013: 1–6, 2 by default)"
+        2.0, gt=0, le=6, unit="1", doc="A of the shifting's D_i = A h_s |v_i| Δt (Skillen et al. 2013: 1–6)"
     )
     viscosity: Literal["artificial", "laminar"] = param(
         "artificial", doc="'artificial' (Monaghan Π, SPH-6b) or 'laminar' (μ∇²v, SPH-6a)"
