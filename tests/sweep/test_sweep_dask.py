@@ -109,8 +109,11 @@ def test_resume_after_stopping_mid_way(tmp_path, how):
     ref = tmp_path / "uninterrupted"
     run_sweep("hydrology", LONGER, None, VARY, seeds=2, workers=2, threads=1, out=str(ref), progress=False)
     out = tmp_path / "stopped"
+    # SIG_DFL in the child: a shell's background job (`make test &`, nohup) ignores SIGINT, and a Python
+    # started with it ignored keeps ignoring it, so the Ctrl-C below would be lost
     proc = subprocess.Popen(_sweep_command(out), start_new_session=True, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)  # fmt: skip
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # fmt: skip
     first = out / "members" / "m0000" / "report.json"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and '"completed"' not in (first.read_text() if first.is_file() else ""):
