@@ -200,6 +200,15 @@ def kernel_lap(r, h: float, dim: int, kernel: str = "wendland") -> np.ndarray:
     return _values(2, r, h, dim, kernel)
 
 
+def lattice_sum(spacing: float, h: float, dim: int, kernel: str = "wendland") -> float:
+    """Σ_j W(|r_ij|, h) of a particle inside a full lattice of this spacing, itself included."""
+    k = int(np.ceil(h / spacing))
+    axis = np.arange(-k, k + 1) * spacing
+    pts = np.stack([g.ravel() for g in np.meshgrid(*([axis] * dim), indexing="ij")], axis=1)
+    r = np.sqrt((pts * pts).sum(axis=1))
+    return float(kernel_w(r[r < h], h, dim, kernel).sum())
+
+
 def kernel_grad(rvec, h: float, kernel: str = "wendland") -> np.ndarray:
     """∇W(r⃗, h) for an ``(n, dim)`` array of separation vectors r⃗ = r_i − r_j; returns ``(n, dim)``."""
     rvec = np.ascontiguousarray(np.atleast_2d(rvec), dtype=np.float64)

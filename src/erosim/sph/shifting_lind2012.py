@@ -175,15 +175,6 @@ def shift(pos, vel, n_fluid, gc, gct, divr, conc, coeff, surface, full, max_shif
             pos[i, 2] += s2
 
 
-def lattice_concentration(spacing: float, h: float, dim: int, kernel: str) -> float:
-    """C = Σ_j V_j W_ij of a particle inside a full lattice of this spacing (1.00 in 2-D, 1.03 in 3-D at h = 2Δx)."""
-    k = int(math.ceil(h / spacing))
-    axis = np.arange(-k, k + 1) * spacing
-    pts = np.stack([g.ravel() for g in np.meshgrid(*([axis] * dim), indexing="ij")], axis=1)
-    r = np.sqrt((pts * pts).sum(axis=1))
-    return float(spacing**dim * K.kernel_w(r[r < h], h, dim, kernel).sum())
-
-
 class FickianShifting:
     """The shifting step of a solver (see the module docstring); ``apply(dt)`` before each drift."""
 
@@ -195,16 +186,20 @@ class FickianShifting:
         wdx = float(K.kernel_w(np.array([prm.spacing]), solver.h, solver.dim, prm.kernel)[0])
         self.inv_wdx = 1.0 / wdx if wdx > 0 else 0.0
         self.surface = SURFACE[solver.dim]
-        self.full = lattice_concentration(prm.spacing, solver.h, solver.dim, prm.kernel)
+        # C of a particle inside a full lattice: 1.00 in 2-D, 1.03 in 3-D at h = 2Δx
+        self.full = prm.spacing**solver.dim * K.lattice_sum(prm.spacing, solver.h, solver.dim, prm.kernel)
         self.max_shift = MAX_SHIFT * prm.spacing
         self._shares = [b.shifting_share for b in solver.boundaries if getattr(b, "shifting_share", None)]
+        self._buf = (np.empty((0, solver.dim)), np.empty((0, solver.dim)), np.empty(0), np.empty(0))
 
     def gradients(self):
         """(∇C, ∇C̃, ∇·r, C) of the fluid particles, walls' shares included."""
         s = self.solver
         st = s.state
-        nf, d = st.n_fluid, s.dim
-        gc, gct, divr, conc = np.zeros((nf, d)), np.zeros((nf, d)), np.zeros(nf), np.zeros(nf)
+        nf = st.n_fluid
+        if len(self._buf[2]) < nf:  # grown with the fluid, not allocated each step; the pass writes every row
+            self._buf = (np.empty((2 * nf, s.dim)), np.empty((2 * nf, s.dim)), np.empty(2 * nf), np.empty(2 * nf))
+        gc, gct, divr, conc = (a[:nf] for a in self._buf)
         self._pass(st.pos, st.rho, s.start, s.nbr, nf, s.m, s.h, self.inv_wdx, gc, gct, divr, conc)
         for share in self._shares:
             share(s, gc, gct, divr, conc)

@@ -255,14 +255,9 @@ class SPHSolver:
 
     def _calibrate_mass(self) -> None:
         """Summation density: m such that an interior lattice particle has ρ = ρ₀ (not ρ₀Δx^d·ΣW)."""
-        from erosim.kernels.sph_kernels import kernel_w
+        from erosim.kernels.sph_kernels import lattice_sum
 
-        dx, d, h = self.params.spacing, self.dim, self.h
-        k = int(math.ceil(self.h / dx))
-        ax = np.arange(-k, k + 1) * dx
-        grid = np.stack([g.ravel() for g in np.meshgrid(*([ax] * d), indexing="ij")], axis=1)
-        r = np.sqrt((grid**2).sum(axis=1))
-        self.m = self.params.rho0 / float(kernel_w(r[r < h], h, d, self.params.kernel).sum())
+        self.m = self.params.rho0 / lattice_sum(self.params.spacing, self.h, self.dim, self.params.kernel)
 
     def _hydrostatic_start(self, up: np.ndarray, gnorm: float) -> None:
         """ρ from p = ρ₀|g|(H − z) below the fluid's top H (boundary particles: at least ρ₀)."""
@@ -291,20 +286,16 @@ class SPHSolver:
         does not fit a curved wall or a concave edge settles into its gap without the gap becoming pressure.
         A wall with no density share of its own (the box's reflection alone) counts as missing neighbours.
         """
-        from erosim.kernels.sph_kernels import kernel_w
+        from erosim.kernels.sph_kernels import lattice_sum
 
-        st, dx, d, h = self.state, self.params.spacing, self.dim, self.h
+        st = self.state
         total = np.zeros(st.n)
-        self._sumpass(st.pos, self.start, self.nbr, st.n_fluid, self.m, h, total)
+        self._sumpass(st.pos, self.start, self.nbr, st.n_fluid, self.m, self.h, total)
         for bd in self.boundaries:
             add = getattr(bd, "add_density", None)
             if add is not None:
                 add(self, total)
-        k = int(math.ceil(h / dx))
-        ax = np.arange(-k, k + 1) * dx
-        grid = np.stack([g.ravel() for g in np.meshgrid(*([ax] * d), indexing="ij")], axis=1)
-        r = np.sqrt((grid**2).sum(axis=1))
-        ref = self.m * float(kernel_w(r[r < h], h, d, self.params.kernel).sum())
+        ref = self.m * lattice_sum(self.params.spacing, self.h, self.dim, self.params.kernel)
         return total[: st.n_fluid] - ref
 
     def eos_args(self) -> tuple[float, float, float, float]:

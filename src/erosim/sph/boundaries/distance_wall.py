@@ -19,7 +19,7 @@ import numpy as np
 
 from erosim.core.errors import ConfigError
 from erosim.sph.boundaries.base import Boundary
-from erosim.sph.boundaries.wall_weight_harada2007 import G, H, T, Z, bake_cached, seed_rho1
+from erosim.sph.boundaries.wall_weight_harada2007 import bake_cached, seed_rho1, shifting_sums
 
 #: a particle put back on a wall sits this fraction of Δx above it
 GAP = 1e-3
@@ -85,17 +85,10 @@ class DistanceWall(Boundary):
     def shifting_share(self, solver, gc, gct, divr, conc) -> None:
         """The wall's share of particle shifting's sums (:mod:`erosim.sph.shifting_lind2012`): a flat
         layer of wall particles at ρ₀, ∇C += (m/ρ₀) G(l) n, ∇·r −= (m/ρ₀)(H(l) + (d − 1) T(l)), C += Z(l)/ρ₀."""
-        tab, dl = self.curves.table, self.curves.dl
-        ls = np.arange(tab.shape[1]) * dl
-        vol = self.m / solver.params.rho0
+        rho0 = solver.params.rho0
         for l, n in self.wall_distances(solver):
-            near = l < self.curves.support
-            lc = np.maximum(l[near], 0.0)
-            g = vol * np.interp(lc, ls, tab[G])
-            gc[near] += g[:, None] * n[near]
-            gct[near] += g[:, None] * n[near]
-            divr[near] -= vol * (np.interp(lc, ls, tab[H]) + (solver.dim - 1) * np.interp(lc, ls, tab[T]))
-            conc[near] += np.interp(lc, ls, tab[Z]) / solver.params.rho0
+            shifting_sums(self.curves.table, self.curves.dl, l, np.ascontiguousarray(n), self.m / rho0, rho0, gc, gct,
+                          divr, conc)  # fmt: skip
 
     def constrain(self, solver) -> None:
         st = solver.state

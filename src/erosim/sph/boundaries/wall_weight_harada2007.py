@@ -64,7 +64,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from erosim.core.atomic import save_npz
 from erosim.kernels import sph_kernels
@@ -270,6 +270,24 @@ def wall_rates(table, dl, approach_only, rho1, c2, i, l, n0, n1, n2, vel, rho, p
         acc[i, 2] += an * n2 + ct * t2 + cgt * (g2 - gn * n2)
     if not summation:
         drho[i] += m * vn * cg
+
+
+@njit(parallel=True, cache=True)
+def shifting_sums(table, dl, l, n, vol, rho0, gc, gct, divr, conc):
+    """A wall's share of particle shifting's sums (:mod:`erosim.sph.shifting_lind2012`) at distances ``l``
+    with unit normals ``n`` into the fluid: ∇C and ∇C̃ += vol G(l) n, ∇·r −= vol (H(l) + (d − 1) T(l)),
+    C += Z(l)/ρ₀ (``vol`` = m/ρ₀; zero beyond the support)."""
+    d = n.shape[1]
+    support = dl * (table.shape[1] - 1)
+    for i in prange(l.shape[0]):
+        if l[i] >= support:  # also keeps a far particle's huge l out of the table's index
+            continue
+        z, g, hh, t, _, _, _, _ = lookup(table, dl, l[i])
+        for a in range(d):
+            gc[i, a] += vol * g * n[i, a]
+            gct[i, a] += vol * g * n[i, a]
+        divr[i] -= vol * (hh + (d - 1) * t)
+        conc[i] += z / rho0
 
 
 @njit(inline="always", cache=True)
