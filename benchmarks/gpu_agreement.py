@@ -32,21 +32,15 @@ def rel_diff(a, b) -> dict[str, float]:
     return out
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--particles", type=int, default=20_000)
-    ap.add_argument("--steps", type=int, default=100)
-    ap.add_argument("--dim", type=int, choices=(2, 3), default=3)
-    ap.add_argument("--tolerance", type=float, default=1e-9)
-    args = ap.parse_args(argv)
-
+def agreement(particles: int = 20_000, steps: int = 100, dim: int = 3, tolerance: float = 1e-9) -> dict:
+    """The check's JSON object (see the module docstring); ``passed`` says whether it held."""
     from erosim.bench.sph import dam_break_geometry
     from erosim.sph.params import SPHParams
     from erosim.sph.solver import SPHSolver
     from erosim.sph.solver_cuda import CudaSPHSolver
 
-    fluid, lo, hi = dam_break_geometry(args.particles, args.dim, 0.01)
-    prm = SPHParams(dim=args.dim, spacing=0.01)
+    fluid, lo, hi = dam_break_geometry(particles, dim, 0.01)
+    prm = SPHParams(dim=dim, spacing=0.01)
     cpu = SPHSolver(prm, fluid, domain_lo=lo, domain_hi=hi)
     gpu = CudaSPHSolver(prm, fluid, domain_lo=lo, domain_hi=hi)
     s, m, nbr = gpu.device_lists()
@@ -56,7 +50,7 @@ def main(argv=None) -> int:
     cpu.step()
     gpu.step()
     first = rel_diff(cpu, gpu)
-    for _ in range(args.steps - 1):
+    for _ in range(steps - 1):
         cpu.step()
         gpu.step()
     last = rel_diff(cpu, gpu)
@@ -68,10 +62,21 @@ def main(argv=None) -> int:
         "rebuilds": [cpu.rebuilds, gpu.rebuilds],
         "lists_equal_at_start": lists_equal,
         "rel_diff_after_1_step": first,
-        f"rel_diff_after_{args.steps}_steps": last,
-        "tolerance": args.tolerance,
-        "passed": lists_equal and max(last.values()) <= args.tolerance,
+        f"rel_diff_after_{steps}_steps": last,
+        "tolerance": tolerance,
+        "passed": lists_equal and max(last.values()) <= tolerance,
     }
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--particles", type=int, default=20_000)
+    ap.add_argument("--steps", type=int, default=100)
+    ap.add_argument("--dim", type=int, choices=(2, 3), default=3)
+    ap.add_argument("--tolerance", type=float, default=1e-9)
+    args = ap.parse_args(argv)
+    out = agreement(args.particles, args.steps, args.dim, args.tolerance)
     print(json.dumps(out))
     return 0 if out["passed"] else 1
 
