@@ -382,3 +382,16 @@ def test_device_on_a_kind_without_one_is_one_sentence(cli_runner, tmp_path, monk
     assert res.exit_code == 2
     assert "--device applies to kind = \"sph\" scenarios, not 'hydrology'" in res.output
     assert not out.exists()
+
+
+def test_numpy_alias_restored_for_numba_cuda(monkeypatch):
+    """numpy 2.5 dropped np.row_stack, which numba-cuda releases of its time overload at their first
+    compile (an AttributeError on a real GPU image): the device check puts the alias back, as vstack."""
+    import numpy as np
+
+    from erosim.core import devices
+
+    monkeypatch.delattr(np, "row_stack", raising=False)
+    assert "row_stack" not in vars(np)
+    devices.cuda_status()
+    assert np.row_stack is np.vstack

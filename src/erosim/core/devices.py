@@ -3,6 +3,12 @@
 The CUDA path needs an NVIDIA GPU with its driver and the ``numba-cuda`` package (``pip install
 'erosim[cuda]'``). With ``NUMBA_ENABLE_CUDASIM=1`` Numba's CUDA simulator stands in for the GPU: the
 same kernels run as Python on the CPU — correct, very slow, for tests only.
+
+numba-cuda releases built before numpy 2.5 register an overload of ``np.row_stack`` when the first
+kernel compiles; numpy 2.5 removed that alias of ``np.vstack`` (deprecated since 2.0), and every
+compile then fails with AttributeError (seen on a CUDA image with numpy 2.5.2). :func:`numpy_aliases`
+puts the alias back, naming the function it always named, only where numpy lacks it, before
+numba-cuda is imported.
 """
 
 from __future__ import annotations
@@ -19,8 +25,17 @@ def simulator() -> bool:
     return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") not in ("", "0")
 
 
+def numpy_aliases() -> None:
+    """Restore ``np.row_stack`` (= ``np.vstack``) where numpy ≥ 2.5 removed it (module docstring)."""
+    import numpy as np
+
+    if "row_stack" not in vars(np):
+        np.row_stack = np.vstack
+
+
 def cuda_status() -> tuple[bool, str]:
     """(usable, what): whether ``--device cuda`` can run here, and the GPU or the reason in words."""
+    numpy_aliases()
     if simulator():
         return True, "Numba CUDA simulator (NUMBA_ENABLE_CUDASIM=1: the kernels run as Python, for tests)"
     try:
