@@ -82,17 +82,18 @@ def _require_device(device: str | None) -> None:
 
 
 def _check_device_kind(scenario, resume, preset) -> None:
-    """--device is a setting of kind = "sph" scenarios only: one sentence for the others."""
+    """--device is a setting of kind = "sph" and "flood" scenarios only: one sentence for the others."""
     from erosim.scenarios import loader
 
     try:
         sc = loader.load(Path(resume) / "scenario.toml", []) if resume else loader.load(scenario, [], preset)
     except ErosimError:
         return  # the run itself reports what is wrong with the scenario
-    if sc.kind != "sph":
+    if sc.kind not in ("sph", "flood"):
         _fail(
             ErosimError(
-                f"--device applies to kind = \"sph\" scenarios, not '{sc.name}' (kind '{sc.kind}'); leave it out."
+                f"--device applies to kind = \"sph\" and \"flood\" scenarios, not '{sc.name}' (kind '{sc.kind}'); "
+                "leave it out."
             )
         )
 
@@ -152,7 +153,7 @@ def cli(threads: int | None, quiet: bool, debug: bool) -> None:
     "--resume", type=click.Path(file_okay=False), default=None, help="Continue an interrupted run from its folder."
 )
 @click.option("--overwrite", is_flag=True, help="Allow writing into an existing, non-empty --out folder.")
-@_device_option('Where the SPH steps run, for kind = "sph" scenarios: cpu or cuda; sets run.device')
+@_device_option('Where the SPH steps run, for kind = "sph" and "flood" scenarios: cpu or cuda; sets run.device')
 def run(scenario, overrides, preset, out, resume, overwrite, device):
     """Run SCENARIO (a library name or a TOML file) and write a run folder."""
     from erosim.api import execute
@@ -438,13 +439,15 @@ def bench_voxel(particles, steps, every, as_json):
 @click.option("--t-end", type=click.FloatRange(min=1), default=4000.0, show_default=True, help="Simulated seconds.")
 @click.option("--spacing", type=click.FloatRange(min=5), default=20.0, show_default=True, help="Particle spacing (m).")
 @click.option("--split/--no-split", default=False, show_default=True, help="Particle splitting where the flow thins.")
+@_device_option("Where the shallow-water SPH steps run: cpu or cuda")
 @click.option("--json", "as_json", is_flag=True)
-def bench_flood(t_end, spacing, split, as_json):
+def bench_flood(t_end, spacing, split, device, as_json):
     """A dam break down a 10 km valley (shallow-water SPH, hazard maxima every step)."""
     from erosim.scenarios.kinds import resolve
 
+    _require_device(device)
     fn = _guard(resolve, "erosim.bench.flood:run")
-    _print_result(_guard(fn, t_end, spacing, split=split), as_json)
+    _print_result(_guard(fn, t_end, spacing, split=split, device=device or "cpu"), as_json)
 
 
 @bench.command(name="hydrology")

@@ -45,7 +45,7 @@ def valley_dem(floor_width: float = 1000.0, seed: int = 7):
     return Heightmap(z=z, cell_size=CELL, transform=default_transform(ny, nx, CELL))
 
 
-def run(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False) -> dict:
+def run(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, device: str = "cpu") -> dict:
     """Run the benchmark flood; returns the JSON-able result (keys in the module docstring)."""
     import numba
 
@@ -70,6 +70,7 @@ def run(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False) ->
                 f"flood.spacing={spacing!r}",
                 f"flood.split={'true' if split else 'false'}",
                 f"run.t_end={t_end!r}",
+                f"run.device={device}",
             ],
         )
         cfg = scenario.config.model_copy(update={"breach": None})
@@ -91,6 +92,7 @@ def run(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False) ->
         if solver.n == 0:
             break
     wall = time.perf_counter() - t1
+    solver.sync_maxima(maps)
     summary = maps.summary(CELL * CELL)
     return {
         "case": "10 km valley dam break (shallow-water SPH)",

@@ -103,29 +103,37 @@ def bin_particles(pos, n, x0, y0, cell, ncx, ncy, cell_start, order):
         fill[c] += 1
 
 
+@njit(cache=True)
+def pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, k, nbr, fill):
+    """Particle i's pairs j ≠ i with r_ij < max(H_i, H_j), in cell order: written to nbr[k…] when
+    ``fill``; returns k plus their number."""
+    cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
+    cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
+    for gy in range(max(cy - 1, 0), min(cy + 2, ncy)):
+        for gx in range(max(cx - 1, 0), min(cx + 2, ncx)):
+            c = gy * ncx + gx
+            for q in range(cell_start[c], cell_start[c + 1]):
+                j = order[q]
+                if j == i:
+                    continue
+                dx = pos[i, 0] - pos[j, 0]
+                dy = pos[i, 1] - pos[j, 1]
+                hm = max(hsup[i], hsup[j])
+                if dx * dx + dy * dy < hm * hm:
+                    if fill:
+                        nbr[k] = j
+                    k += 1
+    return k
+
+
 @njit(parallel=True, cache=True)
 def scan_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, count, start, nbr, fill):
     """The pairs j ≠ i with r_ij < max(H_i, H_j) (cells of edge ≥ max H): their number in ``count[i]``
     (``fill`` False), or, with the offsets ``start`` from those counts, the CSR lists
     nbr[start[i]:start[i+1]] in cell order (``fill`` True)."""
     for i in prange(n):
-        cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
-        cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
-        k = start[i] if fill else 0
-        for gy in range(max(cy - 1, 0), min(cy + 2, ncy)):
-            for gx in range(max(cx - 1, 0), min(cx + 2, ncx)):
-                c = gy * ncx + gx
-                for q in range(cell_start[c], cell_start[c + 1]):
-                    j = order[q]
-                    if j == i:
-                        continue
-                    dx = pos[i, 0] - pos[j, 0]
-                    dy = pos[i, 1] - pos[j, 1]
-                    hm = max(hsup[i], hsup[j])
-                    if dx * dx + dy * dy < hm * hm:
-                        if fill:
-                            nbr[k] = j
-                        k += 1
+        k0 = start[i] if fill else 0
+        k = pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, k0, nbr, fill)
         if not fill:
             count[i] = k
 
@@ -148,40 +156,46 @@ def depth_and_support(pos, vol, hsup, n, start, nbr, k2, h_min, h_max, tol, max_
     """
     iters = np.zeros(n, np.int64)
     for i in prange(n):
-        h = min(max(hsup[i], h_min), h_max)
-        vi = vol[i]
-        delta = k2 * vi / (h_max * h_max)
-        s = 0.0
-        ds = 0.0
-        it = 0
-        for it in range(max_iter):  # noqa: B007 (the count is kept)
-            s = vi * wendland_w_2d(0.0, h)
-            ds = vi * dw_dh(0.0, h)
-            for q in range(start[i], start[i + 1]):
-                j = nbr[q]
-                dx = pos[i, 0] - pos[j, 0]
-                dy = pos[i, 1] - pos[j, 1]
-                r = math.sqrt(dx * dx + dy * dy)
-                if r < h:
-                    s += vol[j] * wendland_w_2d(r, h)
-                    ds += vol[j] * dw_dh(r, h)
-            res = s + delta - k2 * vi / (h * h)
-            der = ds + 2.0 * k2 * vi / (h * h * h)
-            if der <= 0.0:
-                hn = h * 1.2 if res < 0.0 else h * 0.8
-            else:
-                hn = h - res / der
-            hn = min(max(hn, 0.8 * h), 1.25 * h)  # damped Newton: at most 25 % a step
-            hn = min(max(hn, h_min), h_max)
-            if abs(hn - h) <= tol * h:
-                break  # converged: keep H and the sums evaluated at it
-            h = hn
-        iters[i] = it + 1
-        hsup[i] = h
-        depth[i] = s
-        om = 1.0 + h / (2.0 * (s + delta)) * ds
-        omega[i] = min(max(om, 0.25), 4.0)
+        iters[i] = depth_support_particle(i, pos, vol, hsup, start, nbr, k2, h_min, h_max, tol, max_iter, depth, omega)
     return iters.max()
+
+
+@njit(cache=True)
+def depth_support_particle(i, pos, vol, hsup, start, nbr, k2, h_min, h_max, tol, max_iter, depth, omega):
+    """Particle i's Newton solve of :func:`depth_and_support`; returns its iterations."""
+    h = min(max(hsup[i], h_min), h_max)
+    vi = vol[i]
+    delta = k2 * vi / (h_max * h_max)
+    s = 0.0
+    ds = 0.0
+    it = 0
+    for it in range(max_iter):  # noqa: B007 (the count is kept)
+        s = vi * wendland_w_2d(0.0, h)
+        ds = vi * dw_dh(0.0, h)
+        for q in range(start[i], start[i + 1]):
+            j = nbr[q]
+            dx = pos[i, 0] - pos[j, 0]
+            dy = pos[i, 1] - pos[j, 1]
+            r = math.sqrt(dx * dx + dy * dy)
+            if r < h:
+                s += vol[j] * wendland_w_2d(r, h)
+                ds += vol[j] * dw_dh(r, h)
+        res = s + delta - k2 * vi / (h * h)
+        der = ds + 2.0 * k2 * vi / (h * h * h)
+        if der <= 0.0:
+            hn = h * 1.2 if res < 0.0 else h * 0.8
+        else:
+            hn = h - res / der
+        hn = min(max(hn, 0.8 * h), 1.25 * h)  # damped Newton: at most 25 % a step
+        hn = min(max(hn, h_min), h_max)
+        if abs(hn - h) <= tol * h:
+            break  # converged: keep H and the sums evaluated at it
+        h = hn
+    hsup[i] = h
+    depth[i] = s
+    om = 1.0 + h / (2.0 * (s + delta)) * ds
+    omega[i] = min(max(om, 0.25), 4.0)
+    return it + 1
 
 
 # ---------------------------------------------------------------- accelerations
@@ -199,37 +213,44 @@ def accelerations(pos, vel, vol, hsup, depth, omega, n, start, nbr, bed, inv_cel
     h̄ = H̄/2 (Monaghan 1992 in depth form) captures bores.
     """
     for i in prange(n):
-        xi = pos[i, 0]
-        yi = pos[i, 1]
-        hi = hsup[i]
-        ci = math.sqrt(g * depth[i])
-        ax = 0.0
-        ay = 0.0
-        for q in range(start[i], start[i + 1]):
-            j = nbr[q]
-            dx = xi - pos[j, 0]
-            dy = yi - pos[j, 1]
-            r2 = dx * dx + dy * dy
-            r = math.sqrt(r2)
-            hj = hsup[j]
-            fi = wendland_f_2d(r, hi)
-            fj = wendland_f_2d(r, hj)
-            fp = 0.5 * g * vol[j] * (fi / omega[i] + fj / omega[j])
-            ax -= fp * dx
-            ay -= fp * dy
-            vdr = (vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy
-            if alpha > 0.0 and vdr < 0.0:
-                hb = 0.25 * (hi + hj)
-                mu = hb * vdr / (r2 + 0.01 * hb * hb)
-                cb = 0.5 * (ci + math.sqrt(g * depth[j]))
-                db = 0.5 * (depth[i] + depth[j])
-                pi_ij = -alpha * cb * mu / db
-                fv = vol[j] * pi_ij * 0.5 * (fi + fj)
-                ax -= fv * dx
-                ay -= fv * dy
-        _, gx, gy = bed_c1(bed, xi * inv_cell, yi * inv_cell)
+        ax, ay = pair_forces_particle(i, pos, vel, vol, hsup, depth, omega, start, nbr, g, alpha)
+        _, gx, gy = bed_c1(bed, pos[i, 0] * inv_cell, pos[i, 1] * inv_cell)
         acc[i, 0] = ax - g * gx * inv_cell
         acc[i, 1] = ay - g * gy * inv_cell
+
+
+@njit(cache=True)
+def pair_forces_particle(i, pos, vel, vol, hsup, depth, omega, start, nbr, g, alpha):
+    """Particle i's pressure and artificial-viscosity sum of :func:`accelerations` (the bed apart)."""
+    xi = pos[i, 0]
+    yi = pos[i, 1]
+    hi = hsup[i]
+    ci = math.sqrt(g * depth[i])
+    ax = 0.0
+    ay = 0.0
+    for q in range(start[i], start[i + 1]):
+        j = nbr[q]
+        dx = xi - pos[j, 0]
+        dy = yi - pos[j, 1]
+        r2 = dx * dx + dy * dy
+        r = math.sqrt(r2)
+        hj = hsup[j]
+        fi = wendland_f_2d(r, hi)
+        fj = wendland_f_2d(r, hj)
+        fp = 0.5 * g * vol[j] * (fi / omega[i] + fj / omega[j])
+        ax -= fp * dx
+        ay -= fp * dy
+        vdr = (vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy
+        if alpha > 0.0 and vdr < 0.0:
+            hb = 0.25 * (hi + hj)
+            mu = hb * vdr / (r2 + 0.01 * hb * hb)
+            cb = 0.5 * (ci + math.sqrt(g * depth[j]))
+            db = 0.5 * (depth[i] + depth[j])
+            pi_ij = -alpha * cb * mu / db
+            fv = vol[j] * pi_ij * 0.5 * (fi + fj)
+            ax -= fv * dx
+            ay -= fv * dy
+    return ax, ay
 
 
 @njit(parallel=True, cache=True)
@@ -240,18 +261,24 @@ def kick(vel, acc, depth, manning, inv_cell, pos, n, dt, g, d_floor):
     the water (d is floored at ``d_floor`` only to avoid 0/0). ``manning`` is a map of n on the DEM
     grid (nearest cell).
     """
-    ny, nx = manning.shape
     for i in prange(n):
-        ux = vel[i, 0] + dt * acc[i, 0]
-        uy = vel[i, 1] + dt * acc[i, 1]
-        col = min(max(int(pos[i, 0] * inv_cell + 0.5), 0), nx - 1)
-        row = min(max(int(pos[i, 1] * inv_cell + 0.5), 0), ny - 1)
-        nn = manning[row, col]
-        d = max(depth[i], d_floor)
-        speed = math.sqrt(ux * ux + uy * uy)
-        den = 1.0 + dt * g * nn * nn * speed / d ** (4.0 / 3.0)
-        vel[i, 0] = ux / den
-        vel[i, 1] = uy / den
+        kick_particle(i, vel, acc, depth, manning, inv_cell, pos, dt, g, d_floor)
+
+
+@njit(cache=True)
+def kick_particle(i, vel, acc, depth, manning, inv_cell, pos, dt, g, d_floor):
+    """Particle i's semi-implicit Manning kick of :func:`kick`."""
+    ny, nx = manning.shape
+    ux = vel[i, 0] + dt * acc[i, 0]
+    uy = vel[i, 1] + dt * acc[i, 1]
+    col = min(max(int(pos[i, 0] * inv_cell + 0.5), 0), nx - 1)
+    row = min(max(int(pos[i, 1] * inv_cell + 0.5), 0), ny - 1)
+    nn = manning[row, col]
+    d = max(depth[i], d_floor)
+    speed = math.sqrt(ux * ux + uy * uy)
+    den = 1.0 + dt * g * nn * nn * speed / d ** (4.0 / 3.0)
+    vel[i, 0] = ux / den
+    vel[i, 1] = uy / den
 
 
 @njit(parallel=True, cache=True)
@@ -266,32 +293,38 @@ def drift(pos, vel, n, dt, inv_cell, wall, open_w, open_e, open_n, open_s, out, 
     flagged in ``out`` (removed by the caller, its water counted). Edges: west x < −Δ/2,
     east x > (nx−½)Δ, north y < −Δ/2 (row 0), south y > (ny−½)Δ.
     """
-    ny, nx = wall.shape
     for i in prange(n):
-        blocked[i] = 0
-        ox = pos[i, 0]
-        oy = pos[i, 1]
-        x = ox + dt * vel[i, 0]
-        y = oy + dt * vel[i, 1]
-        c0 = int(math.floor(ox * inv_cell + 0.5))
-        r0 = int(math.floor(oy * inv_cell + 0.5))
-        c1 = int(math.floor(x * inv_cell + 0.5))
-        r1 = int(math.floor(y * inv_cell + 0.5))
-        leaving = (c1 < 0 and open_w) or (c1 >= nx and open_e) or (r1 < 0 and open_n) or (r1 >= ny and open_s)
-        if leaving:
-            pos[i, 0] = x
-            pos[i, 1] = y
-            out[i] = True
-            continue
-        blocked_x = c1 < 0 or c1 >= nx or wall[min(max(r0, 0), ny - 1), c1]
-        blocked_y = r1 < 0 or r1 >= ny or wall[r1, min(max(c0, 0), nx - 1)]
-        if not (blocked_x or blocked_y or wall[min(max(r1, 0), ny - 1), min(max(c1, 0), nx - 1)]):
-            pos[i, 0] = x
-            pos[i, 1] = y
-            continue
-        vel[i, 0] = 0.0
-        vel[i, 1] = 0.0
-        blocked[i] = 1
+        drift_particle(i, pos, vel, dt, inv_cell, wall, open_w, open_e, open_n, open_s, out, blocked)
+
+
+@njit(cache=True)
+def drift_particle(i, pos, vel, dt, inv_cell, wall, open_w, open_e, open_n, open_s, out, blocked):
+    """Particle i's drift of :func:`drift`."""
+    ny, nx = wall.shape
+    blocked[i] = 0
+    ox = pos[i, 0]
+    oy = pos[i, 1]
+    x = ox + dt * vel[i, 0]
+    y = oy + dt * vel[i, 1]
+    c0 = int(math.floor(ox * inv_cell + 0.5))
+    r0 = int(math.floor(oy * inv_cell + 0.5))
+    c1 = int(math.floor(x * inv_cell + 0.5))
+    r1 = int(math.floor(y * inv_cell + 0.5))
+    leaving = (c1 < 0 and open_w) or (c1 >= nx and open_e) or (r1 < 0 and open_n) or (r1 >= ny and open_s)
+    if leaving:
+        pos[i, 0] = x
+        pos[i, 1] = y
+        out[i] = True
+        return
+    blocked_x = c1 < 0 or c1 >= nx or wall[min(max(r0, 0), ny - 1), c1]
+    blocked_y = r1 < 0 or r1 >= ny or wall[r1, min(max(c0, 0), nx - 1)]
+    if not (blocked_x or blocked_y or wall[min(max(r1, 0), ny - 1), min(max(c1, 0), nx - 1)]):
+        pos[i, 0] = x
+        pos[i, 1] = y
+        return
+    vel[i, 0] = 0.0
+    vel[i, 1] = 0.0
+    blocked[i] = 1
 
 
 @njit(parallel=True, cache=True)
@@ -308,10 +341,15 @@ def step_limit(vel, depth, hsup, n, g):
     """min_i H_i / (√(g d_i) + |u_i|) — the CFL time-step scale (times the Courant number)."""
     best = np.full(n, np.inf)
     for i in prange(n):
-        c = math.sqrt(g * depth[i]) + math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2)
-        if c > 0.0:
-            best[i] = hsup[i] / c
+        best[i] = cfl_scale(i, vel, depth, hsup, g)
     return best.min() if n > 0 else np.inf
+
+
+@njit(cache=True)
+def cfl_scale(i, vel, depth, hsup, g):
+    """H_i / (√(g d_i) + |u_i|), or inf for a particle at rest in no water."""
+    c = math.sqrt(g * depth[i]) + math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2)
+    return hsup[i] / c if c > 0.0 else np.inf
 
 
 @njit(cache=True)
@@ -338,16 +376,7 @@ def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, ma
         if d < wet:
             continue
         u = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2)
-        half = 0.5 * math.sqrt(vol[i] / d) * inv_cell
-        cx = pos[i, 0] * inv_cell
-        cy = pos[i, 1] * inv_cell
-        c_lo = max(int(math.ceil(cx - half)), 0)
-        c_hi = min(int(math.floor(cx + half)), nx - 1)
-        r_lo = max(int(math.ceil(cy - half)), 0)
-        r_hi = min(int(math.floor(cy + half)), ny - 1)
-        if c_lo > c_hi or r_lo > r_hi:  # a footprint smaller than a cell marks the cell it is in
-            c_lo = c_hi = min(max(int(math.floor(cx + 0.5)), 0), nx - 1)
-            r_lo = r_hi = min(max(int(math.floor(cy + 0.5)), 0), ny - 1)
+        r_lo, r_hi, c_lo, c_hi = footprint_cells(i, pos, vol, depth, inv_cell, ny, nx)
         for r in range(r_lo, r_hi + 1):
             for c in range(c_lo, c_hi + 1):
                 if d > max_d[r, c]:
@@ -358,6 +387,22 @@ def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, ma
                     max_dv[r, c] = d * u
                 if t < arrival[r, c]:
                     arrival[r, c] = t
+
+
+@njit(cache=True)
+def footprint_cells(i, pos, vol, depth, inv_cell, ny, nx):
+    """(first row, last row, first column, last column) of the cells under particle i's square."""
+    half = 0.5 * math.sqrt(vol[i] / depth[i]) * inv_cell
+    cx = pos[i, 0] * inv_cell
+    cy = pos[i, 1] * inv_cell
+    c_lo = max(int(math.ceil(cx - half)), 0)
+    c_hi = min(int(math.floor(cx + half)), nx - 1)
+    r_lo = max(int(math.ceil(cy - half)), 0)
+    r_hi = min(int(math.floor(cy + half)), ny - 1)
+    if c_lo > c_hi or r_lo > r_hi:  # a footprint smaller than a cell marks the cell it is in
+        c_lo = c_hi = min(max(int(math.floor(cx + 0.5)), 0), nx - 1)
+        r_lo = r_hi = min(max(int(math.floor(cy + 0.5)), 0), ny - 1)
+    return r_lo, r_hi, c_lo, c_hi
 
 
 @njit(cache=True)

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from erosim.analysis.hazard import HazardMaps, polygon_mask
-from erosim.core.errors import InputError
+from erosim.core.errors import ConfigError, InputError
 from erosim.core.heightmap import default_transform, fractional_cell
 from erosim.scenarios.schema_common import build_terrain, terrain_facts
 from erosim.scenarios.schema_flood import FloodScenario
@@ -131,6 +131,11 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
     if fl.solver == "sph3d":
         from erosim.scenarios.flood_sph3d import SPHFlood
 
+        if cfg.run.device == "cuda":
+            raise ConfigError(
+                "flood.solver = 'sph3d' runs on device 'cpu' only; run with --device cpu or flood.solver = 'swe'."
+            )
+
         estimate = float(site.depth0.sum()) * hm.cell_size**2 / spacing**3
         if estimate > MAX_PARTICLES:
             raise InputError(
@@ -161,7 +166,10 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
             f"No particle fits the reservoir at flood.spacing = {spacing:g} m; give a smaller spacing or raise "
             "reservoir.level."
         )
-    solver = ShallowWaterSPH(
+    solver_class = ShallowWaterSPH
+    if cfg.run.device == "cuda":
+        from erosim.sph.shallow_water_cuda import CudaShallowWaterSPH as solver_class
+    solver = solver_class(
         site.dem.z, hm.cell_size, pos, vol, spacing, ShallowWaterParams(**params), manning=manning, wall=closed,
         open_edges=tuple(cfg.outflow.edges), surface=site.level,
     )  # fmt: skip
@@ -183,6 +191,7 @@ class HazardTracker(cb.Callback):
         self.solver.update_maxima(self.maps, self.maps.wet_depth)
 
     def state_dict(self) -> dict[str, Any]:
+        self.solver.sync_maxima(self.maps)
         return self.maps.state_dict()
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
@@ -238,6 +247,7 @@ class FloodOutputs(cb.Callback):
         self.site, self.solver, self.maps, self.inside = site, solver, maps, inside
 
     def finalize(self, sim) -> dict[str, Any]:
+        self.solver.sync_maxima(self.maps)
         write_flood_maps(sim.out.path, self.site, self.solver, self.maps, self.inside)
         return {}
 
@@ -325,6 +335,7 @@ def setup(scenario, out) -> Setup:
     callbacks.append(FloodOutputs(site, solver, maps, inside))
 
     def report(sim) -> dict[str, Any]:
+        solver.sync_maxima(maps)
         summary = maps.summary(hm.cell_size**2, inside)
         budget = solver.budget()
         rep = {

@@ -152,6 +152,9 @@ class SPHFlood:
         n = st.n_fluid
         return column_fields(st.pos[:n], st.vel[:n], self.solver.m / st.rho[:n], self.spacing, self._col_shape)
 
+    def sync_maxima(self, maps) -> None:
+        """The maxima are raised in ``maps``' own arrays (nothing to bring back)."""
+
     def update_maxima(self, maps, wet: float) -> None:
         """Each particle marks the DEM cell under it with its column's depth and velocity, by the rule
         of the shallow-water solver (:func:`erosim.kernels.swe_sph.footprint_maxima`)."""

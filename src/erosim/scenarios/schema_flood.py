@@ -11,7 +11,7 @@ SPEC FL-1…FL-4).
     [flood]        solver ("swe"), spacing, manning (or manning_file), wet_depth, the solver's settings
     [hazard]       inside = [[x, y], …]: a polygon whose flooded area and class shares are reported too
     [gauges]       file = "gauges.csv" (columns name,x,y)
-    [run]          t_end, sample_interval, map_frames, checkpoint_wall_s
+    [run]          t_end, sample_interval, map_frames, checkpoint_wall_s, device ("cpu" or "cuda")
 
 Every horizontal position is in the DEM's own coordinates (its CRS units; a generated terrain's are
 metres from its north-west corner, as :func:`erosim.core.heightmap.default_transform` lays it out).
@@ -86,6 +86,9 @@ class FloodRun(Section):
     map_frames: int = param(12, ge=0, le=200, unit="1", doc="depth frames over the run (figures, GIF; maps/frames/)")
     output_interval: float = param(0.0, ge=0, unit="s", doc="particle frames (.vtp) every this long; 0: none")
     checkpoint_wall_s: float = param(300.0, gt=0, unit="s", doc="wall-clock time between checkpoints")
+    device: Literal["cpu", "cuda"] = param(
+        "cpu", doc="where the shallow-water SPH steps run: 'cpu' or 'cuda' (an NVIDIA GPU; docs/gpu.md)"
+    )
 
 
 class FloodScenario(Section):

@@ -437,6 +437,10 @@ class ShallowWaterSPH:
             maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
         )  # fmt: skip
 
+    def sync_maxima(self, maps) -> None:
+        """Bring the hazard maxima to ``maps``' arrays before they are read (a device solver keeps them
+        on the GPU); here they are already there."""
+
     def stats(self) -> dict:
         return {
             "particles": self.n,
@@ -463,7 +467,7 @@ class ShallowWaterSPH:
 
     def load_state_dict(self, state: dict) -> None:
         for k in self._ARRAYS:
-            setattr(self, k, np.ascontiguousarray(state[k]))
+            setattr(self, k, np.array(state[k], order="C"))  # a copy: the state may be read again
         for k in ("t", "last_dt", "volume_initial", "volume_out"):
             setattr(self, k, float(np.asarray(state[k])))
         for k in ("steps", "splits", "settle_steps", "rebuilds"):

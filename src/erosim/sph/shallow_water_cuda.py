@@ -1,0 +1,349 @@
+"""The shallow-water SPH step on a CUDA device (``run.device = "cuda"`` of ``flood`` scenarios).
+
+:class:`CudaShallowWaterSPH` is :class:`~erosim.sph.shallow_water_vacondio2012.ShallowWaterSPH` with
+its steps on the GPU. It is built, and the reservoir settles, on the host exactly as on the CPU; at the
+first step of the run the particles, the bed, the walls and the Manning map move to the device and
+stay there. A step runs the CPU step's passes in its order (:mod:`erosim.sph.kernels_swe_cuda`): CFL
+limit → half kick → drift → [particles that left by an open edge removed] → lists rebuilt when a
+particle moved or grew past its skin → depth and H (Newton) → accelerations → half kick → contacts
+held. Three numbers come back per step (the CFL scale, the count of particles that left, the count of
+non-finite speeds) and one per list test; the hazard maxima are raised on the device every step.
+Fields come back only when an output, a gauge, a map or a checkpoint reads them; removing the
+particles that left (a few steps of a run) is done on the host, which then sends the state back.
+
+Both devices run the same per-particle functions over the same lists; they differ by rounding only
+(the GPU contracts a·b + c into fused multiply-adds). Checkpoints are the CPU's: either device resumes
+the other's. Particle splitting (``flood.split``) stays on the CPU: asking for it on the device is a
+one-sentence error.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from erosim.core import devices
+from erosim.core.errors import ConfigError, InstabilityError
+from erosim.sph.shallow_water_vacondio2012 import ShallowWaterSPH
+
+_FIELDS = ("pos", "vel", "hsup", "depth", "omega", "acc")  # what the device changes
+_CONSTANT = ("vol",)  # per particle, changed only on the host (removal)
+
+
+class _OnTheHost:
+    """A particle field of :class:`CudaShallowWaterSPH` as the host sees it: reading it first brings the
+    device's copy back when the device is ahead; assigning it marks the device's copy out of date."""
+
+    def __set_name__(self, owner, name):
+        self.key = "_host_" + name
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return self
+        obj._pull()
+        return obj.__dict__[self.key]
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.key] = value
+        obj._device_stale = True
+
+
+class CudaShallowWaterSPH(ShallowWaterSPH):
+    """:class:`ShallowWaterSPH` whose run steps are on a CUDA GPU (see the module docstring)."""
+
+    device = "cuda"
+    pos = _OnTheHost()
+    vel = _OnTheHost()
+    hsup = _OnTheHost()
+    depth = _OnTheHost()
+    omega = _OnTheHost()
+    acc = _OnTheHost()
+
+    def __init__(self, *args, **kwargs):
+        devices.require("cuda")
+        self._on_host = True  # the host steps until the run starts (building, settling)
+        self._device_stale = True  # the host's arrays are newer than the device's
+        self._host_stale = False  # the device's arrays are newer than the host's
+        self._maps: dict[int, tuple] = {}
+        self._pairs = 0
+        self._d_lists = False
+        super().__init__(*args, **kwargs)
+        self._on_host = False
+        if self.params.split:
+            raise ConfigError(
+                "Particle splitting (flood.split) is not available on device 'cuda'; run with --device cpu "
+                "or set flood.split = false."
+            )
+        from erosim.sph import kernels_cuda, kernels_swe_cuda
+
+        self._kc, self._ks = kernels_cuda, kernels_swe_cuda
+
+    # ------------------------------------------------------------------ host ↔ device
+
+    def _pull(self) -> None:
+        """Bring the device's fields to the host arrays (when the device is ahead)."""
+        if self._host_stale:
+            self._host_stale = False
+            for k in _FIELDS:
+                self.__dict__["_host_" + k] = self._d[k].copy_to_host()
+
+    def _push(self) -> None:
+        """Send the host's state to the device (when the host is ahead), lists included."""
+        if not self._device_stale:
+            return
+        from numba import cuda
+
+        self._d = {k: cuda.to_device(np.ascontiguousarray(getattr(self, k))) for k in _FIELDS + _CONSTANT}
+        n = self.n
+        self._d["bed"] = cuda.to_device(self.bed)
+        self._d["manning"] = cuda.to_device(self.manning)
+        self._d["wall"] = cuda.to_device(self.wall)
+        self._d["out"] = cuda.device_array(n, np.bool_)
+        self._d["blocked"] = cuda.device_array(n, np.int64)
+        self._d["prev"] = cuda.device_array(n, np.float64)
+        self._d["counts"] = cuda.to_device(np.zeros(2, np.int64))
+        self._d["scalar"] = cuda.device_array(1, np.float64)
+        self._d["pcell"] = cuda.device_array(n, np.int64)
+        self._d["order"] = cuda.device_array(n, np.int64)
+        self._d["count"] = cuda.device_array(n, np.int64)
+        self._d["start"] = cuda.device_array(n + 1, np.int64)
+        if self._built_at is not None and len(self._built_at) == n:
+            self._d["at"] = cuda.to_device(self._built_at)
+            self._d["search"] = cuda.to_device(self._search)
+            self._d["start"] = cuda.to_device(self._start)
+            self._d["nbr"] = cuda.to_device(self._nbr)
+            self._d_lists = True
+            self._pairs = int(self._start[-1])
+        else:
+            self._d["at"] = cuda.device_array((n, 2), np.float64)
+            self._d["search"] = cuda.device_array(n, np.float64)
+            self._d["nbr"] = cuda.device_array(max(1, 40 * n), np.int64)
+            self._d_lists = False
+        self._device_stale = False
+
+    def _host_changed(self) -> None:
+        """The host's arrays were changed (or replaced): the device copies are out of date."""
+        self._device_stale = True
+        self._host_stale = False
+
+    # ------------------------------------------------------------------ the step
+
+    def step(self, dt: float | None = None) -> float:
+        if self._on_host:
+            return super().step(dt)
+        prm, ks = self.params, self._ks
+        self._push()
+        n = self.n
+        d = self._d
+        if dt is None:
+            dt = prm.courant * self._cfl_scale()
+        if not math.isfinite(dt) or dt <= 0:
+            raise InstabilityError(
+                f"The shallow-water step became {dt!r} s at t = {self.t:.3f} s; lower flood.courant."
+            )
+        bl = self._kc.blocks(n)
+        ks.kick[bl, self._kc.TPB](d["vel"], d["acc"], d["depth"], d["manning"], self.inv_cell, d["pos"], n,
+                                  0.5 * dt, prm.g, 1e-6)  # fmt: skip
+        self._kc.zero[1, self._kc.TPB](d["counts"], 2)
+        ks.drift[bl, self._kc.TPB](
+            d["pos"], d["vel"], n, dt, self.inv_cell, d["wall"], *self.open, d["out"], d["blocked"], d["counts"]
+        )  # fmt: skip
+        self._host_stale = True
+        if int(d["counts"][0:1].copy_to_host()[0]):
+            self._remove_leavers()
+            n = self.n
+            d = self._d
+            bl = self._kc.blocks(n)
+        if n:
+            self._evaluate()
+            ks.kick[bl, self._kc.TPB](d["vel"], d["acc"], d["depth"], d["manning"], self.inv_cell, d["pos"], n,
+                                      0.5 * dt, prm.g, 1e-6)  # fmt: skip
+            ks.hold_contacts[bl, self._kc.TPB](d["vel"], n, d["blocked"], d["counts"])
+        self.t += dt
+        self.steps += 1
+        self.last_dt = dt
+        if n and int(d["counts"][1:2].copy_to_host()[0]):
+            raise InstabilityError(f"Speeds became infinite at t = {self.t:.3f} s; lower flood.courant.")
+        return dt
+
+    def _cfl_scale(self) -> float:
+        n, kc = self.n, self._kc
+        if n == 0:
+            return math.inf
+        self._d["scalar"].copy_to_device(np.array([-math.inf]))
+        self._ks.cfl_limit[kc.red_blocks(n), kc.TPB](
+            self._d["vel"], self._d["depth"], self._d["hsup"], n, self.params.g, self._d["scalar"]
+        )  # fmt: skip
+        return -float(self._d["scalar"].copy_to_host()[0])
+
+    def _remove_leavers(self) -> None:
+        """Particles beyond an open edge leave (on the host: a few steps of a run); their water is counted."""
+        self._pull()
+        out = self._d["out"].copy_to_host()
+        blocked = self._d["blocked"].copy_to_host()
+        self.volume_out += float(self.vol[out].sum())
+        self._keep(~out)
+        self._push()
+        self._d["blocked"].copy_to_device(np.ascontiguousarray(blocked[~out]))
+
+    def _keep(self, keep: np.ndarray) -> None:
+        self._pull()
+        super()._keep(keep)
+        self._host_changed()
+
+    def _lists_hold(self) -> bool:
+        if self._on_host:
+            return super()._lists_hold()
+        if not self._d_lists:
+            return False
+        n, kc, ks, d = self.n, self._kc, self._ks, self._d
+        d["scalar"].copy_to_device(np.zeros(1))
+        ks.max_moved[kc.red_blocks(n), kc.TPB](d["pos"], d["at"], n, d["scalar"])
+        kc.zero[1, kc.TPB](d["counts"][0:1], 1)
+        ks.lists_broken[kc.blocks(n), kc.TPB](d["pos"], d["at"], d["hsup"], d["search"], n, d["scalar"], d["counts"])
+        return int(d["counts"][0:1].copy_to_host()[0]) == 0
+
+    def _neighbours(self, margin: float) -> None:
+        if self._on_host:
+            return super()._neighbours(margin)
+        n, kc, ks, d = self.n, self._kc, self._ks, self._d
+        bl, tpb = kc.blocks(n), kc.TPB
+        ks.scaled_copy[bl, tpb](d["hsup"], d["search"], margin, n)
+        kc.copy_rows[bl, tpb](d["pos"], d["at"], n)
+        # the CPU's grid: edge max s_i, origin at the minimum corner less one edge
+        from numba import cuda
+
+        lo = cuda.to_device(np.full(2, np.inf))
+        hi = cuda.to_device(np.full(2, -np.inf))
+        kc.bounds[kc.red_blocks(n), tpb](d["at"], n, lo, hi)
+        d["scalar"].copy_to_device(np.zeros(1))
+        ks.max1[kc.red_blocks(n), tpb](d["search"], n, d["scalar"])
+        lo, hi = lo.copy_to_host(), hi.copy_to_host()
+        cell = float(d["scalar"].copy_to_host()[0])
+        x0, y0 = lo[0] - cell, lo[1] - cell
+        ncx = int((hi[0] - x0) / cell) + 2
+        ncy = int((hi[1] - y0) / cell) + 2
+        ncell = ncx * ncy
+        counts = cuda.device_array(ncell, np.int64)
+        kc.zero[kc.blocks(ncell), tpb](counts, ncell)
+        ks.cell_ids[bl, tpb](d["at"], n, x0, y0, cell, ncx, ncy, d["pcell"], counts)
+        cell_start = cuda.device_array(ncell + 1, np.int64)
+        kc.exclusive_scan(counts, ncell, cell_start)
+        kc.zero[kc.blocks(ncell), tpb](counts, ncell)
+        kc.scatter[bl, tpb](d["pcell"], n, cell_start, counts, d["order"])
+        kc.sort_ranges[kc.blocks(ncell), tpb](cell_start, ncell, d["order"])
+        grid = (x0, y0, cell, ncx, ncy, cell_start, d["order"])
+        ks.pairs[bl, tpb](d["at"], d["search"], n, *grid, d["count"], d["start"], d["nbr"], False)
+        kc.exclusive_scan(d["count"], n, d["start"])
+        total = int(d["start"][n : n + 1].copy_to_host()[0])
+        if d["nbr"].size < total:
+            d["nbr"] = cuda.device_array(int(total * 1.2) + 64, np.int64)
+        ks.pairs[bl, tpb](d["at"], d["search"], n, *grid, d["count"], d["start"], d["nbr"], True)
+        self._d_lists = True
+        self._pairs = total
+        self.rebuilds += 1
+
+    def _evaluate(self) -> None:
+        if self._on_host:
+            return super()._evaluate()
+        prm, n, kc, ks, d = self.params, self.n, self._kc, self._ks, self._d
+        bl, tpb = kc.blocks(n), kc.TPB
+        margin = 1.5
+        for _ in range(4):
+            if not self._lists_hold():
+                self._neighbours(margin)
+            ks.copy1[bl, tpb](d["hsup"], d["prev"], n)
+            ks.depth_and_support[bl, tpb](
+                d["pos"], d["vol"], d["hsup"], n, d["start"], d["nbr"], prm.support**2, self.h_min, self.h_cap,
+                prm.tolerance, 40, d["depth"], d["omega"],
+            )  # fmt: skip
+            if self._lists_hold():
+                break
+            ks.raise_to[bl, tpb](d["hsup"], d["prev"], n)
+            self._d_lists = False
+            margin *= 1.2
+        ks.accelerations[bl, tpb](
+            d["pos"], d["vel"], d["vol"], d["hsup"], d["depth"], d["omega"], n, d["start"], d["nbr"], d["bed"],
+            self.inv_cell, prm.g, prm.viscosity, d["acc"],
+        )  # fmt: skip
+        self._host_stale = True
+
+    # ------------------------------------------------------------------ the hazard maxima, on the device
+
+    def update_maxima(self, maps, wet: float) -> None:
+        if self._on_host:
+            return super().update_maxima(maps, wet)
+        from numba import cuda
+
+        self._push()
+        keys = ("max_depth", "max_speed", "max_dv", "arrival")
+        held = self._maps.get(id(maps))
+        if held is None or any(held[1][k] is not getattr(maps, k) for k in keys):  # new maps, or reloaded
+            held = (maps, {k: getattr(maps, k) for k in keys}, [cuda.to_device(getattr(maps, k)) for k in keys])
+            self._maps[id(maps)] = held
+        n, kc, d = self.n, self._kc, self._d
+        if n:
+            self._ks.footprint_maxima[kc.blocks(n), kc.TPB](
+                d["pos"], d["vel"], d["vol"], d["depth"], n, self.inv_cell, self.t, wet, *held[2]
+            )  # fmt: skip
+
+    def sync_maxima(self, maps) -> None:
+        held = self._maps.get(id(maps))
+        if held is not None:
+            for k, dev in zip(("max_depth", "max_speed", "max_dv", "arrival"), held[2], strict=True):
+                dev.copy_to_host(getattr(maps, k))
+
+    # ------------------------------------------------------------------ what reads the host's arrays
+
+    @property
+    def neighbour_pairs(self) -> int:
+        if self._on_host or not self.n:
+            return super().neighbour_pairs
+        return self._pairs
+
+    def _on_the_host(self, method, *args):
+        """Run a host operation of the CPU solver (settling, a new terrain) on the host's arrays."""
+        self._pull()
+        self._on_host = True
+        try:
+            return method(*args)
+        finally:
+            self._on_host = False
+            self._host_changed()
+
+    def settle(self, max_steps: int = 600, speed: float = 0.05) -> int:
+        """The CPU's settling, on the host (FIRE reads every particle's speed and force each step)."""
+        return self._on_the_host(super().settle, max_steps, speed)
+
+    def set_terrain(self, bed, wall) -> None:
+        self._on_the_host(super().set_terrain, bed, wall)
+
+    def budget(self) -> dict:
+        self._pull()
+        return super().budget()
+
+    def surface(self) -> np.ndarray:
+        self._pull()
+        return super().surface()
+
+    def depth_grid(self) -> np.ndarray:
+        self._pull()
+        return super().depth_grid()
+
+    def sample(self, points):
+        self._pull()
+        return super().sample(points)
+
+    def state_dict(self) -> dict:
+        """The CPU's checkpoint, with the positions and radii the device's lists were built from."""
+        self._pull()
+        out = super().state_dict()
+        if not self._on_host and self._d_lists:  # the device's lists, rebuilt alike on resume
+            out["lists_at"] = self._d["at"].copy_to_host()
+            out["lists_search"] = self._d["search"].copy_to_host()
+        return out
+
+    def load_state_dict(self, state: dict) -> None:
+        super().load_state_dict(state)
+        self._host_changed()
