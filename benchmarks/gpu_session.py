@@ -12,7 +12,10 @@ importance, skipping any part whose rough cost no longer fits in ``--budget`` se
                     adds the synchronisations, so its total exceeds the benchmark's step);
 5. ``martin_moyce_cuda`` / ``hydrostatic_cuda``  the validations with ``device = "cuda"`` (and
                     ``martin_moyce_cpu`` for the same errors on the CPU);
-6. ``bench_cuda_1e7`` / ``bench_cpu_1e7``  the same at 10⁷; then ``bench_cuda_float32_1e7``.
+6. ``bench_cuda_1e7`` / ``bench_cpu_1e7``  the same at 10⁷; then ``bench_cuda_float32_1e7``;
+7. the shallow-water SPH: ``flood_agreement`` (the benchmark valley at 10 m, 200 steps on each device),
+   ``bench_flood_cuda`` / ``bench_flood_cpu`` (``erosim bench flood`` at 5 m spacing) and
+   ``flood_run_cuda`` (``erosim run flood --device cuda``, its report and files).
 
 Every result goes into one JSON file (``OUT/gpu_session.json``, rewritten after each part, so an
 interrupted session keeps what it measured) and a log (``OUT/gpu_session.log``)::
@@ -137,6 +140,29 @@ def bench(particles: int, device: str, **kw) -> dict:
     return out
 
 
+def flood_bench(device: str, t_end: float) -> dict:
+    """``erosim bench flood --spacing 5`` for ``t_end`` simulated seconds (the reservoir settled for at
+    most 100 steps: the settling runs on the host on either device)."""
+    from erosim.bench.flood import run
+
+    return run(t_end, 5.0, device=device, overrides=["flood.settle_steps=100"])
+
+
+def flood_run(runs: Path) -> dict:
+    """``erosim run flood --device cuda`` for 120 s: the run folder's report and the maps it wrote."""
+    from erosim.cli import cli
+
+    out = runs / "flood-cuda"
+    try:
+        args = ["--quiet", "run", "flood", "--device", "cuda", "--set", "run.t_end=120", "--out", str(out)]
+        cli.main([*args, "--overwrite"], standalone_mode=False)
+    except SystemExit as exc:
+        if exc.code:
+            raise
+    report = json.loads((out / "report.json").read_text())
+    return {"report": report, "files": sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file())[:60]}
+
+
 def env() -> dict:
     import numba
     import numpy
@@ -181,11 +207,12 @@ def main(argv=None) -> int:
     ap.add_argument("--budget", type=float, default=480.0, help="seconds; parts that no longer fit are skipped")
     ap.add_argument("--scale", type=float, default=1.0, help="multiplies every particle count")
     ap.add_argument("--skip", default="", help="comma-separated parts not to run")
+    ap.add_argument("--flood-t-end", type=float, default=60.0, help="simulated seconds of the flood benchmark")
     ap.add_argument("--runs", type=Path, default=Path("/tmp/erosim-gpu-runs"))
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     args.runs.mkdir(parents=True, exist_ok=True)
-    from gpu_agreement import agreement
+    from gpu_agreement import agreement, flood_agreement
 
     n = lambda x: max(200, int(x * args.scale))  # noqa: E731
     # (name, rough seconds on an H100 machine with a fresh compile cache, what to run)
@@ -201,6 +228,11 @@ def main(argv=None) -> int:
         ("bench_cuda_1e7", 60, lambda: bench(n(10_000_000), "cuda", steps=100)),
         ("bench_cpu_1e7", 60, lambda: bench(n(10_000_000), "cpu", steps=10)),
         ("bench_cuda_float32_1e7", 40, lambda: bench(n(10_000_000), "cuda", steps=100, precision="float32")),
+        # the shallow-water SPH (flood): agreement, then `erosim bench flood` at 5 m (about 3·10⁵ particles)
+        ("flood_agreement", 90, lambda: flood_agreement(10.0, 200)),
+        ("bench_flood_cuda", 90, lambda: flood_bench("cuda", args.flood_t_end)),
+        ("bench_flood_cpu", 90, lambda: flood_bench("cpu", args.flood_t_end)),
+        ("flood_run_cuda", 60, lambda: flood_run(args.runs)),
     ]
     results: dict = {"budget_s": args.budget, "scale": args.scale, "parts": {}}
     log = open(args.out / "gpu_session.log", "a", buffering=1)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Wheels of erosim's dependencies that a CUDA Python image (numpy, numba, numba-cuda, scipy,
 # matplotlib, rich, click already there) usually lacks, for installing on a GPU machine without
-# network: `WHEELS=DIR bash benchmarks/gpu_measure.sh` installs them there.
+# network; there: `pip install --no-index --no-deps --target SITE DIR/*.whl`, SITE on PYTHONPATH, then
+# `python benchmarks/gpu_session.py OUT` (docs/gpu.md).
 #
 #   bash benchmarks/gpu_wheels.sh DIR [PYTHON_VERSION]      (default 3.12; x86-64 Linux)
 #

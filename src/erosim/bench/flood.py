@@ -10,7 +10,9 @@ hazard maxima raised every step, for ``t_end`` simulated seconds (4000 in the is
 Reported: ``particles`` (at the start and the most at any time), ``steps``, ``settle_steps``,
 ``particle_steps_per_s`` (particles × steps over the wall time of the run, settling excluded),
 ``pair_interactions_per_s``, ``simulated_s_per_wall_s``, ``wall_s`` (run) and ``setup_s`` (set-up
-and settling), ``volume_released_m3``, ``flooded_area_m2``, ``peak_rss_mb`` and ``threads``.
+and settling), ``volume_released_m3``, ``flooded_area_m2``, ``peak_rss_mb``, ``threads`` and
+``device`` (with ``--device cuda`` the steps and the hazard maxima run on the GPU; the set-up and
+the settling run on the host either way).
 """
 
 from __future__ import annotations
@@ -45,11 +47,9 @@ def valley_dem(floor_width: float = 1000.0, seed: int = 7):
     return Heightmap(z=z, cell_size=CELL, transform=default_transform(ny, nx, CELL))
 
 
-def run(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, device: str = "cpu") -> dict:
-    """Run the benchmark flood; returns the JSON-able result (keys in the module docstring)."""
-    import numba
-
-    from erosim.analysis.hazard import HazardMaps
+def setup(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, device: str = "cpu", overrides=()):
+    """(site, solver, cfg, setup seconds): the benchmark's flood built and settled, ready to run
+    (``overrides``: more ``key=value`` settings of the scenario)."""
     from erosim.io.heightmaps import write
     from erosim.scenarios import loader
     from erosim.scenarios.builders_flood import build
@@ -71,12 +71,25 @@ def run(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, de
                 f"flood.split={'true' if split else 'false'}",
                 f"run.t_end={t_end!r}",
                 f"run.device={device}",
+                *overrides,
             ],
         )
         cfg = scenario.config.model_copy(update={"breach": None})
         t0 = time.perf_counter()
         site, solver = build(cfg)
         setup_s = time.perf_counter() - t0
+    return site, solver, cfg, setup_s
+
+
+def run(
+    t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, device: str = "cpu", overrides=()
+) -> dict:
+    """Run the benchmark flood; returns the JSON-able result (keys in the module docstring)."""
+    import numba
+
+    from erosim.analysis.hazard import HazardMaps
+
+    site, solver, cfg, setup_s = setup(t_end, spacing, split=split, device=device, overrides=overrides)
     maps = HazardMaps(site.terrain.shape, cfg.flood.wet_depth)
     n0 = solver.n
     most = n0
@@ -112,4 +125,5 @@ def run(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, de
         "flooded_area_m2": summary["flooded_area_m2"],
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "threads": numba.get_num_threads(),
+        "device": device,
     }
