@@ -3,7 +3,8 @@
 The CUDA simulator (the test suite's check of the device path) runs the kernels as Python, so it
 cannot see what only the real compiler rejects (typing, shared memory, atomics on float64). This
 script compiles each kernel of :mod:`erosim.sph.kernels_cuda` for its real argument types — both
-precisions, 2-D and 3-D, every variant of the fused pass — with numba-cuda's ``compile_ptx``, which
+precisions, 2-D and 3-D, every variant of the fused pass — and each of :mod:`erosim.sph.kernels_swe_cuda`
+(the shallow-water step, float64) with numba-cuda's ``compile_ptx``, which
 needs NVVM (the ``nvidia-cuda-nvcc-cu12`` wheel) but no driver and no GPU.
 
     pip install 'erosim[cuda]'          # numba-cuda and the CUDA toolkit wheels
@@ -80,6 +81,33 @@ def signatures(dtype: str, dim: int):
     return out
 
 
+def swe_signatures():
+    """(name, python function, argument types) of every shallow-water kernel (float64, 2-D)."""
+    from numba import boolean, float64, int64
+
+    from erosim.sph import kernels_swe_cuda as ks
+
+    A2, D1, I1, G = float64[:, :], float64[:], int64[:], float64[:, :]
+    f, i = float64, int64
+    return [
+        ("swe.cell_ids", ks.cell_ids, (A2, i, f, f, f, i, i, I1, I1)),
+        ("swe.pairs", ks.pairs, (A2, D1, i, f, f, f, i, i, I1, I1, I1, I1, I1, boolean)),
+        ("swe.scaled_copy", ks.scaled_copy, (D1, D1, f, i)),
+        ("swe.copy1", ks.copy1, (D1, D1, i)),
+        ("swe.raise_to", ks.raise_to, (D1, D1, i)),
+        ("swe.max1", ks.max1, (D1, i, D1)),
+        ("swe.max_moved", ks.max_moved, (A2, A2, i, D1)),
+        ("swe.lists_broken", ks.lists_broken, (A2, A2, D1, D1, i, D1, I1)),
+        ("swe.depth_and_support", ks.depth_and_support, (A2, D1, D1, i, I1, I1, f, f, f, f, i, D1, D1)),
+        ("swe.accelerations", ks.accelerations, (A2, A2, D1, D1, D1, D1, i, I1, I1, G, f, f, f, A2)),
+        ("swe.kick", ks.kick, (A2, A2, D1, G, f, A2, i, f, f, f)),
+        ("swe.drift", ks.drift, (A2, A2, i, f, f, boolean[:, :]) + (boolean,) * 4 + (boolean[:], I1, I1)),
+        ("swe.hold_contacts", ks.hold_contacts, (A2, i, I1, I1)),
+        ("swe.cfl_limit", ks.cfl_limit, (A2, D1, D1, i, f, D1)),
+        ("swe.footprint_maxima", ks.footprint_maxima, (A2, A2, D1, D1, i, f, f, f, G, G, G, G)),
+    ]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cc", default="9.0", help="compute capability to compile for (default 9.0: H100/H200)")
@@ -102,6 +130,14 @@ def main(argv=None) -> int:
             except Exception as exc:  # report every failure, then exit non-zero
                 failed += 1
                 print(f"FAIL  {name} {dtype} {dim}-D: {type(exc).__name__}: {str(exc).splitlines()[0][:300]}")
+    for name, kernel, sig in swe_signatures():
+        seen.add((name, "float64", 2))
+        try:
+            ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=cc)
+            print(f"ok    {name} float64 2-D ({len(ptx)} bytes of PTX)")
+        except Exception as exc:  # report every failure, then exit non-zero
+            failed += 1
+            print(f"FAIL  {name} float64 2-D: {type(exc).__name__}: {str(exc).splitlines()[0][:300]}")
     print(f"{len(seen) - failed} compiled, {failed} failed")
     return 1 if failed else 0
 

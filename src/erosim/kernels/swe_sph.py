@@ -1,5 +1,11 @@
 """Numba kernels of the shallow-water SPH solver (erosim.sph.shallow_water_vacondio2012).
 
+The per-particle functions (``*_particle``, ``cfl_scale``, ``footprint_cells``) are inlined into the
+loops here and into the GPU kernels of :mod:`erosim.sph.kernels_swe_cuda`, which call them too; they
+and ``bed_c1`` are not cached on their own (numba-cuda would look for a GPU to key the cache).
+``bed_c1`` is called, not inlined: inlined into a parallel loop, its tuples of weights trip Numba's
+array analysis.
+
 Why hand-written: the variable-smoothing-length depth (a Newton iteration per particle), the
 variational momentum equation with its Ω correction terms, the per-cell wall reflections and the
 particle splitting have no library implementation; each pass is one parallel loop over particles
@@ -21,7 +27,7 @@ from numba import njit, prange
 from erosim.kernels.sph_kernels import wendland_f_2d, wendland_w_2d
 
 
-@njit(inline="always", cache=True)
+@njit(inline="always")
 def dw_dh(r, h):
     """∂W/∂H of the 2-D Wendland C2 kernel: −(2W + f r²)/H."""
     return -(2.0 * wendland_w_2d(r, h) + wendland_f_2d(r, h) * r * r) / h
@@ -30,7 +36,7 @@ def dw_dh(r, h):
 # ---------------------------------------------------------------- the bed, C¹
 
 
-@njit(inline="always", cache=True)
+@njit(inline="always")
 def _cr_weights(t):
     """Catmull-Rom weights of nodes −1, 0, 1, 2 at t ∈ [0, 1] and their derivatives."""
     t2 = t * t
@@ -40,7 +46,7 @@ def _cr_weights(t):
     return w, dw
 
 
-@njit(cache=True)
+@njit
 def bed_c1(z, x, y):
     """(b, ∂b/∂x, ∂b/∂y) at (x, y) in cell units: Catmull-Rom bicubic interpolation of the DEM's nodes.
 
@@ -103,7 +109,7 @@ def bin_particles(pos, n, x0, y0, cell, ncx, ncy, cell_start, order):
         fill[c] += 1
 
 
-@njit(cache=True)
+@njit(inline="always")
 def pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, k, nbr, fill):
     """Particle i's pairs j ≠ i with r_ij < max(H_i, H_j), in cell order: written to nbr[k…] when
     ``fill``; returns k plus their number."""
@@ -160,7 +166,7 @@ def depth_and_support(pos, vol, hsup, n, start, nbr, k2, h_min, h_max, tol, max_
     return iters.max()
 
 
-@njit(cache=True)
+@njit(inline="always")
 def depth_support_particle(i, pos, vol, hsup, start, nbr, k2, h_min, h_max, tol, max_iter, depth, omega):
     """Particle i's Newton solve of :func:`depth_and_support`; returns its iterations."""
     h = min(max(hsup[i], h_min), h_max)
@@ -219,7 +225,7 @@ def accelerations(pos, vel, vol, hsup, depth, omega, n, start, nbr, bed, inv_cel
         acc[i, 1] = ay - g * gy * inv_cell
 
 
-@njit(cache=True)
+@njit(inline="always")
 def pair_forces_particle(i, pos, vel, vol, hsup, depth, omega, start, nbr, g, alpha):
     """Particle i's pressure and artificial-viscosity sum of :func:`accelerations` (the bed apart)."""
     xi = pos[i, 0]
@@ -265,7 +271,7 @@ def kick(vel, acc, depth, manning, inv_cell, pos, n, dt, g, d_floor):
         kick_particle(i, vel, acc, depth, manning, inv_cell, pos, dt, g, d_floor)
 
 
-@njit(cache=True)
+@njit(inline="always")
 def kick_particle(i, vel, acc, depth, manning, inv_cell, pos, dt, g, d_floor):
     """Particle i's semi-implicit Manning kick of :func:`kick`."""
     ny, nx = manning.shape
@@ -297,7 +303,7 @@ def drift(pos, vel, n, dt, inv_cell, wall, open_w, open_e, open_n, open_s, out, 
         drift_particle(i, pos, vel, dt, inv_cell, wall, open_w, open_e, open_n, open_s, out, blocked)
 
 
-@njit(cache=True)
+@njit(inline="always")
 def drift_particle(i, pos, vel, dt, inv_cell, wall, open_w, open_e, open_n, open_s, out, blocked):
     """Particle i's drift of :func:`drift`."""
     ny, nx = wall.shape
@@ -345,7 +351,7 @@ def step_limit(vel, depth, hsup, n, g):
     return best.min() if n > 0 else np.inf
 
 
-@njit(cache=True)
+@njit(inline="always")
 def cfl_scale(i, vel, depth, hsup, g):
     """H_i / (√(g d_i) + |u_i|), or inf for a particle at rest in no water."""
     c = math.sqrt(g * depth[i]) + math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2)
@@ -389,7 +395,7 @@ def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, ma
                     arrival[r, c] = t
 
 
-@njit(cache=True)
+@njit(inline="always")
 def footprint_cells(i, pos, vol, depth, inv_cell, ny, nx):
     """(first row, last row, first column, last column) of the cells under particle i's square."""
     half = 0.5 * math.sqrt(vol[i] / depth[i]) * inv_cell

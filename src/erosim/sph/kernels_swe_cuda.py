@@ -26,7 +26,7 @@ from numba import cuda
 
 from erosim.kernels import swe_sph as K
 from erosim.sph import kernels_cuda
-from erosim.sph.kernels_cuda import SIMULATOR, TPB, _dev
+from erosim.sph.kernels_cuda import SIMULATOR, TPB, _dev, _helper
 
 
 def _here(fn):
@@ -43,7 +43,7 @@ _block_max = _here(kernels_cuda._block_max)
 _pairs = _dev(K.pairs_particle)
 _depth_support = _dev(K.depth_support_particle)
 _pair_forces = _dev(K.pair_forces_particle)
-_bed = _dev(K.bed_c1)
+_bed = _helper(K.bed_c1.py_func)  # inlined here (the CPU calls it: see erosim.kernels.swe_sph)
 _kick = _dev(K.kick_particle)
 _drift = _dev(K.drift_particle)
 _cfl = _dev(K.cfl_scale)
