@@ -137,3 +137,22 @@ def test_splitting_is_refused_on_the_device_in_one_sentence(monkeypatch):
     pos = np.column_stack([np.arange(2.0, 6.0, 0.5), np.full(8, 3.0)])
     with pytest.raises(ConfigError, match="flood.split"):
         CudaShallowWaterSPH(np.zeros((8, 8)), 1.0, pos, np.full(8, 0.25), 0.5, ShallowWaterParams(split=True))
+
+
+def test_flood_device_setting_refused_without_cuda_and_for_the_3d_solver(cli_runner, tmp_path):
+    """`[run] device = "cuda"` in a flood scenario: one sentence and no run folder where no GPU is
+    usable, and one naming the 3-D solver, which stays on the CPU."""
+    from erosim.cli import cli
+    from erosim.core.devices import cuda_status
+
+    out = tmp_path / "run"
+    if not cuda_status()[0]:
+        res = cli_runner.invoke(cli, ["--quiet", "run", "flood", "--set", "run.device=cuda", "--out", str(out)])
+        assert res.exit_code == 2
+        assert "Device 'cuda' is not usable" in res.output
+        assert not out.exists()
+    args = ["--quiet", "run", "flood", "--set", "run.device=cuda", "--set", "flood.solver=sph3d", "--out", str(out)]
+    res = cli_runner.invoke(cli, args)
+    assert res.exit_code != 0
+    assert "flood.solver = 'sph3d' runs on device 'cpu' only" in res.output
+    assert not out.exists()
