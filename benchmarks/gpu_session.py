@@ -163,6 +163,30 @@ def flood_run(runs: Path) -> dict:
     return {"report": report, "files": sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file())[:60]}
 
 
+def spheric2(spacing: float, runs: Path, t_end: float = 1.6) -> dict:
+    """SPHERIC Test 2 (the `spheric2` scenario, as `erosim validate spheric2` sets it up) on the device
+    at ``spacing``, scored by the validation's own errors (water-level RMS per gauge, pressure RMS)."""
+    from erosim.data import SPHERIC2, reference_csv
+    from erosim.io.runfolder import RunFolder
+    from erosim.scenarios import loader
+    from erosim.scenarios.runner import execute
+    from erosim.validation import spheric2 as s2
+
+    settings = [f"sph.spacing={spacing!r}", f"run.t_end={t_end!r}", "run.output_interval=0", "run.snapshots=0",
+                "run.device=cuda"]  # fmt: skip
+    scenario = loader.load("spheric2", settings)
+    folder = RunFolder(runs / f"spheric2-{spacing}")
+    t0 = time.perf_counter()
+    _, sim = execute(scenario, folder, progress=False)
+    wall = time.perf_counter() - t0
+    e = s2.errors(s2._csv(folder.path / "gauges.csv"), reference_csv(SPHERIC2), scenario.config.sph.rho0, 9.81)
+    solver = sim.models[0]
+    return {"spacing_m": spacing, "fluid_particles": solver.n_fluid, "boundary_particles": solver.n_boundary,
+            "steps": solver.steps, "wall_s": round(wall, 1), "level_rms_mm": {k: round(1000 * v, 1) for k, v in
+            e["level_rms_m"].items()}, "pressure_rms_pct": {k: round(100 * v, 1) for k, v in
+            e["pressure_rms_rel"].items()}}  # fmt: skip
+
+
 def env() -> dict:
     import numba
     import numpy
@@ -233,6 +257,9 @@ def main(argv=None) -> int:
         ("bench_flood_cuda", 90, lambda: flood_bench("cuda", args.flood_t_end)),
         ("bench_flood_cpu", 90, lambda: flood_bench("cpu", args.flood_t_end)),
         ("flood_run_cuda", 60, lambda: flood_run(args.runs)),
+        # SPHERIC Test 2 finer than the CPU's validation reaches (its fine is 0.02 m)
+        ("spheric2_cuda_0.015", 60, lambda: spheric2(0.015, args.runs)),
+        ("spheric2_cuda_0.01", 150, lambda: spheric2(0.01, args.runs)),
     ]
     results: dict = {"budget_s": args.budget, "scale": args.scale, "parts": {}}
     log = open(args.out / "gpu_session.log", "a", buffering=1)
