@@ -116,29 +116,23 @@ def main(argv=None) -> int:
 
     cc = tuple(int(x) for x in args.cc.split("."))
     print(f"numba.cuda: {getattr(cuda, 'implementation', 'Built-in')}; compiling for sm_{cc[0]}{cc[1]}")
-    failed = 0
-    seen = set()
+    jobs = {}  # (name, precision, dimension) → (kernel, argument types), each compiled once
     for dtype, dim in itertools.product(("float64", "float32"), (2, 3)):
         for name, kernel, sig in signatures(dtype, dim):
             key = (name, dtype, dim if name.startswith(("fluid_pass", "boundary_density_rate")) else 0)
-            if key in seen:
-                continue
-            seen.add(key)
-            try:
-                ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=cc)
-                print(f"ok    {name} {dtype} {dim}-D ({len(ptx)} bytes of PTX)")
-            except Exception as exc:  # report every failure, then exit non-zero
-                failed += 1
-                print(f"FAIL  {name} {dtype} {dim}-D: {type(exc).__name__}: {str(exc).splitlines()[0][:300]}")
+            jobs.setdefault(key, (kernel, sig))
     for name, kernel, sig in swe_signatures():
-        seen.add((name, "float64", 2))
+        jobs[(name, "float64", 2)] = (kernel, sig)
+    failed = 0
+    for (name, dtype, dim), (kernel, sig) in jobs.items():
+        what = f"{name} {dtype}" + (f" {dim}-D" if dim else "")
         try:
             ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=cc)
-            print(f"ok    {name} float64 2-D ({len(ptx)} bytes of PTX)")
+            print(f"ok    {what} ({len(ptx)} bytes of PTX)")
         except Exception as exc:  # report every failure, then exit non-zero
             failed += 1
-            print(f"FAIL  {name} float64 2-D: {type(exc).__name__}: {str(exc).splitlines()[0][:300]}")
-    print(f"{len(seen) - failed} compiled, {failed} failed")
+            print(f"FAIL  {what}: {type(exc).__name__}: {str(exc).splitlines()[0][:300]}")
+    print(f"{len(jobs) - failed} compiled, {failed} failed")
     return 1 if failed else 0
 
 
