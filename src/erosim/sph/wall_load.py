@@ -40,16 +40,29 @@ def patch(boundary: np.ndarray, point, normal, half_width: float, depth: float, 
 
 def wall_pressures(solver, walls, half_width: float) -> list[float]:
     """Normal load per area the fluid puts on each wall patch, ``walls`` = [(point, normal, solid)]
-    with ``solid`` = (lo, hi) the wall's box (module docstring); 0 where no fluid touches the patch."""
+    with ``solid`` = (lo, hi) the wall's box (module docstring); 0 where no fluid touches the patch.
+
+    Only the particles within reach of a patch are searched: those inside the box spanning every
+    patch's point ± (half-width + 2h), so a sample costs a few passes over the positions and a
+    tree of a few hundred fluid particles, not a tree of the whole fluid."""
+    if not walls:
+        return []
     st = solver.state
     nf = st.n_fluid
-    bpos = st.pos[nf:].astype(np.float64)
-    tree = cKDTree(st.pos[:nf].astype(np.float64)) if walls else None
+    pos = st.pos.astype(np.float64)
+    reach = half_width + 2.0 * solver.h
+    points = np.asarray([w[0] for w in walls], dtype=np.float64)
+    lo, hi = points.min(axis=0) - reach, points.max(axis=0) + reach
+    near = np.all((pos >= lo) & (pos <= hi), axis=1)
+    fluid = np.nonzero(near[:nf])[0]
+    wall_idx = np.nonzero(near[nf:])[0]
+    bpos = pos[nf:][wall_idx]
+    tree = cKDTree(pos[fluid])
     out = []
     for point, normal, solid in walls:
         normal = np.asarray(normal, dtype=np.float64)
         idx_b = patch(bpos, point, normal, half_width, solver.h, solid)
-        out.append(_load(solver, tree, bpos, idx_b, normal) if len(idx_b) else 0.0)
+        out.append(_load(solver, tree, fluid, bpos, wall_idx, idx_b, normal) if len(idx_b) else 0.0)
     return out
 
 
@@ -72,16 +85,19 @@ def _face_area(wall: np.ndarray, normal: np.ndarray, spacing: float) -> float:
     return columns * area
 
 
-def _load(solver, tree, bpos: np.ndarray, idx_b: np.ndarray, normal: np.ndarray) -> float:
+def _load(solver, tree, fluid, bpos: np.ndarray, wall_idx, idx_b: np.ndarray, normal: np.ndarray) -> float:
+    """The patch's pressure; ``tree`` holds the fluid particles ``fluid`` (indices), ``bpos`` the
+    boundary particles ``wall_idx`` (indices among the boundary particles), ``idx_b`` the patch in ``bpos``."""
     st, prm = solver.state, solver.params
     nf, h, m, dim = st.n_fluid, solver.h, solver.m, solver.dim
     near = tree.query_ball_point(bpos[idx_b], h)
     counts = np.fromiter((len(x) for x in near), dtype=np.int64, count=len(near))
     if counts.sum() == 0:
         return 0.0
-    a = np.concatenate([np.asarray(x, dtype=np.int64) for x in near if x])  # every (fluid a, wall b) pair
-    b = np.repeat(idx_b, counts)
-    rab = tree.data[a] - bpos[b]
+    local_a = np.concatenate([np.asarray(x, dtype=np.int64) for x in near if x])  # every (fluid a, wall b) pair
+    local_b = np.repeat(idx_b, counts)
+    rab = tree.data[local_a] - bpos[local_b]
+    a, b = fluid[local_a], wall_idx[local_b]
     r2 = np.sum(rab**2, axis=1)
     r = np.sqrt(r2)
     f = kernel_f(r, h, dim, prm.kernel)
