@@ -110,16 +110,17 @@ def water_level(
     gauges = np.asarray(gauges, dtype=np.float64).reshape(-1, dim - 1)
     out = np.zeros(len(gauges))
     vol = np.broadcast_to(np.asarray(volume, dtype=np.float64), (len(positions),))
-    tree = cKDTree(positions[:, :-1])
     dz = 0.25 * spacing
-    for k, idx in enumerate(tree.query_ball_point(gauges, r=h)):
-        if not idx:
+    for k in range(len(gauges)):
+        # the particles within h of the line: one pass over the positions (a few gauges per sample;
+        # a tree of every particle cost more than the gauges' sums)
+        horiz2 = np.sum((positions[:, :-1] - gauges[k]) ** 2, axis=1)
+        idx = np.nonzero(horiz2 <= h * h)[0]
+        if len(idx) == 0:
             continue
-        idx = np.asarray(idx)
-        near, v = positions[idx], vol[idx]
+        near, v, horiz2 = positions[idx], vol[idx], horiz2[idx]
         top = float(near[:, -1].max()) + h
         z = floor + dz * np.arange(int(np.ceil((top - floor) / dz)) + 1)
-        horiz2 = np.sum((near[:, :-1] - gauges[k]) ** 2, axis=1)
         phi = np.zeros(len(z))
         for image in (near[:, -1], 2.0 * floor - near[:, -1]):  # the particles and their mirror in the floor
             r = np.sqrt(horiz2[None, :] + (z[:, None] - image[None, :]) ** 2)
