@@ -46,29 +46,18 @@ class KernelTimer:
         self._module, self._totals = module, totals
 
     def wrap(self, name: str, kernel):
-        from numba import cuda
-
-        totals = self._totals
+        """A kernel whose launches ``kernel[config](*args)`` are timed."""
+        timer = self
 
         class Launch:
             def __getitem__(self, config):
-                launch = kernel[config]
-
-                def timed(*args):
-                    cuda.synchronize()
-                    t0 = time.perf_counter()
-                    launch(*args)
-                    cuda.synchronize()
-                    entry = totals.setdefault(name, [0.0, 0])
-                    entry[0] += time.perf_counter() - t0
-                    entry[1] += 1
-
-                return timed
+                return timer.timed_call(name, kernel[config])
 
         return Launch()
 
     def timed_call(self, name: str, fn):
-        """A host function that launches kernels itself (the prefix sum), timed as a whole."""
+        """``fn`` (a launch, or a host function that launches kernels itself: the prefix sum) timed as a
+        whole, synchronised before and after."""
         from numba import cuda
 
         def timed(*args):

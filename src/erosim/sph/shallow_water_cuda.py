@@ -29,6 +29,7 @@ from erosim.sph.shallow_water_vacondio2012 import ShallowWaterSPH
 
 _FIELDS = ("pos", "vel", "hsup", "depth", "omega", "acc")  # what the device changes
 _CONSTANT = ("vol",)  # per particle, changed only on the host (removal)
+_MAXIMA = ("max_depth", "max_speed", "max_dv", "arrival")  # the hazard maps' arrays
 
 
 class _OnTheHost:
@@ -107,7 +108,9 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         self._d["pcell"] = cuda.device_array(n, np.int64)
         self._d["order"] = cuda.device_array(n, np.int64)
         self._d["count"] = cuda.device_array(n, np.int64)
-        self._d["start"] = cuda.device_array(n + 1, np.int64)
+        self._d["bounds"] = cuda.device_array((2, 2), np.float64)
+        self._d["cells"] = cuda.device_array(0, np.int64)  # the grid's counts and starts, grown as needed
+        self._d["cell_start"] = cuda.device_array(1, np.int64)
         if self._built_at is not None and len(self._built_at) == n:
             self._d["at"] = cuda.to_device(self._built_at)
             self._d["search"] = cuda.to_device(self._search)
@@ -118,6 +121,7 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         else:
             self._d["at"] = cuda.device_array((n, 2), np.float64)
             self._d["search"] = cuda.device_array(n, np.float64)
+            self._d["start"] = cuda.device_array(n + 1, np.int64)
             self._d["nbr"] = cuda.device_array(max(1, 40 * n), np.int64)
             self._d_lists = False
         self._device_stale = False
@@ -187,11 +191,6 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         self._push()
         self._d["blocked"].copy_to_device(np.ascontiguousarray(blocked[~out]))
 
-    def _keep(self, keep: np.ndarray) -> None:
-        self._pull()
-        super()._keep(keep)
-        self._host_changed()
-
     def _lists_hold(self) -> bool:
         if self._on_host:
             return super()._lists_hold()
@@ -214,21 +213,22 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         # the CPU's grid: edge max s_i, origin at the minimum corner less one edge
         from numba import cuda
 
-        lo = cuda.to_device(np.full(2, np.inf))
-        hi = cuda.to_device(np.full(2, -np.inf))
-        kc.bounds[kc.red_blocks(n), tpb](d["at"], n, lo, hi)
+        d["bounds"].copy_to_device(np.array([[np.inf, np.inf], [-np.inf, -np.inf]]))
+        kc.bounds[kc.red_blocks(n), tpb](d["at"], n, d["bounds"][0], d["bounds"][1])
         d["scalar"].copy_to_device(np.zeros(1))
         ks.max1[kc.red_blocks(n), tpb](d["search"], n, d["scalar"])
-        lo, hi = lo.copy_to_host(), hi.copy_to_host()
+        lo, hi = d["bounds"].copy_to_host()
         cell = float(d["scalar"].copy_to_host()[0])
         x0, y0 = lo[0] - cell, lo[1] - cell
         ncx = int((hi[0] - x0) / cell) + 2
         ncy = int((hi[1] - y0) / cell) + 2
         ncell = ncx * ncy
-        counts = cuda.device_array(ncell, np.int64)
+        if d["cells"].size < ncell:  # kept between rebuilds, grown by a quarter when outgrown
+            d["cells"] = cuda.device_array(ncell + ncell // 4, np.int64)
+            d["cell_start"] = cuda.device_array(ncell + ncell // 4 + 1, np.int64)
+        counts, cell_start = d["cells"][:ncell], d["cell_start"][: ncell + 1]
         kc.zero[kc.blocks(ncell), tpb](counts, ncell)
         ks.cell_ids[bl, tpb](d["at"], n, x0, y0, cell, ncx, ncy, d["pcell"], counts)
-        cell_start = cuda.device_array(ncell + 1, np.int64)
         kc.exclusive_scan(counts, ncell, cell_start)
         kc.zero[kc.blocks(ncell), tpb](counts, ncell)
         kc.scatter[bl, tpb](d["pcell"], n, cell_start, counts, d["order"])
@@ -277,24 +277,24 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         from numba import cuda
 
         self._push()
-        keys = ("max_depth", "max_speed", "max_dv", "arrival")
+        host = [getattr(maps, k) for k in _MAXIMA]
         held = self._maps.get(id(maps))
-        if held is None or any(held[1][k] is not getattr(maps, k) for k in keys):  # new maps, or reloaded
-            held = (maps, {k: getattr(maps, k) for k in keys}, [cuda.to_device(getattr(maps, k)) for k in keys])
-            self._maps[id(maps)] = held
+        if held is None or any(a is not b for a, b in zip(held[0], host, strict=True)):  # new maps, or reloaded
+            held = self._maps[id(maps)] = (host, [cuda.to_device(a) for a in host])
         n, kc, d = self.n, self._kc, self._d
         if n:
             self._ks.footprint_maxima[kc.blocks(n), kc.TPB](
-                d["pos"], d["vel"], d["vol"], d["depth"], n, self.inv_cell, self.t, wet, *held[2]
+                d["pos"], d["vel"], d["vol"], d["depth"], n, self.inv_cell, self.t, wet, *held[1]
             )  # fmt: skip
 
     def sync_maxima(self, maps) -> None:
         held = self._maps.get(id(maps))
         if held is not None:
-            for k, dev in zip(("max_depth", "max_speed", "max_dv", "arrival"), held[2], strict=True):
-                dev.copy_to_host(getattr(maps, k))
+            for host, dev in zip(*held, strict=True):
+                dev.copy_to_host(host)
 
-    # ------------------------------------------------------------------ what reads the host's arrays
+    # ------------------------------------------------------------------ host operations and checkpoints
+    # (outputs need no override: reading pos, vel, depth, … brings the device's fields back)
 
     @property
     def neighbour_pairs(self) -> int:
@@ -319,25 +319,8 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
     def set_terrain(self, bed, wall) -> None:
         self._on_the_host(super().set_terrain, bed, wall)
 
-    def budget(self) -> dict:
-        self._pull()
-        return super().budget()
-
-    def surface(self) -> np.ndarray:
-        self._pull()
-        return super().surface()
-
-    def depth_grid(self) -> np.ndarray:
-        self._pull()
-        return super().depth_grid()
-
-    def sample(self, points):
-        self._pull()
-        return super().sample(points)
-
     def state_dict(self) -> dict:
         """The CPU's checkpoint, with the positions and radii the device's lists were built from."""
-        self._pull()
         out = super().state_dict()
         if not self._on_host and self._d_lists:  # the device's lists, rebuilt alike on resume
             out["lists_at"] = self._d["at"].copy_to_host()
@@ -345,5 +328,6 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         return out
 
     def load_state_dict(self, state: dict) -> None:
+        self._host_stale = False  # the state replaces whatever the device held
         super().load_state_dict(state)
         self._host_changed()

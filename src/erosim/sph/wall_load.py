@@ -49,7 +49,7 @@ def wall_pressures(solver, walls, half_width: float) -> list[float]:
         return []
     st = solver.state
     nf = st.n_fluid
-    pos = st.pos.astype(np.float64)
+    pos = np.asarray(st.pos, dtype=np.float64)  # no copy in float64
     reach = half_width + 2.0 * solver.h
     points = np.asarray([w[0] for w in walls], dtype=np.float64)
     lo, hi = points.min(axis=0) - reach, points.max(axis=0) + reach
