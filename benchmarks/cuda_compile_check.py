@@ -52,8 +52,8 @@ def signatures(dtype: str, dim: int):
         ("boundary_offsets", kc.boundary_offsets, (I1, int64, int64, I1, I1)),
         ("fill_lists", kc.fill_lists, (A2, A2, int64, int64, int64, I1, I1, I1, I1, float64, I1, I1, int32[:])),
         ("sort_boundary_lists", kc.sort_boundary_lists, (I1, int64, int64, int32[:])),
-        ("kick_drift", kc.kick_drift, (A2, A2, A2, A1, A1, A1, A1, int64) + (float64,) * 6),
-        ("correct", kc.correct, (A2, A2, A1, A1, A1, A1, int64) + (float64,) * 6 + (D1,)),
+        ("kick_drift", kc.kick_drift, (A2, A2, A2, A1, A1, A1, A1, int64) + (float64,) * 7),
+        ("correct", kc.correct, (A2, A2, A1, A1, A1, A1, int64) + (float64,) * 7 + (D1,)),
         ("reflect", kc.reflect, (A2, A2, int64, A1, A1, A2, A2)),
         (
             "boundary_update_density",

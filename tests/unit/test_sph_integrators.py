@@ -33,9 +33,9 @@ def _oscillate(scheme: str, dt: float, steps: int):
     k1, k2 = (0.5 * dt, 0.5 * dt) if scheme == "leapfrog" else (dt, 0.0)
     energy = []
     for _ in range(steps):
-        integrators.kick_drift(pos, vel, acc, rho, rho_old, drho, p, n, k1, dt, 1000.0, 1.0, 7.0, 0.0)
+        integrators.kick_drift(pos, vel, acc, rho, rho_old, drho, p, n, k1, dt, 1000.0, 1.0, 7.0, 0.0, -np.inf)
         acc[:] = -(OMEGA**2) * pos  # the "force pass"
-        integrators.correct(vel, acc, rho, rho_old, drho, p, n, k2, dt, 1000.0, 1.0, 7.0, 0.0, v2, a2)
+        integrators.correct(vel, acc, rho, rho_old, drho, p, n, k2, dt, 1000.0, 1.0, 7.0, 0.0, -np.inf, v2, a2)
         energy.append(0.5 * (vel**2).sum() + 0.5 * OMEGA**2 * (pos**2).sum())
     return np.array(energy), 0.5 * OMEGA**2 * (x0**2).sum()
 
@@ -71,3 +71,24 @@ def test_step_limit():
     lim = integrators.step_limit(0.2, 0.01, 20.0, 1.0, 100.0, 0.0)
     assert lim == pytest.approx(min(0.2 * 0.01 / 21.0, 0.2 * np.sqrt(0.01 / 100.0)))
     assert integrators.step_limit(0.2, 0.01, 20.0, 0.0, 0.0, 1.0) == pytest.approx(0.125 * 1e-4)
+
+
+def test_density_floor_holds_in_predictor_and_corrector():
+    """ρ = max(ρ + Δt D, ρ_min) in both updates: a particle whose neighbours fly apart (D < 0) stops at
+    ρ_min with zero pressure, and the floor never lifts a density above it; -inf leaves the update alone."""
+    n, dt, rho0, b, gamma = 2, 1e-3, 1000.0, 1.0e5, 7.0
+    for rho_min in (rho0, -np.inf):
+        pos, vel, acc = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+        rho = np.array([1000.5, 1200.0])
+        rho_old = rho.copy()
+        drho = np.array([-2.0e4, -2.0e4])  # 20 kg/m³ per step down
+        p = np.zeros(n)
+        v2, a2 = np.zeros(integrators.NCHUNK), np.zeros(integrators.NCHUNK)
+        integrators.kick_drift(pos, vel, acc, rho, rho_old, drho, p, n, 0.5 * dt, dt, rho0, b, gamma, 0.0, rho_min)
+        assert rho_old.tolist() == [1000.5, 1200.0]
+        integrators.correct(vel, acc, rho, rho_old, drho, p, n, 0.5 * dt, dt, rho0, b, gamma, 0.0, rho_min, v2, a2)
+        if rho_min == rho0:
+            assert rho.tolist() == [rho0, 1180.0]
+            assert p[0] == 0.0 and p[1] > 0.0
+        else:
+            assert rho.tolist() == [980.5, 1180.0]

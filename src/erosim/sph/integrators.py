@@ -44,15 +44,15 @@ def _chunk(n, c):
 
 
 @njit(parallel=True, cache=True)
-def kick_drift(pos, vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin):
-    """Fluid: v += dt_kick·a; r += dt·v; predictor ρ* = ρ + dt·D (ρ kept in rho_old); p = EOS(ρ*)."""
+def kick_drift(pos, vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin, rho_min):
+    """Fluid: v += dt_kick·a; r += dt·v; predictor ρ* = max(ρ + dt·D, ρ_min) (ρ kept in rho_old); p = EOS(ρ*)."""
     d = pos.shape[1]
     for i in prange(n_fluid):
         for a in range(d):
             vel[i, a] += dt_kick * acc[i, a]
             pos[i, a] += dt * vel[i, a]
         rho_old[i] = rho[i]
-        rho[i] += dt * drho[i]
+        rho[i] = max(rho[i] + dt * drho[i], rho_min)
         p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
 
 
@@ -73,9 +73,9 @@ def max_displacement(pos, ref, n_fluid, out_disp2):
 
 
 @njit(parallel=True, cache=True)
-def correct(vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin, out_v2, out_a2):
+def correct(vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin, rho_min, out_v2, out_a2):
     """After the force pass: v += dt_kick·a (leapfrog's second half kick; 0 for symplectic Euler);
-    corrector ρ = ρ_old + dt·D_new; p = EOS(ρ). out_v2[c], out_a2[c]: chunk maxima of |v|², |a|²
+    corrector ρ = max(ρ_old + dt·D_new, ρ_min); p = EOS(ρ). out_v2[c], out_a2[c]: chunk maxima of |v|², |a|²
     (+inf if any is NaN).
     """
     d = vel.shape[1]
@@ -90,7 +90,7 @@ def correct(vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamm
                 vel[i, a] += dt_kick * acc[i, a]
                 sv += vel[i, a] * vel[i, a]
                 sa += acc[i, a] * acc[i, a]
-            rho[i] = rho_old[i] + dt * drho[i]
+            rho[i] = max(rho_old[i] + dt * drho[i], rho_min)
             p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
             if sv != sv or sa != sa:
                 mv = math.inf

@@ -434,8 +434,8 @@ def sort_boundary_lists(start, n_fluid, n, nbr):
 
 
 @cuda.jit
-def kick_drift(pos, vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin):
-    """Fluid: v += dt_kick·a; r += dt·v; predictor ρ* = ρ + dt·D (ρ kept in rho_old); p = EOS(ρ*)."""
+def kick_drift(pos, vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin, rho_min):
+    """Fluid: v += dt_kick·a; r += dt·v; predictor ρ* = max(ρ + dt·D, ρ_min) (ρ kept in rho_old); p = EOS(ρ*)."""
     i = cuda.grid(1)
     if i >= n_fluid:
         return
@@ -444,13 +444,13 @@ def kick_drift(pos, vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0,
         vel[i, a] += dt_kick * acc[i, a]
         pos[i, a] += dt * vel[i, a]
     rho_old[i] = rho[i]
-    rho[i] += dt * drho[i]
+    rho[i] = max(rho[i] + dt * drho[i], rho_min)
     p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
 
 
 @cuda.jit
-def correct(vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin, out):
-    """Second kick, corrector ρ = ρ_old + dt·D, p = EOS(ρ); out[0], out[1] = max |v|², |a|² (inf on NaN).
+def correct(vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin, rho_min, out):
+    """Second kick, corrector ρ = max(ρ_old + dt·D, ρ_min), p = EOS(ρ); out[0], out[1] = max |v|², |a|² (inf on NaN).
     Threads stride over the particles (launch with :func:`red_blocks`)."""
     sh = cuda.shared.array(TPB, np.float64)
     d = vel.shape[1]
@@ -463,7 +463,7 @@ def correct(vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamm
             vel[i, a] += dt_kick * acc[i, a]
             sv += vel[i, a] * vel[i, a]
             sa += acc[i, a] * acc[i, a]
-        rho[i] = rho_old[i] + dt * drho[i]
+        rho[i] = max(rho_old[i] + dt * drho[i], rho_min)
         p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
         if sv != sv or sa != sa:
             mv = math.inf

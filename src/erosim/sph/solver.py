@@ -25,6 +25,7 @@ import numpy as np
 
 from erosim.core.errors import ConfigError, InstabilityError
 from erosim.kernels import neighbours as nb
+from erosim.kernels.sph_kernels import kernel_w
 from erosim.sph import diffusion_limit_molteni2009 as diffusion_limit
 from erosim.sph import eos as eos_mod
 from erosim.sph import forces, integrators
@@ -126,6 +127,7 @@ class SPHSolver:
         gnorm = float(np.linalg.norm(g))
         self.h = prm.support()
         self.hs = 0.5 * self.h
+        self._w0 = float(kernel_w(np.zeros(1), self.h, d, prm.kernel)[0])  # W(0, h), for rho_min
         vel0 = np.zeros_like(fluid) if fluid_vel is None else _as_points(fluid_vel, d, "fluid velocities")
         if vel0.shape != fluid.shape:
             raise ConfigError(
@@ -297,6 +299,14 @@ class SPHSolver:
                 add(self, total)
         ref = self.m * lattice_sum(self.params.spacing, self.h, self.dim, self.params.kernel)
         return total[: st.n_fluid] - ref
+
+    @property
+    def rho_min(self) -> float:
+        """The density floor m·W(0, h) (``density_floor = "lone"``; −inf when "off"): the summation density
+        of a particle with no neighbours, the least a particle's density can be. Continuity density has
+        no such bound; in tearing spray one forward step can carry it through zero, where the 1/ρ of the
+        viscous and pressure terms blow up (docs/sph.md, "A density floor")."""
+        return self.m * self._w0 if self.params.density_floor == "lone" else -math.inf
 
     def eos_args(self) -> tuple[float, float, float, float]:
         """(ρ₀, B, γ, p_min) of :func:`erosim.sph.eos.tait`, for boundary passes."""
@@ -537,7 +547,9 @@ class SPHSolver:
         k1, k2 = (0.5 * dt, 0.5 * dt) if self._leapfrog else (dt, 0.0)
         if self._shifting is not None:  # at the step's start, where the neighbour lists are valid
             self._shifting.apply(dt)
-        integrators.kick_drift(st.pos, st.vel, st.acc, st.rho, st.rho_old, st.drho, st.p, st.n_fluid, k1, dt, *args)
+        integrators.kick_drift(
+            st.pos, st.vel, st.acc, st.rho, st.rho_old, st.drho, st.p, st.n_fluid, k1, dt, *args, self.rho_min
+        )
         for fn in self._constrain:
             fn(self)
         for fn in self._predict:
@@ -546,9 +558,8 @@ class SPHSolver:
         self._evaluate()
         if self._summation:
             np.copyto(st.rho_old, st.rho)
-        integrators.correct(
-            st.vel, st.acc, st.rho, st.rho_old, st.drho, st.p, st.n_fluid, k2, dt, *args, self._v2, self._a2
-        )
+        rho = (st.rho, st.rho_old, st.drho, st.p)
+        integrators.correct(st.vel, st.acc, *rho, st.n_fluid, k2, dt, *args, self.rho_min, self._v2, self._a2)
         for fn in self._correct:
             fn(self, dt)
         self.vmax = math.sqrt(float(self._v2.max()))

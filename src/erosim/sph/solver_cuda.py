@@ -214,7 +214,7 @@ class CudaSPHSolver(SPHSolver):
         bf, bb = kc.blocks(nf), kc.blocks(n - nf)
         kc.kick_drift[bf, kc.TPB](
             dv["pos"], dv["vel"], dv["acc"], dv["rho"], dv["rho_old"], dv["drho"], dv["p"], nf, k1, dt, rho0, b, gamma,
-            pmin,
+            pmin, self.rho_min,
         )  # fmt: skip
         self._dirty = True
         lo, hi, olo, ohi = self._box
@@ -245,7 +245,7 @@ class CudaSPHSolver(SPHSolver):
         )  # fmt: skip
         kc.correct[kc.red_blocks(nf), kc.TPB](
             dv["vel"], dv["acc"], dv["rho"], dv["rho_old"], dv["drho"], dv["p"], nf, k2, dt, rho0, b, gamma, pmin,
-            self._d_maxima,
+            self.rho_min, self._d_maxima,
         )  # fmt: skip
         if bnd:
             kc.boundary_update_density[bb, kc.TPB](
