@@ -34,6 +34,7 @@ from erosim.core.errors import BudgetError, ConfigError
 from erosim.core.increments import check_budget
 from erosim.coupling.binning import FluidGrid
 from erosim.coupling.raster import Raster
+from erosim.sph.boundaries.distance_wall import walls_follow
 
 _TERMS = ("eroded", "deposited", "suspended", "carried_off")
 
@@ -91,14 +92,15 @@ class Coupler:
                 "the bedrock map."
             )
         changed = inc.dz != 0
-        self.terrain[...] = new
+        with walls_follow(s):
+            self.terrain[...] = new
+            if changed.any():
+                for b in s.boundaries:
+                    b.refresh(s, terrain=self.terrain, changed=changed)
         for k in _TERMS:
             self.totals[k] += terms[k]
         self.calls += 1
         self.last_t = float(s.t)
-        if changed.any():
-            for b in s.boundaries:
-                b.refresh(s, terrain=self.terrain, changed=changed)
 
     def sediment_budget(self) -> dict[str, Any]:
         """Volumes (m³) since the start: eroded, deposited, suspended (held in the water), carried off,

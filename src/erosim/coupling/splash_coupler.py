@@ -77,6 +77,7 @@ from erosim.erosion.shear_stress_kristof2009 import excess_stresses
 from erosim.erosion.wet_strength import strength
 from erosim.hydrology.seepage_darcy import absorb, conductivity, drain, evaporate, harmonic
 from erosim.kernels.sph_diffusion import diffuse
+from erosim.sph.boundaries.distance_wall import walls_follow
 from erosim.sph.boundaries.heightfield import node_slopes
 from erosim.sph.mud import MudParams, diffuse_concentration, mixture_density
 
@@ -266,10 +267,11 @@ class WetGround:
             s.remove_fluid(spent, sink="seepage")
         changed = dz != 0
         if changed.any():
-            self.terrain += dz
-            self.sx[...], self.sy[...] = node_slopes(self.terrain, r.dx, r.dy)
-            for b in s.boundaries:
-                b.refresh(s, terrain=self.terrain, changed=changed)
+            with walls_follow(s):
+                self.terrain += dz
+                self.sx[...], self.sy[...] = node_slopes(self.terrain, r.dx, r.dy)
+                for b in s.boundaries:
+                    b.refresh(s, terrain=self.terrain, changed=changed)
             moved = self.ground.follow()
             if moved is None:
                 self._w = self.ground.weights(self.diffusivity)

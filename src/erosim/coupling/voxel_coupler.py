@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from erosim.core.increments import check_budget
+from erosim.sph.boundaries.distance_wall import walls_follow
 
 _TERMS = ("eroded", "deposited", "suspended", "carried_off")
 
@@ -101,14 +102,15 @@ class VoxelCoupler:
                 x, y, z = _node(t, int(np.argmin(lowered)))  # lowered most (first in C order)
                 self.first[:] = (float(s.t), x, z)
                 self.first_y = y
-        t.density += dd  # float32 += exact float64 differences of float32 values
+        with walls_follow(s):
+            t.density += dd  # float32 += exact float64 differences of float32 values
+            for b in s.boundaries:
+                b.refresh(s, terrain=t.density, changed=changed)
         if np.isnan(self.onset[0]):
             passed = self._solid0 & (t.density <= t.iso)
             if passed.any():
                 loss = np.where(passed, self.initial - t.density, -np.inf)
                 self.onset[:] = (float(s.t), *_node(t, int(np.argmax(loss))))  # lost most (first in C order)
-        for b in s.boundaries:
-            b.refresh(s, terrain=t.density, changed=changed)
 
     def budget(self) -> dict[str, Any]:
         """Volumes (m³) since the start: eroded, deposited, carried off (removed from the field), the

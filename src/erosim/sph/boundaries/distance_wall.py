@@ -15,6 +15,8 @@ which the wall's pressure blends towards the attraction curve.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 
 from erosim.core.errors import ConfigError
@@ -70,6 +72,22 @@ class DistanceWall(Boundary):
         st = solver.state
         self._density_pass(st.pos, rho, st.n_fluid, *self._geometry(), self.curves.table, self.curves.dl)
 
+    def share(self, solver) -> np.ndarray:
+        """Z(l_i) of the fluid particles: the wall's share of their density (kg/m³)."""
+        z = np.zeros(solver.state.n_fluid)
+        self.add_density(solver, z)
+        return z
+
+    def follow(self, solver, share_before: np.ndarray) -> None:
+        """The wall moved under the fluid (its terrain changed, then :meth:`refresh` put particles back
+        out): a continuity density takes the change of the wall's share, ρ_i += Z(l_i, after) − Z(l_i,
+        before), as the continuity term of a moving wall would; summation density reads Z afresh."""
+        if self._summation:
+            return
+        st = solver.state
+        nf = st.n_fluid
+        st.rho[:nf] = np.maximum(st.rho[:nf] + (self.share(solver) - share_before), solver.rho_min)
+
     def forces(self, solver) -> None:
         st = solver.state
         self._forces_pass(
@@ -93,3 +111,17 @@ class DistanceWall(Boundary):
     def constrain(self, solver) -> None:
         st = solver.state
         self._constrain_pass(st.pos, st.vel, st.n_fluid, *self._geometry(), self.gap)
+
+
+@contextmanager
+def walls_follow(solver):
+    """Around a change of the terrain under ``solver``'s distance walls (the couplers': apply the
+    increments, refresh the boundaries): every :class:`DistanceWall`'s share of the fluid's densities
+    before, then :meth:`DistanceWall.follow` after. Without it a particle resting on ground that is
+    eroded under it follows the ground down, and the continuity term of that motion, m(v·n)G(l),
+    raises its density at every transfer while its distance to the wall stays the same (docs/voxel.md)."""
+    walls = [b for b in getattr(solver, "boundaries", ()) if isinstance(b, DistanceWall)]
+    before = [b.share(solver) for b in walls]
+    yield
+    for b, z in zip(walls, before, strict=True):
+        b.follow(solver, z)
