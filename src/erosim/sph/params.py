@@ -81,8 +81,7 @@ class SPHParams(Section):
         "'none' keeps tension (unstable at free surfaces)",
     )
     density_floor: Literal["lone", "off"] = param(
-        "lone", doc="'lone' keeps each fluid density ≥ m·W(0), a lone particle's summation density, which "
-        "continuity can overshoot in tearing spray (docs/sph.md); 'off'",
+        "lone", doc="'lone': each fluid density ≥ m·W(0), a lone particle's summation density (docs/sph.md); 'off'",
     )  # fmt: skip
     shifting: Literal["off", "fickian"] = param(
         "off", doc="particle shifting: 'off' or 'fickian' (Lind et al. 2012; keeps thin sheets and spray from clumping)"
