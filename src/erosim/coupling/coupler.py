@@ -92,9 +92,9 @@ class Coupler:
                 "the bedrock map."
             )
         changed = inc.dz != 0
-        with walls_follow(s):
-            self.terrain[...] = new
-            if changed.any():
+        if changed.any():
+            with walls_follow(s):
+                self.terrain[...] = new
                 for b in s.boundaries:
                     b.refresh(s, terrain=self.terrain, changed=changed)
         for k in _TERMS:
