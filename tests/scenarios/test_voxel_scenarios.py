@@ -170,6 +170,7 @@ def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch):
         (["voxels.cell_size=0.1"], "too coarse for the particle spacing"),
         (["voxels.max_bytes=1000"], "use voxels of at least"),
         (["embankment.x_toe=1.0"], "beyond the flume's end"),
+        (["inflows.j.position=[0.1, 0.05]", "inflows.j.discharge=0.001"], "jets stand on a heightmap"),
     ],
 )
 def test_bad_input_is_one_sentence_and_leaves_no_run_folder(tmp_path, sets, words):
@@ -194,7 +195,7 @@ def test_validate_overtopping_default_resolution(tmp_path):
 
 def test_canyon_caves_second_run_starts_from_the_first_runs_field(tmp_path):
     sets = ["terrain.size=12", "run.t_end=0.6", "run.output_interval=0.3", "erosion.start=0.05",
-            "run.particle_frames=false", "rain.height=0.5"]  # fmt: skip
+            "run.particle_frames=false", "rain.height=0.5", "inflows.river.position=[5.5, 1.5]"]  # fmt: skip
     first, second = tmp_path / "first", tmp_path / "second"
     code, text = _cli("run", "canyon-caves", "--out", str(first), *_sets(sets))
     assert code == 0, text
@@ -212,3 +213,33 @@ def test_canyon_caves_second_run_starts_from_the_first_runs_field(tmp_path):
         assert rep["particles_inside_solid"] == 0
         assert rep["water"]["added"].get("rain", 0) > 0  # drops of 5 particles
         assert rep["water"]["added"]["rain"] % 5 == 0
+        assert rep["water"]["added"]["inflow:river"] > 0  # the stream at the valley's head
+
+
+def test_a_jet_on_a_heightmap_feeds_the_valley_floor(tmp_path):
+    """[inflows.NAME] on a voxel heightmap: a layer of the jet's disc every Δx/speed seconds, its mouth
+    ``height`` above the top surface at ``position``; a position off the map is one sentence."""
+    from erosim.scenarios.builders_voxel import build_solver, build_terrain, jets, top_surface
+
+    sets = ["terrain.size=12", "run.t_end=1.0", "run.output_interval=1.0", "erosion.enabled=false",
+            "run.particle_frames=false", "rain.rate=0", "inflows.river.position=[5.5, 2.0]",
+            "inflows.river.discharge=2.0", "inflows.river.radius=0.5", "inflows.river.height=1.0"]  # fmt: skip
+    cfg = loader.load("canyon-caves", sets).config
+    t = build_terrain(cfg)
+    (jet,) = jets(cfg, t, build_solver(cfg, t)[0])
+    # the disc of radius 0.5 m on the 0.5 m lattice: the centre and its four neighbours (1.25 m²), so the
+    # water leaves at Q/A = 1.6 m/s, a layer every Δx/1.6 = 0.3125 s: three layers in 1 s
+    assert len(jet.layer) == 5 and jet.speed == pytest.approx(1.6) and jet.period == pytest.approx(0.3125)
+    c = t.cell_size
+    ground = top_surface(t)[int(round((2.0 - t.lo[1]) / c)), int(round((5.5 - t.lo[0]) / c))]
+    assert np.allclose(jet.layer[:, 2], jet.layer[0, 2]) and jet.layer[0, 2] >= ground + 1.0
+    assert jet.layer[0, 2] < ground + 1.0 + 0.5  # the highest ground under the disc, within a cell's slope
+    out = tmp_path / "jet"
+    code, text = _cli("run", "canyon-caves", "--out", str(out), *_sets(sets))
+    assert code == 0, text
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["water"]["added"] == {"inflow:river": 15}
+    code, text = _cli("run", "canyon-caves", "--out", str(tmp_path / "off"),
+                      *_sets(sets + ["inflows.river.position=[30, 2]"]))  # fmt: skip
+    assert code != 0 and "lies outside the terrain" in " ".join(text.split()), text
+    assert not (tmp_path / "off").exists()

@@ -38,7 +38,8 @@ import numpy as np
 
 from erosim.core.errors import ConfigError, InstabilityError
 from erosim.coupling.raster import Raster
-from erosim.coupling.sources import EDGES, EdgeOutflow
+from erosim.coupling.sampling import sample
+from erosim.coupling.sources import EDGES, EdgeOutflow, PointInflow
 from erosim.coupling.voxel_coupler import VoxelCoupler
 from erosim.scenarios.schema_voxel import VoxelScenario
 from erosim.scenarios.setup import Setup
@@ -82,7 +83,8 @@ def build_terrain(cfg: VoxelScenario):
         from erosim.scenarios.schema_common import build_terrain as heightmap
 
         hm = heightmap(cfg.terrain, cfg.seed)
-        top = float(np.nanmax(hm.z)) + cfg.rain.height + band + 2 * v.cell_size
+        lift = max([cfg.rain.height] + [j.height for j in cfg.inflows.values()])  # rain and the jets' mouths
+        top = float(np.nanmax(hm.z)) + lift + band + 2 * v.cell_size
         bottom = float(np.nanmin(hm.z)) - max(band + 2 * v.cell_size, v.depth)
         t = VoxelTerrain.from_heightmap(hm, v.cell_size, bottom=bottom, top=top, band=band, iso=v.iso,
                                         max_bytes=v.max_bytes)  # fmt: skip
@@ -377,6 +379,36 @@ class Inside(cb.Callback):
         self.most = int(state.get("most", 0))
 
 
+def jet_mouths(cfg: VoxelScenario, terrain) -> list[tuple[float, Raster]]:
+    """Per ``[inflows.NAME]`` jet on a heightmap's voxels: the height of its mouth's centre (``height`` above
+    the top surface, :func:`top_surface`, at ``position`` in the terrain's frame) and the raster of the
+    field's node columns; a point off the map is refused."""
+    c = terrain.cell_size
+    _, ny, nx = terrain.shape
+    nodes = Raster(float(terrain.lo[0]), float(terrain.lo[1]), c, c, nx, ny)
+    ground = top_surface(terrain)
+    lo, hi = np.asarray(terrain.lo[:2]), np.asarray(terrain.hi[:2])
+    out = []
+    for name, jet in cfg.inflows.items():
+        xy = np.asarray(jet.position, np.float64).reshape(-1)
+        if xy.size != 2 or np.any(xy < lo) or np.any(xy > hi):
+            raise ConfigError(
+                f"inflows.{name}.position {xy.tolist()} lies outside the terrain; give [x, y] between "
+                f"{lo.round(3).tolist()} and {hi.round(3).tolist()} m (the terrain's frame)."
+            )
+        out.append((float(sample(nodes, ground, xy[None])[0]) + jet.height, nodes))
+    return out
+
+
+def jets(cfg: VoxelScenario, terrain, solver) -> list[PointInflow]:
+    """The ``[inflows.NAME]`` sources (:class:`~erosim.coupling.sources.PointInflow`, a vertical jet each) on
+    a heightmap's voxels, at :func:`jet_mouths`."""
+    ground = top_surface(terrain)
+    return [PointInflow(IterationInterval(1), solver, nodes, ground, jet.position, jet.discharge, jet.radius,
+                        jet.height, name)
+            for (name, jet), (_, nodes) in zip(cfg.inflows.items(), jet_mouths(cfg, terrain), strict=True)]  # fmt: skip
+
+
 def rain_height(cfg: VoxelScenario, terrain) -> float:
     """z at which rain drops appear: ``rain.height`` above the highest solid node of the field."""
     solid = (terrain.density > terrain.iso).any(axis=(1, 2))
@@ -415,12 +447,15 @@ def build_solver(cfg: VoxelScenario, terrain):
         top, floor = max(level or 0.0, e.base + e.height + overflow_head(cfg.inflow.discharge, f.width)), 0.0
         what = "the water level or the crest and the overflow's head above the floor"
     else:
-        if len(fluid) == 0 and cfg.rain.rate <= 0:
-            raise ConfigError("The scenario has no water: give water.level above some ground or rain.rate > 0.")
+        if len(fluid) == 0 and cfg.rain.rate <= 0 and not cfg.inflows:
+            raise ConfigError(
+                "The scenario has no water: give water.level above some ground, rain.rate > 0 or an [inflows.NAME] jet."
+            )
         top = max([float(fluid[:, 2].max()) if len(fluid) else -np.inf]
-                  + ([rain_height(cfg, terrain)] if cfg.rain.rate > 0 else []))  # fmt: skip
+                  + ([rain_height(cfg, terrain)] if cfg.rain.rate > 0 else [])
+                  + [z for z, _ in jet_mouths(cfg, terrain)])  # fmt: skip
         floor = float(terrain.lo[2])
-        what = "the highest water or rain drop above the field's bottom"
+        what = "the highest water, rain drop or jet's mouth above the field's bottom"
     derived = {}
     if p.sound_speed <= 0:
         g = math.sqrt(sum(x * x for x in p.gravity_vector()))
@@ -468,6 +503,7 @@ def setup(scenario, out) -> Setup:
         if cfg.rain.rate > 0:
             callbacks.append(RainDrops(IterationInterval(cfg.rain.every), solver, terrain.lo[:2], terrain.hi[:2],
                                        rain_height(cfg, terrain), cfg.rain.rate, cfg.seed))  # fmt: skip
+        callbacks += jets(cfg, terrain, solver)
     callbacks.append(coupler)
     inside = Inside(IterationInterval(e.every), solver, wall)
     x0 = cfg.embankment.x_toe if flume else 0.0

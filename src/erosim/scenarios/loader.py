@@ -172,6 +172,7 @@ def _merge(base: dict, extra: dict) -> dict:
 #: open edges, which are positions and edges of the generated valley)
 TERRAIN_BOUND = (
     ("terrain", "cell_size"), ("reservoir", "barrier"), ("breach",), ("hazard", "inside"), ("outflow", "edges"),
+    ("inflows",),
 )  # fmt: skip
 
 

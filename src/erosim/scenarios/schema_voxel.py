@@ -14,6 +14,8 @@
     [sph]          solver parameters (erosim.sph.params.SPHParams); the walls are the field and the planes
     [water]        the reservoir at rest upstream of the embankment: its level
     [inflow]       the reservoir's filling: discharge (m³/s) laid at rest on its surface over x0…x1
+    [inflows.NAME] on a heightmap, a river's source: a vertical jet of ``discharge`` m³/s at ``position``
+                   (the terrain's frame), ``height`` m above the ground (erosim.coupling.sources.PointInflow)
     [erosion]      shear-stress erosion (erosion.shear_stress_kristof2009) every ``every`` steps
     [run]          t_end, output interval (meshes, field, particle frames), profile interval and formats
 
@@ -31,6 +33,7 @@ from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.erosion.shear_stress_kristof2009 import ShearStressParams
 from erosim.scenarios.schema_common import TerrainSection, with_sph_defaults
+from erosim.scenarios.schema_sph_terrain import InflowSection as JetSection
 from erosim.sph.params import SPHParams
 
 
@@ -92,6 +95,10 @@ class InflowSection(Section):
     x1: float = param(0.2, gt=0, unit="m", doc="downstream end of that area")
 
 
+class VoxelJetSection(JetSection):
+    position: list[float] = param(..., unit="m", doc="[x, y] in the terrain's frame: metres from its south-west node")
+
+
 class VoxelErosion(ShearStressParams):
     enabled: bool = param(True, doc="shear-stress erosion on (false: the fluid only)")
     start: float = param(1.0, ge=0, unit="s", doc="no erosion before this time: the fluid laid on a lattice settles")
@@ -130,6 +137,7 @@ class VoxelScenario(Section):
     sph: SPHParams = Field(default_factory=lambda: SPHParams(dim=3, walls="reflect", spacing=0.02))
     water: WaterSection = Field(default_factory=WaterSection)
     inflow: InflowSection = Field(default_factory=InflowSection)
+    inflows: dict[str, VoxelJetSection] = Field(default_factory=dict)
     erosion: VoxelErosion = Field(default_factory=VoxelErosion)
     run: VoxelRun = Field(default_factory=VoxelRun)
 
@@ -149,8 +157,12 @@ class VoxelScenario(Section):
         f, e = self.terrain, self.embankment
         if f.shape == "heightmap":
             if self.inflow.discharge > 0:
-                raise ConfigError("[inflow] enters a flume's upstream wall; on a heightmap use [rain] or water.level.")
+                raise ConfigError(
+                    "[inflow] enters a flume's upstream wall; on a heightmap use [rain], [inflows.NAME] or water.level."
+                )
             return self
+        if self.inflows:
+            raise ConfigError("[inflows.NAME] jets stand on a heightmap; a flume is fed by [inflow].")
         heel = e.x_toe + e.height * (e.upstream + e.downstream) + e.crest_width
         if heel >= f.length:
             raise ConfigError(
