@@ -2,6 +2,7 @@
 
     python benchmarks/voxel_scene_images.py mountain-lake RUN OUT.png
     python benchmarks/voxel_scene_images.py canyon RUN1 RUN2 OUT.png [--at Y]
+    python benchmarks/voxel_scene_images.py caves RUN
 
 `mountain-lake`: the surface (marching cubes of fields/density_0000.npz and of the last field) as the run's
 figures/surface.png draws it (erosim.scenarios.builders_voxel.surface_figure): before tinted by height,
@@ -11,6 +12,9 @@ second (its start, the first's end, dashed), side by side, at y = Y (default: th
 lowered most), over plan views of the top surface's lowering in each run (the section's row dashed).
 It prints what it measures: the solid volume (the closed mesh's) before and after, and the top
 surface's largest lowering.
+`caves`: per particle frame of a `canyon-caves` run, the water in the caves: the particles more than
+half a metre below the heightmap the caves were carved from (the scenario as the run folder's
+scenario.toml gives it, its caves and any `terrain.voxels_file` left out).
 """
 
 from __future__ import annotations
@@ -106,6 +110,23 @@ def canyon(run1: str, run2: str, out: str, at: float | None) -> None:
         small_png(out, both)
 
 
+def caves(run: str) -> None:
+    from erosim.scenarios import loader
+    from erosim.scenarios.builders_voxel import build_terrain
+
+    cfg = loader.load(Path(run) / "scenario.toml", ["caves.wavelength=0"]).config  # a second run: its generator's
+    uncut = build_terrain(cfg.model_copy(update={"terrain": cfg.terrain.model_copy(update={"voxels_file": None})}))
+    z = top_surface(uncut)  # [iy, ix] on the voxels' node columns
+    c, (x0, y0) = uncut.cell_size, uncut.lo[:2]
+    for frame in sorted(glob.glob(f"{run}/particles/frame_*.vtp")):
+        pos = np.asarray(read_vtp(frame)["points"])
+        if len(pos) == 0:
+            continue
+        ix = np.clip(np.round((pos[:, 0] - x0) / c).astype(int), 0, z.shape[1] - 1)
+        iy = np.clip(np.round((pos[:, 1] - y0) / c).astype(int), 0, z.shape[0] - 1)
+        print(f"{Path(frame).name}: {len(pos)} particles, {int((pos[:, 2] < z[iy, ix] - 0.5).sum())} in the caves")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="what", required=True)
@@ -117,9 +138,12 @@ def main() -> None:
     c.add_argument("run2")
     c.add_argument("out")
     c.add_argument("--at", type=float, default=None)
+    sub.add_parser("caves").add_argument("run")
     a = ap.parse_args()
     if a.what == "mountain-lake":
         mountain_lake(a.run, a.out)
+    elif a.what == "caves":
+        caves(a.run)
     else:
         canyon(a.run1, a.run2, a.out, a.at)
 

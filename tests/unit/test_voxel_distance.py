@@ -79,3 +79,26 @@ def test_terrain_distance_and_fluid_points():
     pts = floor.fluid_points(0.1, below=0.6)
     assert pts[:, 2].min() == pytest.approx(0.35) and pts[:, 2].max() == pytest.approx(0.55)
     assert len(pts) == 10 * 10 * 3
+
+
+@pytest.mark.parametrize("offset", [1 / 3, 2 / 3])
+def test_a_concave_edge_is_felt_at_every_offset_of_the_grid(offset):
+    """Two walls (floor z = 0, wall x = 0) on nodes that sit ``offset``·Δ off them: along the bisector through
+    a node, the cell's polynomial is flat near that node and alone would read l → ∞ (no wall) in a pocket
+    Δ/3 from both walls; the gradient blended towards the nodes' central differences reads a wall there, at
+    most √2 times the true distance min(x, z) (the mean of the two walls' gradients, |∇d| = 1/√2 of one
+    wall's, at the bisector; docstring of erosim.kernels.voxel). In the cell between the node and the walls
+    trilinear interpolation rounds the corner and reads the wall closer than it is (down to 0.48 of it
+    here), as it always has."""
+    cs = 0.01
+    o = -(3 + offset) * cs  # the grid's first node 3 + offset cells outside the walls
+    edge = VoxelTerrain.from_shapes([HalfSpace((0, 0, 0), (0, 0, 1)), HalfSpace((0, 0, 0), (1, 0, 0))],
+                                    (o, o, o), (0.2, 0.1, 0.2), cs)  # fmt: skip
+    node = (1 - offset) * cs  # the first node inside, on the bisector x = z
+    rng = np.random.default_rng(3)
+    pts = np.column_stack([np.full(400, node), np.full(400, 0.05), np.full(400, node)])
+    pts += (rng.random((400, 3)) - 0.5) * 0.2 * cs  # within a fifth of a cell of that node
+    l, n = _query(edge, pts)
+    true = np.minimum(pts[:, 0], pts[:, 2])
+    assert np.all(l > 0.4 * true) and np.all(l <= np.sqrt(2) * true * (1 + 1e-6))
+    assert np.all(n[:, [0, 2]] >= -1e-9) and np.abs(n[:, 1]).max() < 1e-6  # into the fluid, between the walls' normals

@@ -580,6 +580,11 @@ class SPHSolver:
             out[:] = arr[:nf][np.argsort(st.ids, kind="stable")]
         return out
 
+    def in_label_order(self, values: np.ndarray) -> np.ndarray:
+        """A per-particle array of the fluid in internal order (a boundary's ``distances``, say; the state's
+        rows) → label order, the order of :meth:`fluid_positions` and the other ``fluid_*`` getters."""
+        return self._fluid(np.asarray(values))
+
     def fluid_positions(self) -> np.ndarray:
         """(n_fluid, dim) positions in label order (the order fluid_pos was given)."""
         return self._fluid(self.state.pos)

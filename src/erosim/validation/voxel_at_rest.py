@@ -97,7 +97,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         if progress and s.steps % 500 == 0:
             print(f"voxel-at-rest: t = {s.t:.2f} / {t_end:g} s", flush=True)
     head, z = np.mean(heads, axis=0), np.mean(zs, axis=0)  # the same particle in every sample
-    l, _ = wall.distances(s)
+    l = s.in_label_order(wall.distances(s)[0])  # the getters' order, as the densities
     e = errors(head, z, s.fluid_density(), l, rho0=rho0, h=s.h, bottom=-SINK)
     e["particles_inside_max"] = int(inside_max)
     passed = bool(e["pressure_rms_rel"] < P_THRESHOLD and e["near_wall_density_dev"] < RHO_THRESHOLD

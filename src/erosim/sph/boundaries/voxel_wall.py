@@ -160,7 +160,8 @@ class VoxelWall(DistanceWall):
         return [self.distances(solver)]
 
     def distances(self, solver) -> tuple[np.ndarray, np.ndarray]:
-        """(l, n) of the fluid particles: wall distance (m, positive in the fluid) and unit normal."""
+        """(l, n) of the fluid particles in the state's (internal) order: wall distance (m, positive in the
+        fluid) and unit normal; ``solver.in_label_order`` puts them in the order of ``solver.fluid_positions()``."""
         from erosim.kernels.voxel import wall_distance
 
         st = solver.state
