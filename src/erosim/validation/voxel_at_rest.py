@@ -38,13 +38,13 @@ L, W, X45, DEPTH, R, XB, SINK = 0.36, 0.12, 0.24, 0.16, 0.1, 0.11, 0.04
 RESOLUTIONS = {"coarse": (0.02, 1.5, 0.3), "default": (0.01, 2.0, 0.25), "fine": (0.0075, 2.0, 0.25)}
 
 
-def tank(cell: float):
-    """The solid of the module docstring on voxels of ``cell`` (m)."""
+def tank(cell: float, pad: float = 0.08):
+    """The solid of the module docstring on voxels of ``cell`` (m), the grid starting ``pad`` (m) outside the
+    walls (at 8 cm the fine grid's nodes lie 2/3 of a cell off them, the others' on them)."""
     from erosim.terrain.voxel import HalfSpace, Sphere, VoxelTerrain
 
     walls = [HalfSpace((0, 0, 0), (0, 0, 1)), HalfSpace((0, 0, 0), (1, 0, 0)), HalfSpace((0, 0, 0), (0, 1, 0)),
              HalfSpace((0, W, 0), (0, -1, 0)), HalfSpace((X45, 0, 0), (-1, 0, 1))]  # fmt: skip
-    pad = 0.08
     solid = VoxelTerrain.from_shapes(walls, (-pad, -pad, -pad), (L + pad, W + pad, DEPTH + 0.1), cell)
     return solid.difference(Sphere((XB, 0.5 * W, R - SINK), R))
 
