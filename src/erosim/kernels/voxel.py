@@ -84,6 +84,12 @@ def _trilinear(d000, d100, d010, d110, d001, d101, d011, d111, u, v, w):
 
 
 @njit(inline="always", cache=True)
+def _dif(a, b):
+    """a − b in the field's precision, as a float64 (as :func:`_central` forms it)."""
+    return float(a - b)
+
+
+@njit(inline="always", cache=True)
 def _central(dens, i, j, k):
     """The node's central differences (d[+1] − d[−1])/(index span) per axis, one-sided at the grid's edges
     (density per cell; the caller divides by Δ)."""
@@ -121,17 +127,59 @@ def sample(dens, ox, oy, oz, inv, x, y, z):
     px = ex0 + w * (ex1 - ex0)
     py = (c10 - c00) + w * ((c11 - c01) - (c10 - c00))
     pz = c1 - c0
-    a000 = _central(dens, i, j, k)
-    a100 = _central(dens, i + 1, j, k)
-    a010 = _central(dens, i, j + 1, k)
-    a110 = _central(dens, i + 1, j + 1, k)
-    a001 = _central(dens, i, j, k + 1)
-    a101 = _central(dens, i + 1, j, k + 1)
-    a011 = _central(dens, i, j + 1, k + 1)
-    a111 = _central(dens, i + 1, j + 1, k + 1)
-    qx = _trilinear(a000[0], a100[0], a010[0], a110[0], a001[0], a101[0], a011[0], a111[0], u, v, w)
-    qy = _trilinear(a000[1], a100[1], a010[1], a110[1], a001[1], a101[1], a011[1], a111[1], u, v, w)
-    qz = _trilinear(a000[2], a100[2], a010[2], a110[2], a001[2], a101[2], a011[2], a111[2], u, v, w)
+    nz, ny, nx = dens.shape
+    if 1 <= i and i + 2 < nx and 1 <= j and j + 2 < ny and 1 <= k and k + 2 < nz:  # inside: no clamping
+        qx = 0.5 * _trilinear(
+            _dif(dens[k, j, i + 1], dens[k, j, i - 1]),
+            _dif(dens[k, j, i + 2], d000),
+            _dif(dens[k, j + 1, i + 1], dens[k, j + 1, i - 1]),
+            _dif(dens[k, j + 1, i + 2], d010),
+            _dif(dens[k + 1, j, i + 1], dens[k + 1, j, i - 1]),
+            _dif(dens[k + 1, j, i + 2], d001),
+            _dif(dens[k + 1, j + 1, i + 1], dens[k + 1, j + 1, i - 1]),
+            _dif(dens[k + 1, j + 1, i + 2], d011),
+            u,
+            v,
+            w,
+        )
+        qy = 0.5 * _trilinear(
+            _dif(dens[k, j + 1, i], dens[k, j - 1, i]),
+            _dif(dens[k, j + 1, i + 1], dens[k, j - 1, i + 1]),
+            _dif(dens[k, j + 2, i], d000),
+            _dif(dens[k, j + 2, i + 1], d100),
+            _dif(dens[k + 1, j + 1, i], dens[k + 1, j - 1, i]),
+            _dif(dens[k + 1, j + 1, i + 1], dens[k + 1, j - 1, i + 1]),
+            _dif(dens[k + 1, j + 2, i], d001),
+            _dif(dens[k + 1, j + 2, i + 1], d101),
+            u,
+            v,
+            w,
+        )
+        qz = 0.5 * _trilinear(
+            _dif(dens[k + 1, j, i], dens[k - 1, j, i]),
+            _dif(dens[k + 1, j, i + 1], dens[k - 1, j, i + 1]),
+            _dif(dens[k + 1, j + 1, i], dens[k - 1, j + 1, i]),
+            _dif(dens[k + 1, j + 1, i + 1], dens[k - 1, j + 1, i + 1]),
+            _dif(dens[k + 2, j, i], d000),
+            _dif(dens[k + 2, j, i + 1], d100),
+            _dif(dens[k + 2, j + 1, i], d010),
+            _dif(dens[k + 2, j + 1, i + 1], d110),
+            u,
+            v,
+            w,
+        )
+    else:
+        a000 = _central(dens, i, j, k)
+        a100 = _central(dens, i + 1, j, k)
+        a010 = _central(dens, i, j + 1, k)
+        a110 = _central(dens, i + 1, j + 1, k)
+        a001 = _central(dens, i, j, k + 1)
+        a101 = _central(dens, i + 1, j, k + 1)
+        a011 = _central(dens, i, j + 1, k + 1)
+        a111 = _central(dens, i + 1, j + 1, k + 1)
+        qx = _trilinear(a000[0], a100[0], a010[0], a110[0], a001[0], a101[0], a011[0], a111[0], u, v, w)
+        qy = _trilinear(a000[1], a100[1], a010[1], a110[1], a001[1], a101[1], a011[1], a111[1], u, v, w)
+        qz = _trilinear(a000[2], a100[2], a010[2], a110[2], a001[2], a101[2], a011[2], a111[2], u, v, w)
     p2 = px * px + py * py + pz * pz
     q2 = qx * qx + qy * qy + qz * qz
     b = 0.0
