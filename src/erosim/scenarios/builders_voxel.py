@@ -379,16 +379,18 @@ class Inside(cb.Callback):
         self.most = int(state.get("most", 0))
 
 
-def jet_mouths(cfg: VoxelScenario, terrain) -> list[tuple[float, Raster]]:
-    """Per ``[inflows.NAME]`` jet on a heightmap's voxels: the height of its mouth's centre (``height`` above
-    the top surface, :func:`top_surface`, at ``position`` in the terrain's frame) and the raster of the
-    field's node columns; a point off the map is refused."""
+def jet_mouths(cfg: VoxelScenario, terrain) -> tuple[list[float], Raster | None, np.ndarray | None]:
+    """The ``[inflows.NAME]`` jets on a heightmap's voxels: the height of each mouth's centre (``height`` above
+    the top surface, :func:`top_surface`, at ``position`` in the terrain's frame), the raster of the field's
+    node columns and that surface (None without jets); a point off the map is refused."""
+    if not cfg.inflows:
+        return [], None, None
     c = terrain.cell_size
     _, ny, nx = terrain.shape
     nodes = Raster(float(terrain.lo[0]), float(terrain.lo[1]), c, c, nx, ny)
     ground = top_surface(terrain)
     lo, hi = np.asarray(terrain.lo[:2]), np.asarray(terrain.hi[:2])
-    out = []
+    tops = []
     for name, jet in cfg.inflows.items():
         xy = np.asarray(jet.position, np.float64).reshape(-1)
         if xy.size != 2 or np.any(xy < lo) or np.any(xy > hi):
@@ -396,17 +398,16 @@ def jet_mouths(cfg: VoxelScenario, terrain) -> list[tuple[float, Raster]]:
                 f"inflows.{name}.position {xy.tolist()} lies outside the terrain; give [x, y] between "
                 f"{lo.round(3).tolist()} and {hi.round(3).tolist()} m (the terrain's frame)."
             )
-        out.append((float(sample(nodes, ground, xy[None])[0]) + jet.height, nodes))
-    return out
+        tops.append(float(sample(nodes, ground, xy[None])[0]) + jet.height)
+    return tops, nodes, ground
 
 
 def jets(cfg: VoxelScenario, terrain, solver) -> list[PointInflow]:
     """The ``[inflows.NAME]`` sources (:class:`~erosim.coupling.sources.PointInflow`, a vertical jet each) on
     a heightmap's voxels, at :func:`jet_mouths`."""
-    ground = top_surface(terrain)
+    _, nodes, ground = jet_mouths(cfg, terrain)
     return [PointInflow(IterationInterval(1), solver, nodes, ground, jet.position, jet.discharge, jet.radius,
-                        jet.height, name)
-            for (name, jet), (_, nodes) in zip(cfg.inflows.items(), jet_mouths(cfg, terrain), strict=True)]  # fmt: skip
+                        jet.height, name) for name, jet in cfg.inflows.items()]  # fmt: skip
 
 
 def rain_height(cfg: VoxelScenario, terrain) -> float:
@@ -453,7 +454,7 @@ def build_solver(cfg: VoxelScenario, terrain):
             )
         top = max([float(fluid[:, 2].max()) if len(fluid) else -np.inf]
                   + ([rain_height(cfg, terrain)] if cfg.rain.rate > 0 else [])
-                  + [z for z, _ in jet_mouths(cfg, terrain)])  # fmt: skip
+                  + jet_mouths(cfg, terrain)[0])  # fmt: skip
         floor = float(terrain.lo[2])
         what = "the highest water, rain drop or jet's mouth above the field's bottom"
     derived = {}
