@@ -45,15 +45,30 @@ def test_mountain_lake_turns_any_dem_into_voxels_and_refuses_one_too_large(tmp_p
     yy, xx = np.mgrid[0:9, 0:12]
     dem = 2.0 + 0.25 * xx + 0.1 * yy  # a tilted plane, heights in metres, 1 m cells (.npy)
     np.save(tmp_path / "dem.npy", dem)
-    sc = loader.load("mountain-lake", [f"terrain.file={tmp_path / 'dem.npy'}"])  # a .npy DEM: 1 m cells
+    dem_file = f"terrain.file={tmp_path / 'dem.npy'}"  # a .npy DEM: 1 m cells
+    # on a user's DEM the scene's 0.5 m voxels and particles give way to the DEM's own cell size
+    sc = loader.load("mountain-lake", [dem_file])
+    assert sc.config.voxels.scale == "dem"
+    t = build_terrain(sc.config)
+    assert t.shape[1:] == (9, 12) and t.cell_size == 1.0  # 1 m voxels over 8 m x 11 m
+    # unless the command line sets either size
+    sc = loader.load("mountain-lake", [dem_file, "voxels.cell_size=0.5", "sph.spacing=0.5"])
+    assert sc.config.voxels.scale == "set"
     t = build_terrain(sc.config)
     assert t.shape[1:] == (17, 23)  # 0.5 m voxels over 8 m x 11 m
     # the surface along a row is the DEM's plane (row 0 of the map is north: y = 8 m is its first row);
     # exact on a plane to float32 rounding of the ramp, well inside a voxel
     x, z = surface_profile(t, 4.0)
     assert np.allclose(z, 2.0 + 0.25 * x + 0.1 * (8 - 4.0), atol=1e-3)
+    # the command, on the DEM alone (shortened): it runs at the DEM's scale
+    code, text = _cli("run", "mountain-lake", "--out", str(tmp_path / "dem"), "--set", dem_file, "--set",
+                      "run.t_end=0.5")  # fmt: skip
+    assert code == 0, text
+    rep = json.loads((tmp_path / "dem" / "report.json").read_text())
+    assert rep["resolution"]["spacing"] == 1.0 and rep["voxels"]["cell_size_m"] == 1.0
+    assert rep["particles_inside_solid"] == 0
     code, text = _cli("run", "mountain-lake", "--out", str(tmp_path / "big"), "--set",
-                      f"terrain.file={tmp_path / 'dem.npy'}", "--set", "voxels.max_bytes=20000")  # fmt: skip
+                      f"terrain.file={tmp_path / 'dem.npy'}", "--set", "voxels.max_bytes=2000")  # fmt: skip
     assert code != 0 and "use voxels of at least" in " ".join(text.split()), text
     assert not (tmp_path / "big").exists()
 
@@ -171,6 +186,7 @@ def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch):
         (["voxels.max_bytes=1000"], "use voxels of at least"),
         (["embankment.x_toe=1.0"], "beyond the flume's end"),
         (["inflows.j.position=[0.1, 0.05]", "inflows.j.discharge=0.001"], "jets stand on a heightmap"),
+        (["voxels.scale=dem"], "a flume has none"),
     ],
 )
 def test_bad_input_is_one_sentence_and_leaves_no_run_folder(tmp_path, sets, words):

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from erosim.core.errors import ConfigError, InstabilityError
+from erosim.core.errors import ConfigError, InputError, InstabilityError
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.coupling.sources import EDGES, EdgeOutflow, PointInflow
@@ -57,11 +57,29 @@ def band_for(cfg: VoxelScenario) -> float:
     return BAND_MARGIN * (cfg.sph.support() + math.sqrt(3.0) * cfg.voxels.cell_size)
 
 
+def at_dem_scale(cfg: VoxelScenario) -> VoxelScenario:
+    """``cfg`` with ``voxels.scale = "dem"`` resolved: voxels and particles at the heightmap's own cell size
+    (``voxels.cell_size`` = ``sph.spacing`` = the DEM's cells; h = 2 cells, so the voxels fit the kernel
+    support). A library scene's sizes describe its generated terrain; on a user's DEM they would give
+    millions of nodes per cell of a 30 m map or a handful on a 0.5 m one. Unchanged for ``"set"``."""
+    if cfg.voxels.scale != "dem" or cfg.terrain.voxels_file:
+        return cfg
+    from erosim.scenarios.schema_common import build_terrain as heightmap
+
+    cell = float(heightmap(cfg.terrain, cfg.seed).cell_size)
+    return cfg.model_copy(update={
+        "voxels": cfg.voxels.model_copy(update={"cell_size": cell, "scale": "set"}),
+        "sph": cfg.sph.model_copy(update={"spacing": cell}),
+    })  # fmt: skip
+
+
 def build_terrain(cfg: VoxelScenario):
     """The scenario's voxel field: a saved field (``terrain.voxels_file``), a heightmap with its caves, or
-    the flume's floor (z < 0), the plinth (z < ``embankment.base``) and the embankment."""
+    the flume's floor (z < 0), the plinth (z < ``embankment.base``) and the embankment; ``voxels.scale =
+    "dem"`` resolved first (:func:`at_dem_scale`)."""
     from erosim.terrain.voxel import Box, Embankment, HalfSpace, VoxelTerrain
 
+    cfg = at_dem_scale(cfg)
     f, e, v = cfg.terrain, cfg.embankment, cfg.voxels
     h = cfg.sph.support()
     if f.voxels_file:
@@ -86,8 +104,14 @@ def build_terrain(cfg: VoxelScenario):
         lift = max([cfg.rain.height] + [j.height for j in cfg.inflows.values()])  # rain and the jets' mouths
         top = float(np.nanmax(hm.z)) + lift + band + 2 * v.cell_size
         bottom = float(np.nanmin(hm.z)) - max(band + 2 * v.cell_size, v.depth)
-        t = VoxelTerrain.from_heightmap(hm, v.cell_size, bottom=bottom, top=top, band=band, iso=v.iso,
-                                        max_bytes=v.max_bytes)  # fmt: skip
+        try:
+            t = VoxelTerrain.from_heightmap(hm, v.cell_size, bottom=bottom, top=top, band=band, iso=v.iso,
+                                            max_bytes=v.max_bytes)  # fmt: skip
+        except InputError as exc:  # the voxels' size that fits: the particles must come with them
+            raise InputError(
+                f"{str(exc).rstrip('.')}, setting sph.spacing with voxels.cell_size (voxels may be no larger "
+                "than the kernel support, twice the spacing)."
+            ) from None
         c = cfg.caves
         if c.wavelength > 0:
             t = t.carve_caves(wavelength=c.wavelength, threshold=c.threshold, seed=cfg.seed, octaves=c.octaves,
@@ -482,7 +506,7 @@ def setup(scenario, out) -> Setup:
     """The flume, its fluid, inflow and outflow, the erosion coupler and the outputs of a ``voxel`` run."""
     from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion
 
-    cfg: VoxelScenario = scenario.config
+    cfg: VoxelScenario = at_dem_scale(scenario.config)
     terrain = build_terrain(cfg)
     solver, wall, derived = build_solver(cfg, terrain)
     e, run = cfg.erosion, cfg.run

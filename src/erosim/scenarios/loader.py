@@ -218,6 +218,8 @@ def load(
         for bound in TERRAIN_BOUND:
             if not any(k[: len(bound)] == bound for k in set_keys):
                 _drop(body, bound)
+        if data.get("kind") == "voxel" and not set_keys & {("voxels", "cell_size"), ("sph", "spacing")}:
+            body.setdefault("voxels", {})["scale"] = "dem"  # voxels and particles at the DEM's own cell size
     for keys, value, item in sets:
         if keys[0] in META_KEYS:
             if keys != ["preset"]:

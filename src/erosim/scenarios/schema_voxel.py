@@ -68,6 +68,10 @@ class VoxelsSection(Section):
                          "ground (room for caves); 0: the ramp and two cells")  # fmt: skip
     iso: float = param(0.5, unit="1", doc="iso level of the surface in the density range (0 air, 1 solid)")
     max_bytes: int = param(4 << 30, gt=0, unit="B", doc="refuse a field larger than this in memory")
+    scale: Literal["set", "dem"] = param(
+        "set", doc="'dem': voxels and particles at the heightmap's own cell size (voxels.cell_size and sph.spacing "
+        "follow it); what --set terrain.file=… gives a library scene unless either is set too",
+    )  # fmt: skip
 
 
 class CavesSection(Section):
@@ -163,6 +167,8 @@ class VoxelScenario(Section):
             return self
         if self.inflows:
             raise ConfigError("[inflows.NAME] jets stand on a heightmap; a flume is fed by [inflow].")
+        if self.voxels.scale == "dem":
+            raise ConfigError("voxels.scale = 'dem' takes a heightmap's cell size; a flume has none: leave it 'set'.")
         heel = e.x_toe + e.height * (e.upstream + e.downstream) + e.crest_width
         if heel >= f.length:
             raise ConfigError(
