@@ -172,7 +172,8 @@ def spheric2(spacing: float, runs: Path, t_end: float = 1.6) -> dict:
     solver = sim.models[0]
     return {"spacing_m": spacing, "fluid_particles": solver.n_fluid, "boundary_particles": solver.n_boundary,
             "steps": solver.steps, "wall_s": round(wall, 1), "level_rms_mm": {k: round(1000 * v, 1) for k, v in
-            e["level_rms_m"].items()}, "pressure_rms_pct": {k: round(100 * v, 1) for k, v in
+            e["level_rms_m"].items()}, "wire_rms_mm": {k: round(1000 * v, 1) for k, v in
+            e["wire_level_rms_m"].items()}, "pressure_rms_pct": {k: round(100 * v, 1) for k, v in
             e["pressure_rms_rel"].items()}}  # fmt: skip
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from erosim.analysis.front import front_position, nondimensional_front
-from erosim.analysis.gauges import probe_pressure, water_depth, water_level
+from erosim.analysis.gauges import gauge_readings, probe_pressure, water_depth, water_level
 from erosim.scenarios.builders_sph import lattice
 
 DX = 0.01
@@ -62,6 +62,26 @@ def test_level_gauge_sees_a_column_within_half_a_spacing_of_its_height():
     col = lattice([0.0, 0.0], [0.04, 0.13], DX)
     level = water_level(col, DX**2, np.array([[0.02]]), 3 * DX, DX, floor=0.0)
     assert level[0] == pytest.approx(0.13, abs=0.5 * DX)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_wire_reads_the_water_over_a_hollow_where_the_column_stops_under_it(dim):
+    """A layer 5 spacings deep, a hollow 10 spacings tall above it, and a slab 6 spacings thick over
+    that (a plunging jet over trapped air): the column reads the layer (0.05 m) and the wire its
+    wetted length, layer plus slab (0.11 m), each within a tenth of a spacing (the φ = ½ crossings sit
+    Δx/2 beyond the outer particles, as on a flat surface). Without the slab both read the layer alike,
+    to round-off; a slab over a dry floor reads 0 as a column and its thickness on the wire."""
+    h = (3.0 if dim == 2 else 2.0) * DX
+    layer = lattice([0.0] * dim, [0.3] * (dim - 1) + [0.05], DX)
+    slab = lattice([0.0] * (dim - 1) + [0.15], [0.3] * (dim - 1) + [0.21], DX)
+    line = np.array([[0.1] * (dim - 1)])
+    col, wire = gauge_readings(np.vstack([layer, slab]), DX**dim, line, h, DX, floor=0.0)[0]
+    assert col == pytest.approx(0.05, abs=0.1 * DX)
+    assert wire == pytest.approx(0.11, abs=0.1 * DX)
+    col, wire = gauge_readings(layer, DX**dim, line, h, DX, floor=0.0)[0]
+    assert wire == pytest.approx(col, abs=1e-12)
+    col, wire = gauge_readings(slab, DX**dim, line, h, DX, floor=0.0)[0]
+    assert col == 0.0 and wire == pytest.approx(0.06, abs=0.1 * DX)
 
 
 def test_front_skips_isolated_spray():

@@ -23,6 +23,11 @@ wetted floor, not ½); the column starts where φ first reaches ½ within one su
 (walls hold the lowest particles up to about a spacing, leaving a thin gap of low φ at the floor),
 and the level is the first height above that where φ falls below ½, interpolated between samples.
 Spray and jets detached from the column (φ < ½ between them and the water) are not water level.
+The same profile gives a second reading, the wetted length of the line (``wire``): the total length
+where φ ≥ ½, the column's gap at the floor counted wet as above, as a conductance or capacitance
+wire gauge reads it (its signal is proportional to the immersed length of its wires, wherever along
+them the water is). It equals the column's level on a single column and is larger where the line
+passes through water above a hollow (a plunging jet over trapped air) or a jet crossing above it.
 :func:`water_depth` keeps the older reading — the top of the highest particle within ``radius`` of
 the line — which counts spray. A dry gauge reads 0. Vertical is the last axis (y in 2-D, z in 3-D).
 Neighbours come from :class:`scipy.spatial.cKDTree` (a handful of points per output time).
@@ -99,16 +104,31 @@ def water_level(
     floor: float,
     kernel: str = "wendland",
 ) -> np.ndarray:
-    """Height above ``floor`` of the continuous water column at each gauge line (module docstring).
+    """Height above ``floor`` of the continuous water column at each gauge line (module docstring)."""
+    return gauge_readings(positions, volume, gauges, h, spacing, floor, kernel)[:, 0]
+
+
+def gauge_readings(
+    positions: np.ndarray,
+    volume: np.ndarray,
+    gauges: np.ndarray,
+    h: float,
+    spacing: float,
+    floor: float,
+    kernel: str = "wendland",
+) -> np.ndarray:
+    """(k, 2): the column's level and the wire's wetted length at each gauge line (module docstring).
 
     ``gauges`` is (k, d−1); ``volume`` the particles' V = m/ρ (scalar or per particle); ``h`` the
-    kernel support and ``kernel`` the solver's; samples every ``spacing``/4 up the line.
+    kernel support and ``kernel`` the solver's; samples every ``spacing``/4 up the line, crossings of
+    φ = ½ interpolated linearly between samples.
     """
+    gauges = np.asarray(gauges, dtype=np.float64)
+    out = np.zeros((len(gauges), 2))
     if len(gauges) == 0 or len(positions) == 0:
-        return np.zeros(len(gauges))
+        return out
     dim = positions.shape[1]
-    gauges = np.asarray(gauges, dtype=np.float64).reshape(-1, dim - 1)
-    out = np.zeros(len(gauges))
+    gauges = gauges.reshape(-1, dim - 1)
     vol = np.broadcast_to(np.asarray(volume, dtype=np.float64), (len(positions),))
     dz = 0.25 * spacing
     for k in range(len(gauges)):
@@ -125,11 +145,14 @@ def water_level(
         for image in (near[:, -1], 2.0 * floor - near[:, -1]):  # the particles and their mirror in the floor
             r = np.sqrt(horiz2[None, :] + (z[:, None] - image[None, :]) ** 2)
             phi += kernel_w(r, h, dim, kernel) @ v
-        wet = np.nonzero(phi[z <= floor + h] >= 0.5)[0]
-        if len(wet) == 0:
-            continue  # no water within one support of the floor: dry
-        dry = np.nonzero(phi[wet[0] :] < 0.5)[0]
-        i = wet[0] + dry[0]  # φ crosses ½ between samples i − 1 and i (the top sample is always dry)
-        frac = (phi[i - 1] - 0.5) / (phi[i - 1] - phi[i])
-        out[k] = z[i - 1] + frac * dz - floor
+        excess = phi - 0.5
+        wet = np.nonzero(excess[z <= floor + h] >= 0)[0]
+        if len(wet):  # else no water within one support of the floor: no column
+            excess[: wet[0]] = 0.5  # the gap under the column's first wet sample is the column's
+            i = np.nonzero(excess < 0)[0][0]  # φ crosses ½ between samples i − 1 and i (the top one is dry)
+            out[k, 0] = z[i - 1] + excess[i - 1] / (excess[i - 1] - excess[i]) * dz - floor
+        a, b = excess[:-1], excess[1:]  # each interval's wet part, its crossing interpolated
+        both = (a >= 0) & (b >= 0)
+        one = (a >= 0) != (b >= 0)
+        out[k, 1] = dz * (both.sum() + np.sum(np.maximum(a, b)[one] / np.abs(a - b)[one]))
     return out

@@ -169,7 +169,7 @@ def setup(scenario, out) -> Setup:
     """The solver and the callbacks of an ``sph`` run (what a run leaves: ``docs/sph.md``).
 
     * ``particles/frame_NNNNN.vtp`` + ``particles.pvd`` every ``run.output_interval``;
-    * ``gauges.csv`` (``t``, ``p_<probe>`` in Pa, ``depth_<gauge>`` in m) and ``front.csv``
+    * ``gauges.csv`` (``t``, ``p_<probe>`` in Pa, ``depth_<gauge>`` and ``wire_<gauge>`` in m) and ``front.csv``
       (``t,x_front``: s, m from the column's back wall) every ``run.sample_interval``;
     * ``figures/snapshot_NNN.png`` (particles coloured by speed), ``figures/front.png`` (front vs
       Martin & Moyce 1952 when ``measure.compare = "martin-moyce"``);

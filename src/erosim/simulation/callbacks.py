@@ -136,7 +136,8 @@ class Probes(Callback):
     """Pressure probes and water-level gauges (:mod:`erosim.analysis.gauges`) sampled into ``gauges.csv``.
 
     Columns: ``t`` (s), ``p_<probe>`` (Pa), ``depth_<gauge>`` (m above ``floor``: the continuous water
-    column at the gauge line, :func:`~erosim.analysis.gauges.water_level`). A probe with a wall
+    column at the gauge line, :func:`~erosim.analysis.gauges.water_level`), ``wire_<gauge>`` (m: the
+    line's wetted length, as a wire gauge reads it, :func:`~erosim.analysis.gauges.gauge_readings`). A probe with a wall
     (``walls[k]`` = (normal, solid box)) reads the load the fluid puts on that wall's particles
     (:func:`~erosim.sph.wall_load.wall_pressure`, over a patch one support wide each way); the others
     the fluid's pressure interpolated at their point.
@@ -153,11 +154,12 @@ class Probes(Callback):
         self.gauge_points = np.array([g for _, g in gauges], dtype=np.float64)
         self.h, self.dx, self.mass, self.floor = support, spacing, mass, floor
         self.walls = list(walls) if walls is not None else [None] * len(probes)
-        self.header = ["t"] + [f"p_{n}" for n, _ in probes] + [f"depth_{n}" for n, _ in gauges]
+        self.header = (["t"] + [f"p_{n}" for n, _ in probes] + [f"depth_{n}" for n, _ in gauges]
+                       + [f"wire_{n}" for n, _ in gauges])  # fmt: skip
         self.rows: list[list[float]] = []
 
     def __call__(self, sim) -> None:
-        from erosim.analysis.gauges import probe_pressure, water_level
+        from erosim.analysis.gauges import gauge_readings, probe_pressure
 
         s = self.fluid
         pos = s.fluid_positions()
@@ -179,7 +181,8 @@ class Probes(Callback):
             row += values.tolist()
         if len(self.gauge_points):
             kernel = s.params.kernel
-            row += water_level(pos, vol, self.gauge_points, self.h, self.dx, self.floor, kernel).tolist()
+            readings = gauge_readings(pos, vol, self.gauge_points, self.h, self.dx, self.floor, kernel)
+            row += readings[:, 0].tolist() + readings[:, 1].tolist()
         self.rows.append(row)
 
     def state_dict(self) -> dict[str, Any]:

@@ -11,7 +11,9 @@ with the MARIN measurements (``erosim/data/reference/spheric2_kleefsman2005_mari
 
 The experiment's time origin is the gate's release (the measurements start at t = 0). Levels are
 read as the continuous water column at the gauge line (:func:`erosim.analysis.gauges.water_level`),
-as the experiment's wave gauges read them; pressures as the load the fluid puts on the box's
+as the experiment's wave gauges read them, and beside it (reported, not scored) the line's wetted
+length, as a wire gauge reads it (``wire_level_rms_m``; which kind MARIN's gauges were is not stated in
+the sources shipped here: docs/sph.md); pressures as the load the fluid puts on the box's
 particles around the sensor (:mod:`erosim.sph.wall_load`), as the sensors feel it.
 """
 
@@ -51,14 +53,16 @@ def _window_means(t: np.ndarray, v: np.ndarray, centres: np.ndarray, half: float
 
 def errors(run: dict[str, np.ndarray], exp: dict[str, np.ndarray], rho0: float, g: float) -> dict:
     """Level RMS (m and /H) per gauge and pressure RMS (/ρ₀gH) per probe, as the module docstring says."""
-    out: dict = {"level_rms_m": {}, "level_rms_rel": {}, "pressure_rms_rel": {}}
+    out: dict = {"level_rms_m": {}, "level_rms_rel": {}, "wire_level_rms_m": {}, "pressure_rms_rel": {}}
     t = run["t"]
     sel = (t >= LEVEL_WINDOW[0]) & (t <= LEVEL_WINDOW[1])
     for g_ in GAUGES:
-        diff = run[f"depth_{g_}"][sel] - np.interp(t[sel], exp["t_s"], exp[f"{g_}_m"])
-        rms = float(np.sqrt(np.mean(diff**2)))
+        lab = np.interp(t[sel], exp["t_s"], exp[f"{g_}_m"])
+        rms = float(np.sqrt(np.mean((run[f"depth_{g_}"][sel] - lab) ** 2)))
         out["level_rms_m"][g_] = rms
         out["level_rms_rel"][g_] = rms / H
+        if f"wire_{g_}" in run:  # runs before the wetted length was recorded have only the column
+            out["wire_level_rms_m"][g_] = float(np.sqrt(np.mean((run[f"wire_{g_}"][sel] - lab) ** 2)))
     centres = np.arange(PRESSURE_WINDOW[0], PRESSURE_WINDOW[1] + 1e-9, 0.02)
     for p in PROBES:
         sim = _window_means(t, run[f"p_{p}"], centres)
@@ -93,7 +97,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     panels = [
         {"title": f"{g_}: water level, RMS {1000 * e['level_rms_m'][g_]:.0f} mm", "unit": "m", "t": series["t"],
          "value": series[f"depth_{g_}"], "t_exp": exp["t_s"][keep], "exp": exp[f"{g_}_m"][keep],
-         "window": LEVEL_WINDOW}
+         "window": LEVEL_WINDOW, "also": (f"wetted length, RMS {1000 * e['wire_level_rms_m'][g_]:.0f} mm",
+                                          series[f"wire_{g_}"])}
         for g_ in GAUGES
     ] + [
         {"title": f"{p}: pressure, RMS {100 * e['pressure_rms_rel'][p]:.0f} % of ρ₀gH", "unit": "Pa",
@@ -118,6 +123,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         "out": str(folder.path),
         "level_rms_m": e["level_rms_m"],
         "level_rms_rel": e["level_rms_rel"],
+        "wire_level_rms_m": e["wire_level_rms_m"],
         "pressure_rms_rel": e["pressure_rms_rel"],
         "pressure_metric": "RMS of ±10 ms means every 20 ms over 0.5-1.5 s, relative to rho0*g*H; target P1, P3",
         "pressure_threshold": PRESSURE_THRESHOLD,

@@ -102,13 +102,17 @@ def front_vs_experiment(
 
 def series_vs_experiment(path, panels: list[dict], title: str = "") -> Path:
     """Time series of a run against an experiment, one panel each: ``title``, ``unit``, ``t``, ``value``
-    (the run) and ``t_exp``, ``exp`` (the measurement), and optionally the ``window`` (t0, t1) scored."""
+    (the run) and ``t_exp``, ``exp`` (the measurement), and optionally the ``window`` (t0, t1) scored
+    and ``also`` = (label, values at ``t``), a second reading of the run drawn dashed."""
     cols = 2
     rows = (len(panels) + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(11, 2.4 * rows), sharex=True, squeeze=False)
     for ax, pan in zip(axes.ravel(), panels, strict=False):
         ax.plot(pan["t_exp"], pan["exp"], color="0.45", lw=0.8, label="experiment")
         ax.plot(pan["t"], pan["value"], color="tab:blue", lw=1.1, label="erosim")
+        if "also" in pan:
+            ax.plot(pan["t"], pan["also"][1], color="tab:green", lw=0.9, ls="--", label=pan["also"][0])
+            ax.legend(fontsize=7)
         if "window" in pan:
             ax.axvspan(*pan["window"], color="tab:orange", alpha=0.08, lw=0)
         ax.set_title(pan["title"], fontsize=9)
