@@ -229,7 +229,7 @@ def test_canyon_caves_second_run_starts_from_the_first_runs_field(tmp_path):
         assert rep["particles_inside_solid"] == 0
         assert rep["water"]["added"].get("rain", 0) > 0  # drops of 5 particles
         assert rep["water"]["added"]["rain"] % 5 == 0
-        assert rep["water"]["added"]["inflow:river"] > 0  # the stream at the valley's head
+        assert rep["water"]["added"]["inflow:river"] > 0  # the stream falling in from the west plateau
 
 
 def test_a_jet_on_a_heightmap_feeds_the_valley_floor(tmp_path):

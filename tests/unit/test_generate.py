@@ -105,3 +105,21 @@ def test_large_maps_are_built_in_blocks_without_seams(monkeypatch):
     monkeypatch.setattr(gen, "_CHUNK", 7 * 30)  # 7 rows per block: the last block is partial
     blocks = generate("plateau", (40, 30), 25.0, seed=4)
     assert np.array_equal(whole.z, blocks.z)
+
+
+def test_the_canyon_shape_has_cliffs_a_flat_floor_and_plateaus_that_drain_over_the_rims():
+    """`canyon` on a 24 m map of 1 m cells, relief 6 m: the floor 6 m wide and level across (it falls
+    only northward, relief/4 over the map); each wall rises the full relief between two neighbouring
+    cells (a cliff, 80° at 1 m cells); every plateau cell is higher than its neighbour towards the rim,
+    so steepest descent on a plateau leads over the edge."""
+    from erosim.terrain.shapes import shape
+
+    z = shape("canyon", 24, 1.0, relief=6.0).z  # row 0 north
+    row = z[12]
+    floor = np.abs((np.arange(24) + 0.5) - 12.0) < 3.0
+    assert floor.sum() == 6 and np.ptp(row[floor]) < 1e-12
+    assert np.all(np.diff(z[:, 12]) > 0)  # the floor rises southward (rows run north to south)
+    assert np.ptp(z[:, 12]) == pytest.approx(6.0 / 4 * 23 / 24)
+    west, east = row[8] - row[9], row[15] - row[14]
+    assert west == pytest.approx(6.0, abs=0.1) and east == pytest.approx(6.0, abs=0.1)
+    assert np.all(np.diff(row[:9]) < 0) and np.all(np.diff(row[15:]) > 0)  # plateaus fall towards the rims

@@ -52,7 +52,7 @@ class TerrainSection(Section):
     preset: str = param(
         "mountains",
         doc="generated terrain: hills | mountains | plateau | fbm | ridged | warped, or a shape: flat | tilted | "
-        "bowl | valley (relief and base apply)",
+        "bowl | valley | canyon (relief and base apply)",
     )
     size: int = param(256, ge=2, le=16384, unit="cells", doc="generated terrain: cells per side")
     cell_size: float | None = param(
