@@ -147,6 +147,25 @@ def test_eroding_more_than_a_fifth_of_the_waters_volume_is_warned():
     assert "0.32 of the water's volume" in note and "erosion.k_eps" in note
 
 
+def test_a_run_that_moved_no_ground_says_why():
+    """Nothing transferred: erosion pending below a quantum names k_eps; none at all names the least speed
+    along the surface that reaches τ_c, l_min (τ_c/K)^(1/n) (θ = v/l ≤ v/l_min): at h = 2 m (l_min =
+    0.8 m), τ_c = 1.5, n = ½, that is 0.8 · 1.5² = 1.8 m/s."""
+    from erosim.core.heightmap import Heightmap
+    from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
+    from erosim.scenarios.builders_voxel import no_erosion_warning
+
+    t = VoxelTerrain.from_heightmap(Heightmap(z=np.zeros((6, 6)), cell_size=1.0), cell_size=1.0)
+    eroder = ShearStressErosion(t, ShearStressParams(tau_c=1.5, k_eps=1.0), support=2.0)
+    note = no_erosion_warning(eroder)
+    assert "faster than 1.8 m/s" in note and "erosion.tau_c" in note
+    eroder.pending.flat[0] = 0.5 * eroder.params.quantum * (t.value_range[1] - t.value_range[0])
+    note = no_erosion_warning(eroder)
+    assert note.startswith("No ground was eroded yet") and "erosion.k_eps" in note
+    eroder.removed_total = 1e-3
+    assert no_erosion_warning(eroder) is None
+
+
 def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch):
     from erosim.sph.solver import SPHSolver
 

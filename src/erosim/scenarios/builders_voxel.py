@@ -552,7 +552,7 @@ def setup(scenario, out) -> Setup:
             "first_erosion": rep["first_erosion"],
             "particles_inside_solid": rep["particles_inside_solid"],
             "wall_time_s": round(sim.wall_time, 2),
-            **{"warning": w for w in out.warnings[-1:] if w.startswith("The ground removed")},  # noqa: B035
+            **{"warning": w for w in out.warnings if w.startswith(EROSION_NOTES)},  # noqa: B035 (one at most)
         }
 
     return Setup(
@@ -564,6 +564,8 @@ def setup(scenario, out) -> Setup:
 #: clear water holds while the ground it has removed stays below this fraction of its volume (the start
 #: of hyperconcentrated flow, Costa 1988); the fluid here carries no sediment, so a run beyond it is warned
 CLEAR_WATER_LIMIT = 0.2
+#: the openings of the run's erosion warnings (:func:`sediment_warning`, :func:`no_erosion_warning`; one at most)
+EROSION_NOTES = ("The ground removed", "No ground was eroded")
 
 
 def sediment_warning(eroded_m3: float, water_m3: float) -> str | None:
@@ -577,6 +579,35 @@ def sediment_warning(eroded_m3: float, water_m3: float) -> str | None:
     )
 
 
+def no_erosion_warning(eroder) -> str | None:
+    """One sentence when the erosion was evaluated but no quantum has moved: either some is pending, below
+    a quantum at every node, or none at all, when the slowest water along the surface that reaches τ_c,
+    v = l_min (τ_c/K)^(1/n) (θ ≤ v/l_min), was never reached; v grows with the spacing, so a scene's τ_c
+    set for small particles erodes nothing on a coarse DEM."""
+    if eroder is None or eroder.removed_total > 0:
+        return None
+    pending = eroder.pending_volume()
+    if pending > 0:
+        return (
+            f"No ground was eroded yet: {pending:.3g} m³ of erosion is pending, less than one quantum "
+            f"(erosion.quantum = {eroder.params.quantum:.3g} of a voxel's density range) at every node; run longer "
+            "or raise erosion.k_eps (docs/voxel.md)."
+        )
+    p = eroder.params
+    speed = eroder.l_min * (float(np.max(p.tau_c)) / p.k) ** (1.0 / p.n)
+    return (
+        f"No ground was eroded: with the shear rate θ = v/l and l at least l_min = {eroder.l_min:.3g} m at this "
+        f"spacing, K θⁿ reaches erosion.tau_c = {float(np.max(p.tau_c)):g} only for water faster than {speed:.3g} m/s "
+        "along the surface; lower erosion.tau_c or sph.spacing for erosion at this scale (docs/voxel.md)."
+    )
+
+
+def _warn(out, note: str | None, opening: str) -> None:
+    """Keep ``out.warnings`` holding ``note`` (or none) among the warnings that start with ``opening``."""
+    kept = [w for w in out.warnings if not w.startswith(opening)]
+    out.warnings[:] = kept + ([note] if note is not None else [])
+
+
 def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x0, flume, out):
     def report(sim) -> dict[str, Any]:
         from erosim.terrain.voxel import memory_bytes
@@ -586,9 +617,8 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
         steps = sim.iteration - sim.iteration_start
         st = solver.state
         water_m3 = (st.initial + sum(st.added.values())) * solver.m / solver.params.rho0  # all the water, at rest
-        note = sediment_warning(coupler.totals["eroded"], water_m3)
-        if note is not None and note not in out.warnings:
-            out.warnings[:] = [w for w in out.warnings if not w.startswith("The ground removed")] + [note]
+        _warn(out, sediment_warning(coupler.totals["eroded"], water_m3), EROSION_NOTES[0])
+        _warn(out, no_erosion_warning(eroder) if coupler.calls else None, EROSION_NOTES[1])
         return {
             "t": float(solver.t),
             "t_end": cfg.run.t_end,
