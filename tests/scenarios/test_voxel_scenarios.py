@@ -166,10 +166,13 @@ def test_a_run_that_moved_no_ground_says_why():
     assert no_erosion_warning(eroder) is None
 
 
-def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch):
+@pytest.mark.parametrize("sediment", ["carried_off", "suspended"])
+def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch, sediment):
+    """Also with the eroded ground carried by the particles and settling (their loads, the nodes' bound
+    sediment and the budget's totals are in the checkpoint); the budget closes either way."""
     from erosim.sph.solver import SPHSolver
 
-    sets = COARSE + ["run.output_interval=0", "run.particle_frames=false"]
+    sets = COARSE + ["run.output_interval=0", "run.particle_frames=false", f"erosion.sediment={sediment}"]
     whole = RunFolder(tmp_path / "whole")
     runner.run(loader.load("overtopping", sets, preset="full"), whole, progress=False)
     real, calls = SPHSolver.step, {"n": 0}
@@ -195,6 +198,10 @@ def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch):
     assert ra["eroded_volume_m3"] > 0
     assert ra["eroded_volume_m3"] == rb["eroded_volume_m3"] and ra["first_erosion"] == rb["first_erosion"]
     assert ra["steps"] == rb["steps"] and ra["fluid_particles"] == rb["fluid_particles"]
+    assert ra["budget"] == rb["budget"] and ra["budget"]["closure_rel"] < 1e-9
+    if sediment == "suspended":
+        assert ra["sediment"] == rb["sediment"]
+        assert ra["sediment"]["picked_up_m3"] > 0 and ra["budget"]["deposited"] > 0
 
 
 @pytest.mark.parametrize(

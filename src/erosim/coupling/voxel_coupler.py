@@ -140,10 +140,7 @@ class VoxelCoupler:
             "last_t": self.last_t,
         }
         if self.eroder is not None:
-            st = self.eroder.state_dict()
-            out["eroder_pending"] = st["pending"]
-            out["eroder_removed_total"] = st["removed_total"]
-            out["eroder_unmet_total"] = st["unmet_total"]
+            out.update({f"eroder_{k}": v for k, v in self.eroder.state_dict().items()})
         return out
 
     def load_state_dict(self, state: dict[str, Any]) -> None:

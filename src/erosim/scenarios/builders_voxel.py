@@ -511,6 +511,10 @@ def setup(scenario, out) -> Setup:
     solver, wall, derived = build_solver(cfg, terrain)
     e, run = cfg.erosion, cfg.run
     eroder = ShearStressErosion(terrain, e, support=solver.h) if e.enabled else None
+    if eroder is not None and e.sediment == "suspended":
+        from erosim.erosion.settling_voxel import SuspendedSediment
+
+        eroder = SuspendedSediment(eroder, solver, e.settling_velocity)
     coupler = VoxelCoupler(IterationInterval(e.every), solver, eroder, terrain, start=e.start)
     callbacks: list = []
     if cfg.inflow.discharge > 0:
@@ -640,6 +644,11 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
                 "y": float(coupler.first_y), "x_frame": frame,
                 "definition": "the first quantum moved off a solid node (the node it lowered most)"},
             "budget": coupler.budget(),
+            **({"sediment": {"on_particles_m3": eroder.held(), "picked_up_m3": eroder.picked_total,
+                             "settled_m3": eroder.deposited_total, "max_concentration": eroder.max_concentration(),
+                             "definition": "ground eroded and carried by the water (erosion.sediment = 'suspended'); "
+                                           "max_concentration: a particle's load over its volume"}}
+               if hasattr(eroder, "held") else {}),
             "particles_inside_solid": max(inside.most, solver.n_fluid and wall_inside(solver)),
             "timings": {
                 "wall_time_s": round(sim.wall_time, 3),

@@ -106,6 +106,11 @@ class VoxelJetSection(JetSection):
 class VoxelErosion(ShearStressParams):
     enabled: bool = param(True, doc="shear-stress erosion on (false: the fluid only)")
     start: float = param(1.0, ge=0, unit="s", doc="no erosion before this time: the fluid laid on a lattice settles")
+    sediment: Literal["carried_off", "suspended"] = param(
+        "carried_off", doc="what the water does with the ground it removes: 'carried_off' at once (the seed's), or "
+        "'suspended' on the particles, settling back (erosion.settling_voxel)")  # fmt: skip
+    settling_velocity: float = param(0.02, gt=0, unit="m/s", doc="w_s of the suspended load (erosion.sediment = "
+                                     "'suspended'); 0.02 m/s: quartz sand of about 0.2 mm")  # fmt: skip
 
 
 class VoxelRun(Section):

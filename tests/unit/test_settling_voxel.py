@@ -1,0 +1,69 @@
+"""Suspended sediment over a voxel terrain (erosion.sediment = "suspended"): the pickup shares, the settling
+law on a particle at rest, and the budget it returns."""
+
+import math
+
+import numpy as np
+import pytest
+
+from erosim.core.increments import check_budget
+from erosim.erosion.settling_voxel import SuspendedSediment, share_pickup
+
+COARSE = ["sph.spacing=0.04", "voxels.cell_size=0.04", "erosion.tau_c=0.5", "erosion.k_eps=2.0"]
+
+
+def test_each_nodes_volume_is_shared_equally_among_the_particles_within_reach():
+    """Two nodes give 0.3 and 0.1 m³; three particles within R = 1 of the first (two of them also of the
+    second) and one out of reach of both: shares 0.1 each from the first, 0.05 each from the second."""
+    count = np.zeros((3, 3, 3), np.int64)
+    volume = np.zeros(27)
+    volume[(1 * 3 + 1) * 3 + 1] = 0.3  # node (1, 1, 1) at (1, 1, 1) m
+    volume[(1 * 3 + 1) * 3 + 2] = 0.1  # node (2, 1, 1) at (2, 1, 1) m
+    pos = np.array([[1.0, 1.0, 0.2], [1.5, 1.0, 1.0], [1.5, 1.2, 1.2], [0.0, 0.0, 2.9]])
+    sed = np.zeros(4)
+    given = share_pickup(volume, 0.0, 0.0, 0.0, 1.0, pos, 4, 1.0, count, sed)
+    assert given == pytest.approx(0.4, rel=1e-12)
+    np.testing.assert_allclose(sed, [0.1, 0.15, 0.15, 0.0], rtol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def flume():
+    from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion
+    from erosim.scenarios import loader
+    from erosim.scenarios.builders_voxel import build_solver, build_terrain
+
+    cfg = loader.load("overtopping", COARSE, preset="full").config
+    terrain = build_terrain(cfg)
+    solver, _, _ = build_solver(cfg, terrain)
+    return terrain, solver, ShearStressErosion(terrain, cfg.erosion, support=solver.h)
+
+
+def test_a_load_at_rest_settles_at_ws_over_its_height_onto_the_ground_under_it(flume):
+    """Water at rest erodes nothing; one particle near the floor holding s₀ keeps s₀ e^{−w_s Δt/max(l, l_min)}
+    after a coupling of Δt, the rest goes to the field (and the accumulator's float32 rounding) under it,
+    and the increment closes the budget with nothing carried off; a particle higher than h keeps its load."""
+    terrain, solver, eroder = flume
+    sus = SuspendedSediment(eroder, solver, settling_velocity=0.02)
+    st = solver.state
+    n = st.n_fluid
+    pos = np.ascontiguousarray(st.pos[:n], np.float64)
+    l, _ = eroder.wall_distances(pos)
+    low = int(np.argmin(np.where(l > 0, l, np.inf)))
+    high = int(np.argmax(l))
+    assert l[high] > solver.h
+    st.sediment[:n] = 0.0
+    st.sediment[low] = st.sediment[high] = 1e-6
+    sus.suspended_last = sus.held()  # as if picked up by an earlier coupling
+    before = terrain.density.astype(np.float64).copy()
+    dt = 0.5
+    inc = sus.increments(solver.fluid_positions(), np.zeros((n, 3)), dt)
+    kept = 1e-6 * math.exp(-0.02 * dt / max(l[low], sus.l_min))
+    assert st.sediment[low] == pytest.approx(kept, rel=1e-12) and st.sediment[high] == 1e-6
+    vpu = terrain.volume_per_unit
+    gained = float(np.sum(inc.dz) * vpu) + float(sus.bound.sum() * vpu)
+    assert gained == pytest.approx(1e-6 - kept, rel=1e-9)
+    assert np.count_nonzero(np.asarray(inc.dz) + sus.bound) == 1  # one node, under the particle
+    terms = check_budget(inc, terrain.shape, vpu, "suspended sediment")
+    assert terms["carried_off"] == 0.0 and terms["eroded"] == 0.0
+    assert sus.held() + float(sus.bound.sum() * vpu) == pytest.approx(2e-6 - float(np.sum(inc.dz) * vpu), rel=1e-12)
+    np.testing.assert_array_equal(terrain.density, before.astype(np.float32))  # the caller applies the increment
