@@ -14,16 +14,27 @@ COARSE = ["sph.spacing=0.04", "voxels.cell_size=0.04", "erosion.tau_c=0.5", "ero
 
 def test_each_nodes_volume_is_shared_equally_among_the_particles_within_reach():
     """Two nodes give 0.3 and 0.1 m³; three particles within R = 1 of the first (two of them also of the
-    second) and one out of reach of both: shares 0.1 each from the first, 0.05 each from the second."""
+    second) and one out of reach of both: shares 0.1 each from the first, 0.05 each from the second; a
+    particle with less room takes what fits and the rest returns to its node."""
     count = np.zeros((3, 3, 3), np.int64)
     volume = np.zeros(27)
     volume[(1 * 3 + 1) * 3 + 1] = 0.3  # node (1, 1, 1) at (1, 1, 1) m
     volume[(1 * 3 + 1) * 3 + 2] = 0.1  # node (2, 1, 1) at (2, 1, 1) m
     pos = np.array([[1.0, 1.0, 0.2], [1.5, 1.0, 1.0], [1.5, 1.2, 1.2], [0.0, 0.0, 2.9]])
     sed = np.zeros(4)
-    given = share_pickup(volume, 0.0, 0.0, 0.0, 1.0, pos, 4, 1.0, count, sed)
-    assert given == pytest.approx(0.4, rel=1e-12)
+    returned = np.zeros(27)
+    room = np.full(4, 1.0)
+    given = share_pickup(volume, 0.0, 0.0, 0.0, 1.0, pos, 4, 1.0, room, count, sed, returned)
+    assert given == pytest.approx(0.4, rel=1e-12) and not returned.any()
     np.testing.assert_allclose(sed, [0.1, 0.15, 0.15, 0.0], rtol=1e-12)
+    # the second particle can hold 0.12 m³ more: it takes 0.1 from the first node, then 0.02 of the
+    # second's 0.05; the other 0.03 goes back to that node
+    sed[:] = 0.0
+    room = np.array([1.0, 0.12, 1.0, 1.0])
+    given = share_pickup(volume, 0.0, 0.0, 0.0, 1.0, pos, 4, 1.0, room, count, sed, returned)
+    np.testing.assert_allclose(sed, [0.1, 0.12, 0.15, 0.0], rtol=1e-12)
+    assert returned[(1 * 3 + 1) * 3 + 2] == pytest.approx(0.03) and returned.sum() == pytest.approx(0.03)
+    assert given + returned.sum() == pytest.approx(0.4, rel=1e-12)
 
 
 @pytest.fixture(scope="module")

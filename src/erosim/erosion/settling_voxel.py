@@ -7,7 +7,11 @@ once. With this wrapper:
 
 * **pickup** — a node's volume V_i transferred in a coupling is shared equally among the fluid particles
   within the erosion radius R of it (the ones its erosion summed over), as a registered per-particle
-  field ``sediment`` (m³ of ground). A node none is near any more keeps its volume carried off.
+  field ``sediment`` (m³ of ground). A node none is near any more keeps its volume carried off. A
+  particle holds at most c_max of its own volume (``max_concentration``, default 0.2, where clear-water
+  flow turns hyperconcentrated, Costa 1988, and beyond which the fluid's clear-water dynamics would not
+  hold): the share a full particle cannot take goes back to its node, so that erosion is limited by what
+  the water can carry.
 * **settling** — the deposition flux of suspended load at the bed is w_s·c (Garcia & Parker 1991: the
   settling velocity w_s times the concentration c at the bed). A particle within one support h of the
   ground holding s_j settles it through its height over the bed, l_j ≥ l_min (0.4 h, the eroder's):
@@ -25,10 +29,10 @@ once. With this wrapper:
   ``Increment(dz = erosion + deposition, suspended = its change, carried_off = unpicked + what left)``,
   which closes the budget exactly.
 
-The clear-water fluid's dynamics do not change with its load (no density or viscosity of the mixture);
-``max_concentration`` (s_j over the particle's volume) is reported, and above 0.2 the run is in the
-hyperconcentrated range (Costa 1988) where that no longer holds. The scatter loops are Numba kernels
-written here: the pairing of particles with voxel nodes is this coupling's own.
+The clear-water fluid's dynamics do not change with its load (no density or viscosity of the mixture),
+which the cap keeps within the clear-water range; the largest s_j over the particle's volume is
+reported. The scatter loops are Numba kernels written here: the pairing of particles with voxel nodes
+is this coupling's own.
 
 References: P. Krištof, B. Beneš, J. Křivánek, O. Šťava, Computer Graphics Forum 28(2), 2009;
 M. H. Garcia, G. Parker, J. Hydraul. Eng. 117(4), 1991 (entrainment and deposition of suspended sediment).
@@ -46,9 +50,11 @@ from erosim.core.increments import Increment
 
 
 @njit(cache=True)
-def share_pickup(volume, ox, oy, oz, inv, pos, n, radius, count, sediment):
+def share_pickup(volume, ox, oy, oz, inv, pos, n, radius, room, count, sediment, returned):
     """Add each node's ``volume`` (m³, flat over the field's (nz, ny, nx) ``count`` array) to the sediment of
-    the first ``n`` particles within ``radius`` of it, in equal shares; returns the volume given out."""
+    the first ``n`` particles within ``radius`` of it, in equal shares, each particle taking at most its
+    ``room`` (m³); what a full particle cannot take goes to ``returned`` (flat, m³) of its node. Returns the
+    volume given out."""
     nz, ny, nx = count.shape
     cell = 1.0 / inv
     r2 = radius * radius
@@ -78,8 +84,11 @@ def share_pickup(volume, ox, oy, oz, inv, pos, n, radius, count, sediment):
                             count[kk, jj, ii] += 1
                         else:
                             share = volume[flat] / count[kk, jj, ii]
-                            sediment[j] += share
-                            given += share
+                            take = min(share, max(room[j], 0.0))
+                            room[j] -= take
+                            sediment[j] += take
+                            returned[flat] += share - take
+                            given += take
     return given
 
 
@@ -116,10 +125,12 @@ class SuspendedSediment:
     ground carried by the particles of ``solver`` and settling at ``settling_velocity`` (m/s); the
     coupler calls :meth:`increments` as it would the eroder's (module docstring)."""
 
-    def __init__(self, eroder, solver, settling_velocity: float):
+    def __init__(self, eroder, solver, settling_velocity: float, max_concentration: float = 0.2):
         self.eroder = eroder
         self.solver = solver
         self.w_s = float(settling_velocity)
+        self.c_max = float(max_concentration)
+        self.returned_total = 0.0
         self.name = f"{eroder.name}+suspended"
         if "sediment" not in solver.state.specs:
             solver.state.register("sediment")
@@ -168,7 +179,12 @@ class SuspendedSediment:
         ox, oy, oz = t.origin
         inv = 1.0 / t.cell_size
         volume = np.where(dd < 0, -dd * vpu, 0.0).reshape(-1)
-        picked = share_pickup(volume, ox, oy, oz, inv, here, n, self.eroder.radius, self.count, st.sediment)
+        room = self.c_max * self.solver.m / np.asarray(st.rho[:n], np.float64) - st.sediment[:n]
+        returned = np.zeros(t.shape)
+        picked = share_pickup(volume, ox, oy, oz, inv, here, n, self.eroder.radius, room, self.count, st.sediment,
+                              returned.reshape(-1))  # fmt: skip
+        self.bound += returned / vpu  # what full water cannot take stays where it was
+        self.returned_total += float(returned.sum())
         eroded = t.density + dd  # float32 values, exactly (the eroder's differences are)
         wl, wn = self.eroder.wall_distances(here)
         lo, hi = t.value_range
@@ -181,8 +197,8 @@ class SuspendedSediment:
         suspended = self.held() + float(self.bound.sum() * vpu)
         self.picked_total += picked
         self.deposited_total += float(moved.sum() * vpu)
-        out = Increment(dz=dd + moved, suspended=suspended - self.suspended_last,
-                        carried_off=inc.carried_off - picked + left - self.left_last)  # fmt: skip
+        off = inc.carried_off - picked - float(returned.sum()) + left - self.left_last
+        out = Increment(dz=dd + moved, suspended=suspended - self.suspended_last, carried_off=off)
         self.suspended_last, self.left_last = suspended, left
         return out
 
@@ -193,13 +209,12 @@ class SuspendedSediment:
         out = dict(self.eroder.state_dict())
         out["suspended_bound"] = self.bound.copy()
         out["suspended_totals"] = np.array([self.suspended_last, self.left_last, self.picked_total,
-                                            self.deposited_total])  # fmt: skip
+                                            self.deposited_total, self.returned_total])  # fmt: skip
         return out
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.eroder.load_state_dict(state)
         if "suspended_totals" in state:
             self.bound[...] = np.asarray(state["suspended_bound"])
-            self.suspended_last, self.left_last, self.picked_total, self.deposited_total = (
-                float(v) for v in np.asarray(state["suspended_totals"])
-            )
+            (self.suspended_last, self.left_last, self.picked_total, self.deposited_total,
+             self.returned_total) = (float(v) for v in np.asarray(state["suspended_totals"]))  # fmt: skip

@@ -514,7 +514,7 @@ def setup(scenario, out) -> Setup:
     if eroder is not None and e.sediment == "suspended":
         from erosim.erosion.settling_voxel import SuspendedSediment
 
-        eroder = SuspendedSediment(eroder, solver, e.settling_velocity)
+        eroder = SuspendedSediment(eroder, solver, e.settling_velocity, e.max_concentration)
     coupler = VoxelCoupler(IterationInterval(e.every), solver, eroder, terrain, start=e.start)
     callbacks: list = []
     if cfg.inflow.discharge > 0:
@@ -621,7 +621,9 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
         steps = sim.iteration - sim.iteration_start
         st = solver.state
         water_m3 = (st.initial + sum(st.added.values())) * solver.m / solver.params.rho0  # all the water, at rest
-        _warn(out, sediment_warning(coupler.totals["eroded"], water_m3), EROSION_NOTES[0])
+        # with the load on the particles their cap (erosion.max_concentration) keeps the water clear instead
+        carried = not hasattr(eroder, "held")
+        _warn(out, sediment_warning(coupler.totals["eroded"], water_m3) if carried else None, EROSION_NOTES[0])
         _warn(out, no_erosion_warning(eroder) if coupler.calls else None, EROSION_NOTES[1])
         return {
             "t": float(solver.t),
@@ -645,9 +647,12 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
                 "definition": "the first quantum moved off a solid node (the node it lowered most)"},
             "budget": coupler.budget(),
             **({"sediment": {"on_particles_m3": eroder.held(), "picked_up_m3": eroder.picked_total,
-                             "settled_m3": eroder.deposited_total, "max_concentration": eroder.max_concentration(),
+                             "settled_m3": eroder.deposited_total - eroder.returned_total,
+                             "not_taken_m3": eroder.returned_total, "max_concentration": eroder.max_concentration(),
                              "definition": "ground eroded and carried by the water (erosion.sediment = 'suspended'); "
-                                           "max_concentration: a particle's load over its volume"}}
+                                           "not_taken: erosion left in place because the water near it was full "
+                                           "(erosion.max_concentration); max_concentration: the largest load of a "
+                                           "particle over its volume now"}}
                if hasattr(eroder, "held") else {}),
             "particles_inside_solid": max(inside.most, solver.n_fluid and wall_inside(solver)),
             "timings": {

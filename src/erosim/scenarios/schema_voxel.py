@@ -111,6 +111,9 @@ class VoxelErosion(ShearStressParams):
         "'suspended' on the particles, settling back (erosion.settling_voxel)")  # fmt: skip
     settling_velocity: float = param(0.02, gt=0, unit="m/s", doc="w_s of the suspended load (erosion.sediment = "
                                      "'suspended'); 0.02 m/s: quartz sand of about 0.2 mm")  # fmt: skip
+    max_concentration: float = param(0.2, gt=0, le=1, unit="1", doc="the most ground a particle carries, as a "
+                                     "fraction of its volume (erosion.sediment = 'suspended'; 0.2: the start of "
+                                     "hyperconcentrated flow); what full water cannot take is not eroded")  # fmt: skip
 
 
 class VoxelRun(Section):
