@@ -169,11 +169,16 @@ class SuspendedSediment:
         return float(np.max(st.sediment[: st.n_fluid] / vol))
 
     def increments(self, pos, vel, dt: float, wall_l=None) -> Increment:
-        """The eroder's transfer, picked up by the particles, and what settles in ``dt`` seconds."""
-        inc = self.eroder.increments(pos, vel, dt, wall_l)
+        """The eroder's transfer, picked up by the particles, and what settles in ``dt`` seconds. The
+        particles are read from the solver's state, in its own order (``sediment``'s): ``pos`` and ``vel``
+        only say how many there are, and ``wall_l`` is found from the field."""
         t, st = self.terrain, self.solver.state
         n = st.n_fluid
-        here = np.ascontiguousarray(st.pos[:n], np.float64)  # the state's own order, as ``sediment``'s
+        if len(pos) != n:
+            raise ValueError(f"{len(pos)} positions for {n} fluid particles")
+        here = np.ascontiguousarray(st.pos[:n], np.float64)
+        wl, wn = self.eroder.wall_distances(here)  # once, for the erosion and the settling
+        inc = self.eroder.increments(here, np.asarray(st.vel[:n], np.float64), dt, wl, wn)
         vpu = t.volume_per_unit
         dd = np.asarray(inc.dz, np.float64)
         ox, oy, oz = t.origin
@@ -186,7 +191,6 @@ class SuspendedSediment:
         self.bound += returned / vpu  # what full water cannot take stays where it was
         self.returned_total += float(returned.sum())
         eroded = t.density + dd  # float32 values, exactly (the eroder's differences are)
-        wl, wn = self.eroder.wall_distances(here)
         lo, hi = t.value_range
         settle(eroded, ox, oy, oz, inv, hi, vpu, here, wl, wn, n, self.solver.h, self.l_min, self.w_s * float(dt),
                st.sediment, self.bound)  # fmt: skip

@@ -210,13 +210,16 @@ class ShearStressErosion:
         wall_distance(t.density, *t.origin, 1.0 / t.cell_size, t.iso, pos, len(pos), l, nrm)
         return l, nrm
 
-    def _sums(self, pos, vel, wall_l, scale, out):
+    def _sums(self, pos, vel, wall_l, scale, out, normals=None):
         p = self.params
         pos = np.ascontiguousarray(pos, np.float64)
         vel = np.ascontiguousarray(vel, np.float64)
         if pos.shape != vel.shape or pos.ndim != 2 or pos.shape[1] != 3:
             raise ValueError("positions and velocities must be (n, 3)")
-        field_l, nrm = self.wall_distances(pos)
+        if normals is None:
+            field_l, nrm = self.wall_distances(pos)
+        else:  # the caller's own (l, n) from the field, computed once for the positions given
+            field_l, nrm = wall_l, np.ascontiguousarray(normals, np.float64)
         wall_l = field_l if wall_l is None else np.ascontiguousarray(wall_l, np.float64)
         if wall_l.shape != (len(pos),):
             raise ValueError("wall distances must be (n,)")
@@ -229,13 +232,13 @@ class ShearStressErosion:
         self._sums(pos, vel, wall_l, 1.0, out)
         return out
 
-    def increments(self, pos, vel, dt: float, wall_l=None) -> Increment:
+    def increments(self, pos, vel, dt: float, wall_l=None, normals=None) -> Increment:
         """Accumulate the erosion of ``dt`` seconds by particles at ``pos`` with ``vel`` (and wall distances
-        ``wall_l``, computed from the field when None) and return the quantised transfer as an
-        :class:`Increment` (density change per node, removed volume in ``carried_off``); the terrain is not
-        changed."""
+        ``wall_l`` and ``normals``, computed from the field when None) and return the quantised transfer as
+        an :class:`Increment` (density change per node, removed volume in ``carried_off``); the terrain is
+        not changed."""
         lo, hi = self.terrain.value_range
-        self._sums(pos, vel, wall_l, self.params.k_eps * float(dt) * (hi - lo), self.pending)
+        self._sums(pos, vel, wall_l, self.params.k_eps * float(dt) * (hi - lo), self.pending, normals)
         dd = np.zeros(self.terrain.shape)
         unmet = quantised_transfer(self.terrain.density.reshape(-1), self.pending.reshape(-1), self.quantum, lo,
                                    dd.reshape(-1))  # fmt: skip
