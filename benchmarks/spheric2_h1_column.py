@@ -24,21 +24,6 @@ H1 = (0.496, 0.5)
 OFFSETS = np.array([(dx, dy) for dx in (-0.04, -0.02, 0.0, 0.02, 0.04) for dy in (-0.04, -0.02, 0.0, 0.02, 0.04)])
 
 
-def phi_profile(pos, vol, line, h, dz, floor, kernel, top=1.0):
-    """φ(z) at samples z = floor + k·dz up to ``top`` on the vertical through ``line``, with the
-    particles mirrored in the floor (the gauge's sum)."""
-    from erosim.kernels.sph_kernels import kernel_w
-
-    z = floor + dz * np.arange(int(np.ceil((top - floor) / dz)) + 1)
-    horiz2 = np.sum((pos[:, :2] - line) ** 2, axis=1)
-    idx = np.nonzero(horiz2 <= h * h)[0]
-    phi = np.zeros(len(z))
-    for image in (pos[idx, 2], 2.0 * floor - pos[idx, 2]):
-        r = np.sqrt(horiz2[idx][None, :] + (z[:, None] - image[None, :]) ** 2)
-        phi += kernel_w(r, h, 3, kernel) @ vol[idx]
-    return z, phi
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", type=Path)
@@ -48,7 +33,7 @@ def main() -> None:
     ap.add_argument("--t-end", type=float, default=1.6)
     ap.add_argument("--slab-from", type=float, default=1.1)
     a = ap.parse_args()
-    from erosim.analysis.gauges import water_level
+    from erosim.analysis.gauges import volume_fraction_profile, water_level
     from erosim.io.particles import read_vtp
     from erosim.io.runfolder import RunFolder
     from erosim.scenarios import loader
@@ -76,7 +61,7 @@ def main() -> None:
         gauge.append(water_level(pos, vol, np.asarray([H1]), h, dx, floor, kernel)[0])
         lv, wt, hi, pr = [], [], [], []
         for line in lines:
-            z, phi = phi_profile(pos, vol, line, h, dz, floor, kernel)
+            z, phi = volume_fraction_profile(pos, vol, line, h, dz, floor, kernel, top=1.0)
             wet = phi >= 0.5
             lv.append(water_level(pos, vol, line[None, :], h, dx, floor, kernel)[0])
             wt.append(wet.sum() * dz)

@@ -95,6 +95,38 @@ def water_depth(positions: np.ndarray, gauges: np.ndarray, radius: float, spacin
     return out
 
 
+def volume_fraction_profile(
+    positions: np.ndarray,
+    volume: np.ndarray,
+    line: np.ndarray,
+    h: float,
+    dz: float,
+    floor: float,
+    kernel: str = "wendland",
+    top: float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(z, φ(z)) up the vertical line at the horizontal position ``line`` (d−1,): the kernel sum of the
+    particles within h of it and of their mirror images in the floor, every ``dz`` from ``floor`` to
+    ``top`` (default: h above the highest of those particles); empty arrays when none is within h."""
+    dim = positions.shape[1]
+    vol = np.broadcast_to(np.asarray(volume, dtype=np.float64), (len(positions),))
+    # the particles within h of the line: one pass over the positions (a few gauges per sample; a tree
+    # of every particle cost more than the gauges' sums)
+    horiz2 = np.sum((positions[:, :-1] - np.asarray(line, dtype=np.float64)) ** 2, axis=1)
+    idx = np.nonzero(horiz2 <= h * h)[0]
+    if len(idx) == 0 and top is None:
+        return np.zeros(0), np.zeros(0)
+    near, v, horiz2 = positions[idx], vol[idx], horiz2[idx]
+    if top is None:
+        top = float(near[:, -1].max()) + h
+    z = floor + dz * np.arange(int(np.ceil((top - floor) / dz)) + 1)
+    phi = np.zeros(len(z))
+    for image in (near[:, -1], 2.0 * floor - near[:, -1]):  # the particles and their mirror in the floor
+        r = np.sqrt(horiz2[None, :] + (z[:, None] - image[None, :]) ** 2)
+        phi += kernel_w(r, h, dim, kernel) @ v
+    return z, phi
+
+
 def water_level(
     positions: np.ndarray,
     volume: np.ndarray,
@@ -127,24 +159,12 @@ def gauge_readings(
     out = np.zeros((len(gauges), 2))
     if len(gauges) == 0 or len(positions) == 0:
         return out
-    dim = positions.shape[1]
-    gauges = gauges.reshape(-1, dim - 1)
-    vol = np.broadcast_to(np.asarray(volume, dtype=np.float64), (len(positions),))
+    gauges = gauges.reshape(-1, positions.shape[1] - 1)
     dz = 0.25 * spacing
     for k in range(len(gauges)):
-        # the particles within h of the line: one pass over the positions (a few gauges per sample;
-        # a tree of every particle cost more than the gauges' sums)
-        horiz2 = np.sum((positions[:, :-1] - gauges[k]) ** 2, axis=1)
-        idx = np.nonzero(horiz2 <= h * h)[0]
-        if len(idx) == 0:
+        z, phi = volume_fraction_profile(positions, volume, gauges[k], h, dz, floor, kernel)
+        if len(z) == 0:
             continue
-        near, v, horiz2 = positions[idx], vol[idx], horiz2[idx]
-        top = float(near[:, -1].max()) + h
-        z = floor + dz * np.arange(int(np.ceil((top - floor) / dz)) + 1)
-        phi = np.zeros(len(z))
-        for image in (near[:, -1], 2.0 * floor - near[:, -1]):  # the particles and their mirror in the floor
-            r = np.sqrt(horiz2[None, :] + (z[:, None] - image[None, :]) ** 2)
-            phi += kernel_w(r, h, dim, kernel) @ v
         excess = phi - 0.5
         wet = np.nonzero(excess[z <= floor + h] >= 0)[0]
         if len(wet):  # else no water within one support of the floor: no column
