@@ -16,7 +16,9 @@
     [inflow]       the reservoir's filling: discharge (m³/s) laid at rest on its surface over x0…x1
     [inflows.NAME] on a heightmap, a river's source: a vertical jet of ``discharge`` m³/s at ``position``
                    (the terrain's frame), ``height`` m above the ground (erosim.coupling.sources.PointInflow)
-    [erosion]      shear-stress erosion (erosion.shear_stress_kristof2009) every ``every`` steps
+    [erosion]      shear-stress erosion (erosion.shear_stress_kristof2009) every ``every`` steps; what it removes
+                   carried off at once, or with sediment = "suspended" carried by the particles and settling
+                   back (erosion.settling_voxel: settling_velocity, max_concentration)
     [run]          t_end, output interval (meshes, field, particle frames), profile interval and formats
 
 Positions are metres in the flume's frame: x along the flume from its upstream wall, y across, z up
