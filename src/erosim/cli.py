@@ -426,13 +426,20 @@ def bench_sph_terrain(particles, steps, every, as_json):
 @click.option(
     "--every", type=click.IntRange(min=1), default=50, show_default=True, help="SPH steps between erosion updates."
 )
+@click.option(
+    "--sediment",
+    type=click.Choice(["carried_off", "suspended"]),
+    default="carried_off",
+    show_default=True,
+    help="What the erosion does with the ground it removes (erosion.sediment).",
+)
 @click.option("--json", "as_json", is_flag=True)
-def bench_voxel(particles, steps, every, as_json):
+def bench_voxel(particles, steps, every, sediment, as_json):
     """SPH on an eroding voxel terrain (wall weights, erosion) against the same fluid in a box."""
     from erosim.scenarios.kinds import resolve
 
     fn = _guard(resolve, "erosim.bench.voxel:run")
-    _print_result(_guard(fn, particles, steps, every=every), as_json)
+    _print_result(_guard(fn, particles, steps, every=every, sediment=sediment), as_json)
 
 
 @bench.command(name="flood")
