@@ -67,7 +67,8 @@ def test_a_load_at_rest_settles_at_ws_over_its_height_onto_the_ground_under_it(f
     sus.suspended_last = sus.held()  # as if picked up by an earlier coupling
     before = terrain.density.astype(np.float64).copy()
     dt = 0.5
-    inc = sus.increments(solver.fluid_positions(), np.zeros((n, 3)), dt)
+    st.vel[:n] = 0.0
+    inc = sus.step(solver, dt)
     kept = 1e-6 * math.exp(-0.02 * dt / max(l[low], sus.l_min))
     assert st.sediment[low] == pytest.approx(kept, rel=1e-12) and st.sediment[high] == 1e-6
     vpu = terrain.volume_per_unit

@@ -3,9 +3,9 @@ every N steps (SPEC VX-6; the house coupler's contract, :mod:`erosim.coupling.co
 
 Each time its schedule fires (an ``IterationInterval`` of ``erosion.every`` steps) the coupler
 
-1. hands the eroder the fluid particles and the simulated time Δt since the last call:
-   ``eroder.increments(pos, vel, dt) -> Increment`` (Δd per node of the density field, the removed
-   volume in ``carried_off``; the eroder never writes the field);
+1. hands the eroder the solver and the simulated time Δt since the last call:
+   ``eroder.step(solver, dt) -> Increment`` (Δd per node of the density field; what it removed is
+   carried off or, with the load on the particles, suspended; the eroder never writes the field);
 2. checks the increment's budget (:func:`~erosim.core.increments.check_budget` with the volume of one
    density unit of one node, Δ³/(d_solid − d_air), in place of a cell's area): Σ Δd·Δ³/(d_s − d_a) + C = 0;
 3. applies it once, ``density += Δd`` (Δd is the exact float64 difference of float32 values, so the
@@ -87,7 +87,7 @@ class VoxelCoupler:
         self.last_t = float(s.t)
         if self.eroder is None or dt <= 0 or float(s.t) <= self.start:
             return
-        inc = self.eroder.increments(s.fluid_positions(), s.fluid_velocities(), dt)
+        inc = self.eroder.step(s, dt)
         terms = check_budget(inc, t.shape, t.volume_per_unit, f"Erosion model '{self.eroder.name}'")
         for k in _TERMS:
             self.totals[k] += terms[k]

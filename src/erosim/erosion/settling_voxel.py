@@ -47,6 +47,7 @@ import numpy as np
 from numba import njit
 
 from erosim.core.increments import Increment
+from erosim.kernels.voxel import node_span
 
 
 @njit(cache=True)
@@ -63,12 +64,9 @@ def share_pickup(volume, ox, oy, oz, inv, pos, n, radius, room, count, sediment,
         given = 0.0
         for j in range(n):
             px, py, pz = pos[j, 0], pos[j, 1], pos[j, 2]
-            i0 = max(0, int(math.ceil((px - radius - ox) * inv)))
-            i1 = min(nx - 1, int(math.floor((px + radius - ox) * inv)))
-            j0 = max(0, int(math.ceil((py - radius - oy) * inv)))
-            j1 = min(ny - 1, int(math.floor((py + radius - oy) * inv)))
-            k0 = max(0, int(math.ceil((pz - radius - oz) * inv)))
-            k1 = min(nz - 1, int(math.floor((pz + radius - oz) * inv)))
+            i0, i1 = node_span(px, radius, ox, inv, nx)
+            j0, j1 = node_span(py, radius, oy, inv, ny)
+            k0, k1 = node_span(pz, radius, oz, inv, nz)
             for kk in range(k0, k1 + 1):
                 rz = oz + kk * cell - pz
                 for jj in range(j0, j1 + 1):
@@ -123,7 +121,7 @@ def settle(dens, ox, oy, oz, inv, hi, vpu, pos, wall_l, wall_n, n, reach, l_min,
 class SuspendedSediment:
     """``eroder`` (a :class:`~erosim.erosion.shear_stress_kristof2009.ShearStressErosion`) with its removed
     ground carried by the particles of ``solver`` and settling at ``settling_velocity`` (m/s); the
-    coupler calls :meth:`increments` as it would the eroder's (module docstring)."""
+    coupler calls :meth:`step` as it would the eroder's (module docstring)."""
 
     def __init__(self, eroder, solver, settling_velocity: float, max_concentration: float = 0.2):
         self.eroder = eroder
@@ -168,14 +166,12 @@ class SuspendedSediment:
         vol = s.m / np.asarray(st.rho[: st.n_fluid], np.float64)
         return float(np.max(st.sediment[: st.n_fluid] / vol))
 
-    def increments(self, pos, vel, dt: float, wall_l=None) -> Increment:
-        """The eroder's transfer, picked up by the particles, and what settles in ``dt`` seconds. The
-        particles are read from the solver's state, in its own order (``sediment``'s): ``pos`` and ``vel``
-        only say how many there are, and ``wall_l`` is found from the field."""
-        t, st = self.terrain, self.solver.state
+    def step(self, solver, dt: float) -> Increment:
+        """The eroder's transfer, picked up by the particles of ``solver`` (the one given at construction),
+        and what settles in ``dt`` seconds; the particles are read in the state's own order, as
+        ``sediment`` is kept."""
+        t, st = self.terrain, solver.state
         n = st.n_fluid
-        if len(pos) != n:
-            raise ValueError(f"{len(pos)} positions for {n} fluid particles")
         here = np.ascontiguousarray(st.pos[:n], np.float64)
         wl, wn = self.eroder.wall_distances(here)  # once, for the erosion and the settling
         inc = self.eroder.increments(here, np.asarray(st.vel[:n], np.float64), dt, wl, wn)
@@ -184,7 +180,7 @@ class SuspendedSediment:
         ox, oy, oz = t.origin
         inv = 1.0 / t.cell_size
         volume = np.where(dd < 0, -dd * vpu, 0.0).reshape(-1)
-        room = self.c_max * self.solver.m / np.asarray(st.rho[:n], np.float64) - st.sediment[:n]
+        room = self.c_max * solver.m / np.asarray(st.rho[:n], np.float64) - st.sediment[:n]
         returned = np.zeros(t.shape)
         picked = share_pickup(volume, ox, oy, oz, inv, here, n, self.eroder.radius, room, self.count, st.sediment,
                               returned.reshape(-1))  # fmt: skip
@@ -192,7 +188,7 @@ class SuspendedSediment:
         self.returned_total += float(returned.sum())
         eroded = t.density + dd  # float32 values, exactly (the eroder's differences are)
         lo, hi = t.value_range
-        settle(eroded, ox, oy, oz, inv, hi, vpu, here, wl, wn, n, self.solver.h, self.l_min, self.w_s * float(dt),
+        settle(eroded, ox, oy, oz, inv, hi, vpu, here, wl, wn, n, solver.h, self.l_min, self.w_s * float(dt),
                st.sediment, self.bound)  # fmt: skip
         new = np.clip(eroded + self.bound, lo, hi).astype(np.float32).astype(np.float64)
         moved = np.where(self.bound > 0, new - eroded, 0.0)  # a rounding left below zero waits for more
@@ -205,9 +201,6 @@ class SuspendedSediment:
         out = Increment(dz=dd + moved, suspended=suspended - self.suspended_last, carried_off=off)
         self.suspended_last, self.left_last = suspended, left
         return out
-
-    def wall_distances(self, pos):
-        return self.eroder.wall_distances(pos)
 
     def state_dict(self) -> dict[str, Any]:
         out = dict(self.eroder.state_dict())

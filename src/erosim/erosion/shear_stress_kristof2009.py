@@ -67,7 +67,7 @@ from numba import njit
 
 from erosim.core.config import Section, param
 from erosim.core.increments import Increment
-from erosim.kernels.voxel import wall_distance
+from erosim.kernels.voxel import node_span, wall_distance
 
 
 class ShearStressParams(Section):
@@ -122,12 +122,9 @@ def shear_sums(dens, ox, oy, oz, inv, d_air, pos, vel, wall_l, wall_n, seed_vp, 
         px, py, pz = pos[j, 0], pos[j, 1], pos[j, 2]
         lj = min(max(wall_l[j], 0.0), l_min)
         reach = radius + lj
-        i0 = max(0, int(math.ceil((px - reach - ox) * inv)))
-        i1 = min(nx - 1, int(math.floor((px + reach - ox) * inv)))
-        j0 = max(0, int(math.ceil((py - reach - oy) * inv)))
-        j1 = min(ny - 1, int(math.floor((py + reach - oy) * inv)))
-        k0 = max(0, int(math.ceil((pz - reach - oz) * inv)))
-        k1 = min(nz - 1, int(math.floor((pz + reach - oz) * inv)))
+        i0, i1 = node_span(px, reach, ox, inv, nx)
+        j0, j1 = node_span(py, reach, oy, inv, ny)
+        k0, k1 = node_span(pz, reach, oz, inv, nz)
         for kk in range(k0, k1 + 1):
             rz = oz + kk * cell - pz
             if oz + kk * cell < z_floor:
@@ -218,9 +215,10 @@ class ShearStressErosion:
             raise ValueError("positions and velocities must be (n, 3)")
         if normals is None:
             field_l, nrm = self.wall_distances(pos)
-        else:  # the caller's own (l, n) from the field, computed once for the positions given
-            field_l, nrm = wall_l, np.ascontiguousarray(normals, np.float64)
-        wall_l = field_l if wall_l is None else np.ascontiguousarray(wall_l, np.float64)
+            wall_l = field_l if wall_l is None else wall_l
+        else:  # the caller's own (l, n) from the field, found once for the positions given
+            nrm = np.ascontiguousarray(normals, np.float64)
+        wall_l = np.ascontiguousarray(wall_l, np.float64)
         if wall_l.shape != (len(pos),):
             raise ValueError("wall distances must be (n,)")
         shear_sums(*self._args(), pos, vel, wall_l, nrm, p.parallel == "seed", len(pos), self.radius, self.l_min,
@@ -234,7 +232,7 @@ class ShearStressErosion:
 
     def increments(self, pos, vel, dt: float, wall_l=None, normals=None) -> Increment:
         """Accumulate the erosion of ``dt`` seconds by particles at ``pos`` with ``vel`` (and wall distances
-        ``wall_l`` and ``normals``, computed from the field when None) and return the quantised transfer as
+        ``wall_l``, with their ``normals`` or else from the field) and return the quantised transfer as
         an :class:`Increment` (density change per node, removed volume in ``carried_off``); the terrain is
         not changed."""
         lo, hi = self.terrain.value_range

@@ -73,6 +73,13 @@ def _cell(dens, ox, oy, oz, inv, x, y, z):
 
 
 @njit(inline="always", cache=True)
+def node_span(p, reach, o, inv, n):
+    """The first and last node index (clamped to 0 … n − 1) within ``reach`` of the coordinate ``p`` along
+    an axis whose node 0 lies at ``o``, ``inv`` = 1/Δ (an empty span when first > last)."""
+    return max(0, int(math.ceil((p - reach - o) * inv))), min(n - 1, int(math.floor((p + reach - o) * inv)))
+
+
+@njit(inline="always", cache=True)
 def _trilinear(d000, d100, d010, d110, d001, d101, d011, d111, u, v, w):
     c00 = d000 + u * (d100 - d000)
     c10 = d010 + u * (d110 - d010)
