@@ -598,11 +598,11 @@ def no_erosion_warning(eroder) -> str | None:
             "or raise erosion.k_eps (docs/voxel.md)."
         )
     p = eroder.params
-    speed = eroder.l_min * (float(np.max(p.tau_c)) / p.k) ** (1.0 / p.n)
+    speed = eroder.l_min * (p.tau_c / p.k) ** (1.0 / p.n)
     return (
-        f"No ground was eroded: with the shear rate θ = v/l and l at least l_min = {eroder.l_min:.3g} m at this "
-        f"spacing, K θⁿ reaches erosion.tau_c = {float(np.max(p.tau_c)):g} only for water faster than {speed:.3g} m/s "
-        "along the surface; lower erosion.tau_c or sph.spacing for erosion at this scale (docs/voxel.md)."
+        f"No ground was eroded yet: K θⁿ reaches erosion.tau_c = {p.tau_c:g} only where water runs faster than "
+        f"{speed:.3g} m/s along the surface (θ = v/l, l at least l_min = {eroder.l_min:.3g} m at this spacing), and "
+        "none has; run longer, or lower erosion.tau_c or sph.spacing if such flow should erode (docs/voxel.md)."
     )
 
 
@@ -613,6 +613,8 @@ def _warn(out, note: str | None, opening: str) -> None:
 
 
 def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x0, flume, out):
+    suspended = eroder is not None and cfg.erosion.sediment == "suspended"
+
     def report(sim) -> dict[str, Any]:
         from erosim.terrain.voxel import memory_bytes
 
@@ -622,8 +624,8 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
         st = solver.state
         water_m3 = (st.initial + sum(st.added.values())) * solver.m / solver.params.rho0  # all the water, at rest
         # with the load on the particles their cap (erosion.max_concentration) keeps the water clear instead
-        carried = not hasattr(eroder, "held")
-        _warn(out, sediment_warning(coupler.totals["eroded"], water_m3) if carried else None, EROSION_NOTES[0])
+        clear = None if suspended else sediment_warning(coupler.totals["eroded"], water_m3)
+        _warn(out, clear, EROSION_NOTES[0])
         _warn(out, no_erosion_warning(eroder) if coupler.calls else None, EROSION_NOTES[1])
         return {
             "t": float(solver.t),
@@ -653,7 +655,7 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
                                            "not_taken: erosion left in place because the water near it was full "
                                            "(erosion.max_concentration); max_concentration: the largest load of a "
                                            "particle over its volume now"}}
-               if hasattr(eroder, "held") else {}),
+               if suspended else {}),
             "particles_inside_solid": max(inside.most, solver.n_fluid and wall_inside(solver)),
             "timings": {
                 "wall_time_s": round(sim.wall_time, 3),
