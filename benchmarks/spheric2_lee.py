@@ -21,6 +21,31 @@ import numpy as np
 X_BOX, Y_LO, Y_HI, H1 = 0.6635, 0.2985, 0.7015, (0.496, 0.5)
 
 
+def run_with_frames(out: Path, spacing: float, device: str, every: float, t_end: float):
+    """The validation's case at ``spacing`` on ``device`` with particle frames every ``every`` s into
+    ``out/spheric2-<spacing>``: (the run folder, the simulation, its seconds of wall time)."""
+    from erosim.io.runfolder import RunFolder
+    from erosim.scenarios import loader
+    from erosim.scenarios.runner import execute
+
+    sets = [f"sph.spacing={spacing!r}", f"run.t_end={t_end!r}", f"run.output_interval={every!r}",
+            "run.snapshots=0", f"run.device={device}"]  # fmt: skip
+    folder = RunFolder(out / f"spheric2-{spacing}", overwrite=True)
+    t0 = time.perf_counter()
+    _, sim = execute(loader.load("spheric2", sets), folder, progress=False)
+    return folder, sim, time.perf_counter() - t0
+
+
+def frames(folder):
+    """Each particle frame of the run, in order, read back; the frames and the checkpoint are deleted after."""
+    from erosim.io.particles import read_vtp
+
+    for f in sorted((folder.path / "particles").glob("frame_*.vtp")):
+        yield read_vtp(f)
+    shutil.rmtree(folder.path / "particles", ignore_errors=True)
+    shutil.rmtree(folder.path / "checkpoint", ignore_errors=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", type=Path)
@@ -29,20 +54,11 @@ def main() -> None:
     ap.add_argument("--every", type=float, default=0.05)
     ap.add_argument("--t-end", type=float, default=1.6)
     a = ap.parse_args()
-    from erosim.io.particles import read_vtp
-    from erosim.io.runfolder import RunFolder
-    from erosim.scenarios import loader
-    from erosim.scenarios.runner import execute
-
-    sets = [f"sph.spacing={a.spacing!r}", f"run.t_end={a.t_end!r}", f"run.output_interval={a.every!r}",
-            "run.snapshots=0", f"run.device={a.device}"]  # fmt: skip
-    folder = RunFolder(a.out / f"spheric2-{a.spacing}", overwrite=True)
     t0 = time.perf_counter()
-    execute(loader.load("spheric2", sets), folder, progress=False)
+    folder, _, _ = run_with_frames(a.out, a.spacing, a.device, a.every, a.t_end)
     vol = a.spacing**3
     rows = []
-    for f in sorted((folder.path / "particles").glob("frame_*.vtp")):
-        d = read_vtp(f)
+    for d in frames(folder):
         x, u = np.asarray(d["points"]), np.asarray(d["fields"]["velocity"])
         behind = x[:, 0] < X_BOX
         lee = behind & (x[:, 1] > Y_LO) & (x[:, 1] < Y_HI)
@@ -51,8 +67,6 @@ def main() -> None:
                      "lee_u": float(u[lee, 0].mean()) if lee.any() else 0.0, "behind_m3": behind.sum() * vol,
                      "behind_u": float(u[behind, 0].mean()) if behind.any() else 0.0,
                      "h1_top": float(x[near, 2].max()) if near.any() else 0.0})  # fmt: skip
-    shutil.rmtree(folder.path / "particles", ignore_errors=True)
-    shutil.rmtree(folder.path / "checkpoint", ignore_errors=True)
     with open(a.out / f"lee_{a.spacing}.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()

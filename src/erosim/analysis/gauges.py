@@ -127,6 +127,22 @@ def volume_fraction_profile(
     return z, phi
 
 
+def profile_readings(z: np.ndarray, phi: np.ndarray, h: float, dz: float) -> tuple[float, float]:
+    """The column's level and the wire's wetted length (module docstring) of a profile φ(z) sampled every
+    ``dz`` from the floor (``z[0]``) up, crossings of φ = ½ interpolated linearly between samples."""
+    excess = phi - 0.5
+    level = 0.0
+    wet = np.nonzero(excess[z <= z[0] + h] >= 0)[0]
+    if len(wet):  # else no water within one support of the floor: no column
+        excess[: wet[0]] = 0.5  # the gap under the column's first wet sample is the column's
+        i = np.nonzero(excess < 0)[0][0]  # φ crosses ½ between samples i − 1 and i (the top one is dry)
+        level = z[i - 1] + excess[i - 1] / (excess[i - 1] - excess[i]) * dz - z[0]
+    a, b = excess[:-1], excess[1:]  # each interval's wet part, its crossing interpolated
+    both = (a >= 0) & (b >= 0)
+    one = (a >= 0) != (b >= 0)
+    return float(level), float(dz * (both.sum() + np.sum(np.maximum(a, b)[one] / np.abs(a - b)[one])))
+
+
 def water_level(
     positions: np.ndarray,
     volume: np.ndarray,
@@ -163,16 +179,6 @@ def gauge_readings(
     dz = 0.25 * spacing
     for k in range(len(gauges)):
         z, phi = volume_fraction_profile(positions, volume, gauges[k], h, dz, floor, kernel)
-        if len(z) == 0:
-            continue
-        excess = phi - 0.5
-        wet = np.nonzero(excess[z <= floor + h] >= 0)[0]
-        if len(wet):  # else no water within one support of the floor: no column
-            excess[: wet[0]] = 0.5  # the gap under the column's first wet sample is the column's
-            i = np.nonzero(excess < 0)[0][0]  # φ crosses ½ between samples i − 1 and i (the top one is dry)
-            out[k, 0] = z[i - 1] + excess[i - 1] / (excess[i - 1] - excess[i]) * dz - floor
-        a, b = excess[:-1], excess[1:]  # each interval's wet part, its crossing interpolated
-        both = (a >= 0) & (b >= 0)
-        one = (a >= 0) != (b >= 0)
-        out[k, 1] = dz * (both.sum() + np.sum(np.maximum(a, b)[one] / np.abs(a - b)[one]))
+        if len(z):
+            out[k] = profile_readings(z, phi, h, dz)
     return out
