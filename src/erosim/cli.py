@@ -433,13 +433,20 @@ def bench_sph_terrain(particles, steps, every, as_json):
     show_default=True,
     help="What the erosion does with the ground it removes (erosion.sediment).",
 )
+@click.option(
+    "--law",
+    type=click.Choice(["kristof2009", "excess_shear"]),
+    default="kristof2009",
+    show_default=True,
+    help="The erosion law (erosion.law).",
+)
 @click.option("--json", "as_json", is_flag=True)
-def bench_voxel(particles, steps, every, sediment, as_json):
+def bench_voxel(particles, steps, every, sediment, law, as_json):
     """SPH on an eroding voxel terrain (wall weights, erosion) against the same fluid in a box."""
     from erosim.scenarios.kinds import resolve
 
     fn = _guard(resolve, "erosim.bench.voxel:run")
-    _print_result(_guard(fn, particles, steps, every=every, sediment=sediment), as_json)
+    _print_result(_guard(fn, particles, steps, every=every, sediment=sediment, law=law), as_json)
 
 
 @bench.command(name="flood")

@@ -166,13 +166,37 @@ def test_a_run_that_moved_no_ground_says_why():
     assert no_erosion_warning(eroder) is None
 
 
-@pytest.mark.parametrize("sediment", ["carried_off", "suspended"])
-def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch, sediment):
+def test_the_excess_shear_law_says_which_speed_it_needs():
+    """Under the excess-shear law the least speed is the log law's at half a spacing up: √(τ_c/ρ) ln(30 z/k_s)/κ
+    with z = 0.25 m (0.5 m particles), k_s = 0.05 m, τ_c = 4 Pa: 0.0632 · ln(150)/0.41 = 0.77 m/s; an
+    erodibility of 0 asks for no erosion and is not warned."""
+    from erosim.core.heightmap import Heightmap
+    from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion
+    from erosim.scenarios.builders_voxel import no_erosion_warning
+    from erosim.scenarios.schema_voxel import VoxelErosion
+
+    t = VoxelTerrain.from_heightmap(Heightmap(z=np.zeros((6, 6)), cell_size=1.0), cell_size=1.0)
+    p = VoxelErosion(law="excess_shear", critical_stress=4.0, roughness=0.05)
+    note = no_erosion_warning(ExcessShearErosion(t, p, support=1.0, spacing=0.5))
+    assert "faster than 0.773 m/s" in note and "erosion.critical_stress = 4 Pa" in note
+    off = VoxelErosion(law="excess_shear", erodibility=0.0)
+    assert no_erosion_warning(ExcessShearErosion(t, off, support=1.0, spacing=0.5)) is None
+
+
+# the excess-shear law at a bed shear stress the settling water, a few cm/s, passes within 0.3 s (1 mPa:
+# u* = 1 mm/s), on a ground that retreats by 1 m/s per Pa of excess
+EXCESS = ["erosion.law=excess_shear", "erosion.critical_stress=0.001", "erosion.erodibility=1.0"]
+
+
+@pytest.mark.parametrize(("sediment", "law"), [("carried_off", []), ("suspended", []), ("carried_off", EXCESS)],
+                         ids=["carried_off", "suspended", "excess_shear"])  # fmt: skip
+def test_resume_after_ctrl_c_is_bit_identical(tmp_path, monkeypatch, sediment, law):
     """Also with the eroded ground carried by the particles and settling (their loads, the nodes' bound
-    sediment and the budget's totals are in the checkpoint); the budget closes either way."""
+    sediment and the budget's totals are in the checkpoint), and under the excess-shear law; the budget
+    closes either way."""
     from erosim.sph.solver import SPHSolver
 
-    sets = COARSE + ["run.output_interval=0", "run.particle_frames=false", f"erosion.sediment={sediment}"]
+    sets = COARSE + ["run.output_interval=0", "run.particle_frames=false", f"erosion.sediment={sediment}", *law]
     whole = RunFolder(tmp_path / "whole")
     runner.run(loader.load("overtopping", sets, preset="full"), whole, progress=False)
     real, calls = SPHSolver.step, {"n": 0}

@@ -11,7 +11,9 @@ and then timed over the same ``steps``:
 * **voxel + erosion**: the same with Krištof et al.'s shear-stress erosion of the field applied every
   ``every`` steps (default 50) by the :class:`~erosim.coupling.voxel_coupler.VoxelCoupler` (τ_c = 0, so
   every moving particle erodes: the erosion's largest cost); with ``sediment = "suspended"`` the ground
-  removed is carried by the particles and settles (:mod:`erosim.erosion.settling_voxel`, w_s = 0.02 m/s).
+  removed is carried by the particles and settles (:mod:`erosim.erosion.settling_voxel`, w_s = 0.02 m/s);
+  with ``law = "excess_shear"`` the law is :mod:`erosim.erosion.excess_shear_partheniades1965` (τ_c = 0:
+  every particle on the bed erodes).
 
 Reported: ``particles``, ``steps``, ``particle_steps_per_s`` and ``pair_interactions_per_s`` (voxel +
 erosion, coupling included; pairs: fluid neighbours within h at the end, as in ``bench sph``),
@@ -21,7 +23,7 @@ steps' time within the voxel + erosion run (what erosion every ``every`` steps a
 ``run_ratio_erosion`` = (voxel + erosion time) / (voxel time) − 1 (the two runs' flows part as the
 tank erodes — at τ_c = 0 it deepens and the water spreads, so its steps get cheaper and this ratio is
 no measure of the erosion's cost), the three rates, ``voxel_nodes``, ``boundary_particles`` of the box,
-``eroded_m3``, ``sediment``, ``threads`` and ``peak_rss_mb``.
+``eroded_m3``, ``sediment``, ``law``, ``threads`` and ``peak_rss_mb``.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ import resource
 
 
 def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, warmup: int = 20,
-        seconds: float = 8.0, sediment: str = "carried_off") -> dict:  # fmt: skip
+        seconds: float = 8.0, sediment: str = "carried_off", law: str = "kristof2009") -> dict:  # fmt: skip
     """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
     import numba
 
@@ -67,7 +69,13 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
                            boundaries=[wall])  # fmt: skip
         coupler = None
         if erode:
-            eroder = ShearStressErosion(terrain, ShearStressParams(k_eps=1.0, tau_c=0.0), support=solver.h)
+            if law == "excess_shear":  # every particle on the bed erodes (τ_c = 0)
+                from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion, ExcessShearParams
+
+                eroder = ExcessShearErosion(terrain, ExcessShearParams(erodibility=1.0, critical_stress=0.0),
+                                            support=solver.h, spacing=dx)  # fmt: skip
+            else:
+                eroder = ShearStressErosion(terrain, ShearStressParams(k_eps=1.0, tau_c=0.0), support=solver.h)
             if sediment == "suspended":  # the load on the particles, settling (erosion.settling_voxel)
                 from erosim.erosion.settling_voxel import SuspendedSediment
 
@@ -87,6 +95,7 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
         "steps": int(steps),
         "erosion_every": int(every),
         "sediment": sediment,
+        "law": law,
         "particle_steps_per_s": nf * steps / e_wall,
         "pair_interactions_per_s": nf * esolver.neighbour_stats()["mean"] * steps / e_wall,
         "boundary_fraction": v_wall / box_wall - 1.0,

@@ -224,6 +224,16 @@ class ShearStressErosion:
         shear_sums(*self._args(), pos, vel, wall_l, nrm, p.parallel == "seed", len(pos), self.radius, self.l_min,
                    p.k, p.n, p.tau_c, self.z_floor, scale, out)  # fmt: skip
 
+    def _accumulate(self, pos, vel, dt: float, wall_l, normals) -> None:
+        """Add the erosion of ``dt`` seconds to the accumulator (density units): K_ε Δt (d_solid − d_air) Σ(…)."""
+        lo, hi = self.terrain.value_range
+        self._sums(pos, vel, wall_l, self.params.k_eps * dt * (hi - lo), self.pending, normals)
+
+    def threshold_speed(self) -> float:
+        """The speed along the wall below which no particle erodes: l_min (τ_c/K)^(1/n) (m/s)."""
+        p = self.params
+        return self.l_min * (p.tau_c / p.k) ** (1.0 / p.n)
+
     def rates(self, pos, vel, wall_l=None) -> np.ndarray:
         """Σ_j max(0, K θⁿ − τ_c) per grid point (the erosion rate is K_ε times it, in solid fraction per second)."""
         out = np.zeros(self.terrain.shape)
@@ -235,8 +245,8 @@ class ShearStressErosion:
         ``wall_l``, with their ``normals`` or else from the field) and return the quantised transfer as
         an :class:`Increment` (density change per node, removed volume in ``carried_off``); the terrain is
         not changed."""
-        lo, hi = self.terrain.value_range
-        self._sums(pos, vel, wall_l, self.params.k_eps * float(dt) * (hi - lo), self.pending, normals)
+        lo = self.terrain.value_range[0]
+        self._accumulate(pos, vel, float(dt), wall_l, normals)
         dd = np.zeros(self.terrain.shape)
         unmet = quantised_transfer(self.terrain.density.reshape(-1), self.pending.reshape(-1), self.quantum, lo,
                                    dd.reshape(-1))  # fmt: skip

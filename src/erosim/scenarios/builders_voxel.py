@@ -502,15 +502,25 @@ def build_solver(cfg: VoxelScenario, terrain):
     return solver, wall, derived
 
 
-def setup(scenario, out) -> Setup:
-    """The flume, its fluid, inflow and outflow, the erosion coupler and the outputs of a ``voxel`` run."""
+def make_eroder(e, terrain, solver):
+    """The eroder of ``erosion.law`` for ``terrain`` and the fluid of ``solver``."""
+    if e.law == "excess_shear":
+        from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion
+
+        return ExcessShearErosion(terrain, e, support=solver.h, spacing=solver.params.spacing,
+                                  rho0=solver.params.rho0)  # fmt: skip
     from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion
 
+    return ShearStressErosion(terrain, e, support=solver.h)
+
+
+def setup(scenario, out) -> Setup:
+    """The flume, its fluid, inflow and outflow, the erosion coupler and the outputs of a ``voxel`` run."""
     cfg: VoxelScenario = at_dem_scale(scenario.config)
     terrain = build_terrain(cfg)
     solver, wall, derived = build_solver(cfg, terrain)
     e, run = cfg.erosion, cfg.run
-    eroder = ShearStressErosion(terrain, e, support=solver.h) if e.enabled else None
+    eroder = make_eroder(e, terrain, solver) if e.enabled else None
     if eroder is not None and e.sediment == "suspended":
         from erosim.erosion.settling_voxel import SuspendedSediment
 
@@ -585,20 +595,29 @@ def sediment_warning(eroded_m3: float, water_m3: float) -> str | None:
 
 def no_erosion_warning(eroder) -> str | None:
     """One sentence when the erosion was evaluated but no quantum has moved: either some is pending, below
-    a quantum at every node, or none at all, when the slowest water along the surface that reaches τ_c,
-    v = l_min (τ_c/K)^(1/n) (θ ≤ v/l_min), was never reached; v grows with the spacing, so a scene's τ_c
-    set for small particles erodes nothing on a coarse DEM."""
-    if eroder is None or eroder.removed_total > 0:
+    a quantum at every node, or none at all, when the slowest water along the surface that reaches τ_c
+    (the eroder's ``threshold_speed``) was never reached. Under the seed's law that speed is
+    l_min (τ_c/K)^(1/n) (θ ≤ v/l_min) and grows with the spacing, so a scene's τ_c set for small particles
+    erodes nothing on a coarse DEM."""
+    p = eroder.params if eroder is not None else None
+    excess = getattr(p, "law", "kristof2009") == "excess_shear"
+    if eroder is None or eroder.removed_total > 0 or (p.erodibility if excess else p.k_eps) == 0:
         return None
     pending = eroder.pending_volume()
     if pending > 0:
         return (
             f"No ground was eroded yet: {pending:.3g} m³ of erosion is pending, less than one quantum "
-            f"(erosion.quantum = {eroder.params.quantum:.3g} of a voxel's density range) at every node; run longer "
-            "or raise erosion.k_eps (docs/voxel.md)."
+            f"(erosion.quantum = {p.quantum:.3g} of a voxel's density range) at every node; run longer "
+            f"or raise {'erosion.erodibility' if excess else 'erosion.k_eps'} (docs/voxel.md)."
         )
-    p = eroder.params
-    speed = eroder.l_min * (p.tau_c / p.k) ** (1.0 / p.n)
+    speed = eroder.threshold_speed()
+    if excess:
+        return (
+            f"No ground was eroded yet: the bed shear stress reaches erosion.critical_stress = "
+            f"{p.critical_stress:g} Pa only where water runs faster than {speed:.3g} m/s along the bed (the log law "
+            f"at half a spacing up, roughness {p.roughness:g} m), and none has; run longer, or lower "
+            "erosion.critical_stress if such flow should erode (docs/voxel.md)."
+        )
     return (
         f"No ground was eroded yet: K θⁿ reaches erosion.tau_c = {p.tau_c:g} only where water runs faster than "
         f"{speed:.3g} m/s along the surface (θ = v/l, l at least l_min = {eroder.l_min:.3g} m at this spacing), and "

@@ -16,9 +16,11 @@
     [inflow]       the reservoir's filling: discharge (m³/s) laid at rest on its surface over x0…x1
     [inflows.NAME] on a heightmap, a river's source: a vertical jet of ``discharge`` m³/s at ``position``
                    (the terrain's frame), ``height`` m above the ground (erosim.coupling.sources.PointInflow)
-    [erosion]      shear-stress erosion (erosion.shear_stress_kristof2009) every ``every`` steps; what it removes
-                   carried off at once, or with sediment = "suspended" carried by the particles and settling
-                   back (erosion.settling_voxel: settling_velocity, max_concentration)
+    [erosion]      shear-stress erosion every ``every`` steps: the seed's law (law = "kristof2009",
+                   erosion.shear_stress_kristof2009) or the excess bed shear stress in pascals (law =
+                   "excess_shear", erosion.excess_shear_partheniades1965); what it removes carried off
+                   at once, or with sediment = "suspended" carried by the particles and settling back
+                   (erosion.settling_voxel: settling_velocity, max_concentration)
     [run]          t_end, output interval (meshes, field, particle frames), profile interval and formats
 
 Positions are metres in the flume's frame: x along the flume from its upstream wall, y across, z up
@@ -33,7 +35,7 @@ from pydantic import Field, model_validator
 
 from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
-from erosim.erosion.shear_stress_kristof2009 import ShearStressParams
+from erosim.erosion.excess_shear_partheniades1965 import ExcessShearParams
 from erosim.scenarios.schema_common import TerrainSection, with_sph_defaults
 from erosim.scenarios.schema_sph_terrain import InflowSection as JetSection
 from erosim.sph.params import SPHParams
@@ -105,8 +107,12 @@ class VoxelJetSection(JetSection):
     position: list[float] = param(..., unit="m", doc="[x, y] in the terrain's frame: metres from its south-west node")
 
 
-class VoxelErosion(ShearStressParams):
+class VoxelErosion(ExcessShearParams):
     enabled: bool = param(True, doc="shear-stress erosion on (false: the fluid only)")
+    law: Literal["kristof2009", "excess_shear"] = param(
+        "kristof2009", doc="the erosion law: the seed's shear rate of Krištof et al. (k_eps, tau_c, k, n, radius, "
+        "l_min, parallel; SPEC VX-6), or the excess bed shear stress ε = k_d (τ_b − τ_c) with τ_b from a "
+        "rough-wall log law (erodibility, critical_stress in Pa, roughness; docs/voxel.md)")  # fmt: skip
     start: float = param(1.0, ge=0, unit="s", doc="no erosion before this time: the fluid laid on a lattice settles")
     sediment: Literal["carried_off", "suspended"] = param(
         "carried_off", doc="what the water does with the ground it removes: 'carried_off' at once (the seed's), or "
