@@ -54,7 +54,7 @@ from numba import njit
 
 from erosim.core.config import param
 from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
-from erosim.kernels.voxel import _cell, node_span
+from erosim.kernels.voxel import cell_of, node_span
 from erosim.terrain.voxel import BAND_CELLS
 
 #: von Kármán's constant
@@ -155,7 +155,7 @@ def bed_retreat(dens, ox, oy, oz, inv, d_air, pos, tau_b, wall_l, wall_n, n, tau
             _ramp_weights(dens, ox, oy, oz, inv, d_air, fx, fy, fz, nx_, ny_, nz_, half, foot, z_floor,
                           amount / total, out)  # fmt: skip
             continue
-        i, jj, k, u, v, w = _cell(dens, ox, oy, oz, inv, fx, fy, fz)
+        i, jj, k, u, v, w = cell_of(dens, ox, oy, oz, inv, fx, fy, fz)
         for sweep in range(2):
             for c in range(8):
                 a, b, e = c & 1, (c >> 1) & 1, c >> 2

@@ -60,7 +60,7 @@ BLEND_HI, BLEND_LO = 0.75, 0.25
 
 
 @njit(inline="always", cache=True)
-def _cell(dens, ox, oy, oz, inv, x, y, z):
+def cell_of(dens, ox, oy, oz, inv, x, y, z):
     """Lower node (i, j, k) of the cell holding (x, y, z), clamped onto the grid, and (u, v, w) in it."""
     nz, ny, nx = dens.shape
     fx = min(max((x - ox) * inv, 0.0), nx - 1.0)
@@ -113,7 +113,7 @@ def sample(dens, ox, oy, oz, inv, x, y, z):
     """(d, ∂d/∂x, ∂d/∂y, ∂d/∂z) at (x, y, z): d trilinear in the 8 nodes around it, ∇d the derivative of that
     polynomial, blended towards the trilinear interpolation of the nodes' central differences where the
     polynomial's is the smaller (module docstring); ``inv`` = 1/Δ."""
-    i, j, k, u, v, w = _cell(dens, ox, oy, oz, inv, x, y, z)
+    i, j, k, u, v, w = cell_of(dens, ox, oy, oz, inv, x, y, z)
     d000 = dens[k, j, i]
     d100 = dens[k, j, i + 1]
     d010 = dens[k, j + 1, i]
