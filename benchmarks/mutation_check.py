@@ -167,6 +167,37 @@ MUTATIONS = (
         "flat ground never erodes (ER-1's clamp lost)",
     ),
     Mutation(
+        "bed-shear-at-the-wall-distance",
+        "erosion/excess_shear_partheniades1965.py",
+        (("max(wall_l[j], 0.5 * spacing), rho, roughness)", "max(wall_l[j], 0.01 * spacing), rho, roughness)"),),
+        ("tests/unit/test_excess_shear.py",),
+        "the log law read at the particle's distance alone, not at least half a spacing up",
+    ),
+    Mutation(
+        "bed-retreat-per-particle-not-per-area",
+        "erosion/excess_shear_partheniades1965.py",
+        (
+            (
+                "scale = self.params.erodibility * self.spacing**2 * dt",
+                "scale = self.params.erodibility * self.spacing * dt",
+            ),
+        ),
+        ("tests/unit/test_excess_shear.py",),
+        "each particle on the bed removes k_d (τ_b − τ_c) Δx instead of over its area Δx²",
+    ),
+    Mutation(
+        "bed-retreat-from-the-foot-cell-only",
+        "erosion/excess_shear_partheniades1965.py",
+        (
+            (
+                "        if total > 0.0:\n            _ramp_weights(",
+                "        if total < 0.0:\n            _ramp_weights(",
+            ),
+        ),
+        ("tests/unit/test_excess_shear.py",),
+        "the ground taken from the foot's cell only, not along the ramp: the surface the wall reads lags",
+    ),
+    Mutation(
         "sediment-deposit-share-wrong",
         "erosion/transport_capacity_mei2007.py",
         (("sed[i] += sed[i] * (e / held[k])", "sed[i] += e / count[k]"),),

@@ -56,6 +56,18 @@ def test_the_bed_retreats_at_k_d_times_the_excess_stress_at_any_spacing_and_tilt
     assert e.rates(pos, vel).sum() / area == pytest.approx(1e-4 * (1000.0 * U_STAR**2 - 2.0), rel=1e-6)
 
 
+def test_a_particle_pressed_to_the_bed_reads_the_stress_at_half_a_spacing():
+    """A first-layer particle stands for the water from the bed to Δx, so the log law is read at least Δx/2
+    up: at l = Δx/4 (pressed down by an impact) it reads what it would at Δx/2, ρ (κ v/ln(15 Δx/k_s))²,
+    not the larger stress of the log law at Δx/4; at 0.75 Δx its own height (1e-9 relative)."""
+    terrain, normal, along = _bed(0.0, 0.02)
+    e = ExcessShearErosion(terrain, ExcessShearParams(roughness=K_S), support=0.04, spacing=0.02)
+    pos = np.array([0.5, 0.5, 0.3]) + np.outer([0.005, 0.01, 0.015], normal)
+    tau = e.bed_shear_stress(pos, np.tile(along, (3, 1)))
+    at = [1000.0 * (KAPPA / math.log(30 * z / K_S)) ** 2 for z in (0.01, 0.01, 0.015)]
+    assert tau == pytest.approx(at, rel=1e-9)
+
+
 def test_nothing_below_the_critical_stress_and_nothing_from_still_water():
     """τ_c just above the flow's τ_b erodes nothing, just below it erodes; water at rest erodes nothing;
     the threshold speed at half a spacing up is the first layer's speed at τ_b = τ_c."""
