@@ -145,6 +145,7 @@ def test_eroding_more_than_a_fifth_of_the_waters_volume_is_warned():
     assert sediment_warning(0.19, 1.0) is None and sediment_warning(1.0, 0.0) is None
     note = sediment_warning(0.32, 1.0)
     assert "0.32 of the water's volume" in note and "erosion.k_eps" in note
+    assert "lower erosion.erodibility" in sediment_warning(0.32, 1.0, "erosion.erodibility")
 
 
 def test_a_run_that_moved_no_ground_says_why():

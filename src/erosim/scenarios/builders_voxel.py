@@ -582,14 +582,15 @@ CLEAR_WATER_LIMIT = 0.2
 EROSION_NOTES = ("The ground removed", "No ground was eroded")
 
 
-def sediment_warning(eroded_m3: float, water_m3: float) -> str | None:
-    """One sentence when the eroded volume exceeds :data:`CLEAR_WATER_LIMIT` of the water's volume, else None."""
+def sediment_warning(eroded_m3: float, water_m3: float, strength: str = "erosion.k_eps") -> str | None:
+    """One sentence when the eroded volume exceeds :data:`CLEAR_WATER_LIMIT` of the water's volume, else None;
+    ``strength`` names the law's rate setting."""
     if water_m3 <= 0 or eroded_m3 <= CLEAR_WATER_LIMIT * water_m3:
         return None
     return (
         f"The ground removed ({eroded_m3:.3g} m³) is {eroded_m3 / water_m3:.2f} of the water's volume "
         f"({water_m3:.3g} m³), above the {CLEAR_WATER_LIMIT * 100:g} % up to which clear-water flow holds "
-        "(Costa 1988): the erosion is too strong for this terrain's scale; lower erosion.k_eps (docs/voxel.md)."
+        f"(Costa 1988): the erosion is too strong for this terrain's scale; lower {strength} (docs/voxel.md)."
     )
 
 
@@ -643,7 +644,8 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
         st = solver.state
         water_m3 = (st.initial + sum(st.added.values())) * solver.m / solver.params.rho0  # all the water, at rest
         # with the load on the particles their cap (erosion.max_concentration) keeps the water clear instead
-        clear = None if suspended else sediment_warning(coupler.totals["eroded"], water_m3)
+        strength = "erosion.erodibility" if cfg.erosion.law == "excess_shear" else "erosion.k_eps"
+        clear = None if suspended else sediment_warning(coupler.totals["eroded"], water_m3, strength)
         _warn(out, clear, EROSION_NOTES[0])
         _warn(out, no_erosion_warning(eroder) if coupler.calls else None, EROSION_NOTES[1])
         return {
