@@ -69,6 +69,10 @@ def main(dx: float, t_end: float = 1.6) -> dict:
         out["level_rms_mm"][name] = round(1000 * float(np.sqrt(np.mean((tab[sel, 1 + k] - lab) ** 2))), 1)
         wire = tab[sel, 1 + len(names) + k]
         out["wire_level_rms_mm"][name] = round(1000 * float(np.sqrt(np.mean((wire - lab) ** 2))), 1)
+    k1 = names.index("H1")
+    out["H1_column_m"] = {
+        f"{c:.1f}": round(float(np.interp(c, t, tab[:, 1 + k1])), 3) for c in (1.0, 1.1, 1.2, 1.3, 1.4, 1.5)
+    }
     return out
 
 
