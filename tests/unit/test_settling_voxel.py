@@ -79,3 +79,16 @@ def test_a_load_at_rest_settles_at_ws_over_its_height_onto_the_ground_under_it(f
     assert terms["carried_off"] == 0.0 and terms["eroded"] == 0.0
     assert sus.held() + float(sus.bound.sum() * vpu) == pytest.approx(2e-6 - float(np.sum(inc.dz) * vpu), rel=1e-12)
     np.testing.assert_array_equal(terrain.density, before.astype(np.float32))  # the caller applies the increment
+
+
+def test_a_suspended_run_that_moved_no_ground_says_why(flume):
+    """The wrapper gives the warning its eroder's own words: no quantum moved at τ_c = 0.5 (the preset's
+    K = 1, n = ½ and l_min = 0.4 h = 3.2 cm: 0.032 · 0.5² = 0.008 m/s) names that speed (a suspended run
+    once failed here, the wrapper lacking the eroder's threshold)."""
+    from erosim.scenarios.builders_voxel import no_erosion_warning
+
+    terrain, solver, eroder = flume
+    sus = SuspendedSediment(eroder, solver, settling_velocity=0.02)
+    assert sus.removed_total == 0 and sus.pending_volume() == 0
+    note = no_erosion_warning(sus)
+    assert "faster than 0.008 m/s" in note and "erosion.tau_c" in note

@@ -174,6 +174,7 @@ class ExcessShearErosion(ShearStressErosion):
     ``rho0``; ``support`` is the kernel's h, kept for the suspended load's reach. Module docstring."""
 
     name = "excess_shear"
+    strength = "erodibility"
 
     def __init__(self, terrain, params: ExcessShearParams | None = None, *, support: float, spacing: float,
                  rho0: float = 1000.0):  # fmt: skip
@@ -181,29 +182,18 @@ class ExcessShearErosion(ShearStressErosion):
         self.spacing = float(spacing)
         self.rho0 = float(rho0)
 
-    def _wall(self, pos, wall_l, normals):
-        pos = np.ascontiguousarray(pos, np.float64)
-        if normals is None:
-            field_l, nrm = self.wall_distances(pos)
-            wall_l = field_l if wall_l is None else wall_l
-        else:
-            nrm = np.ascontiguousarray(normals, np.float64)
-        return pos, np.ascontiguousarray(wall_l, np.float64), nrm
-
     def bed_shear_stress(self, pos, vel, wall_l=None, normals=None) -> np.ndarray:
         """τ_b (Pa) of every particle on the bed (l < Δx), NaN for the others."""
-        pos, wall_l, nrm = self._wall(pos, wall_l, normals)
-        vel = np.ascontiguousarray(vel, np.float64)
-        if pos.shape != vel.shape or pos.ndim != 2 or pos.shape[1] != 3 or wall_l.shape != (len(pos),):
-            raise ValueError("positions and velocities must be (n, 3), wall distances (n,)")
+        pos, vel, wall_l, nrm = self._wall(pos, vel, wall_l, normals)
         out = np.empty(len(pos))
         bed_shears(pos, vel, wall_l, nrm, len(pos), self.spacing, self.rho0, self.params.roughness, out)
         return out
 
     def _retreat(self, pos, vel, wall_l, normals, scale, out) -> None:
-        pos, wall_l, nrm = self._wall(pos, wall_l, normals)
-        tau_b = self.bed_shear_stress(pos, vel, wall_l, nrm)
+        pos, vel, wall_l, nrm = self._wall(pos, vel, wall_l, normals)
+        tau_b = np.empty(len(pos))
         p, t = self.params, self.terrain
+        bed_shears(pos, vel, wall_l, nrm, len(pos), self.spacing, self.rho0, p.roughness, tau_b)
         half = t.band if t.band is not None else BAND_CELLS * t.cell_size
         bed_retreat(t.density, *t.origin, 1.0 / t.cell_size, t.value_range[0], pos, tau_b, wall_l, nrm, len(pos),
                     p.critical_stress, half, max(t.cell_size, self.spacing), self.z_floor, scale, out)  # fmt: skip
@@ -223,3 +213,12 @@ class ExcessShearErosion(ShearStressErosion):
         """The speed along the bed of a first-layer particle (z = Δx/2) at which τ_b reaches τ_c (m/s)."""
         lg = max(math.log(30.0 * 0.5 * self.spacing / self.params.roughness), 1.0)
         return math.sqrt(self.params.critical_stress / self.rho0) * lg / KAPPA
+
+    def threshold_note(self) -> str:
+        """Why no water has eroded: the least speed that would, and what to change (a clause of a warning)."""
+        p = self.params
+        return (
+            f"the bed shear stress reaches erosion.critical_stress = {p.critical_stress:g} Pa only where water runs "
+            f"faster than {self.threshold_speed():.3g} m/s along the bed (the log law at half a spacing up, roughness "
+            f"{p.roughness:g} m), and none has; run longer, or lower erosion.critical_stress if such flow should erode"
+        )

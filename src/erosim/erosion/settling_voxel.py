@@ -142,6 +142,8 @@ class SuspendedSediment:
     # the eroder's own figures, for the coupler and the report
     params = property(lambda self: self.eroder.params)
     l_min = property(lambda self: self.eroder.l_min)
+    strength = property(lambda self: self.eroder.strength)
+    threshold_note = property(lambda self: self.eroder.threshold_note)
     terrain = property(lambda self: self.eroder.terrain)
     removed_total = property(lambda self: self.eroder.removed_total)
     unmet_total = property(lambda self: self.eroder.unmet_total)

@@ -179,6 +179,8 @@ class ShearStressErosion:
     particles; ``support`` is the SPH kernel's support h (m). See the module docstring."""
 
     name = "shear_stress"
+    #: the field of the parameters that scales the erosion rate (named by the run's warnings)
+    strength = "k_eps"
 
     def __init__(self, terrain, params: ShearStressParams | None = None, *, support: float):
         self.terrain = terrain
@@ -207,8 +209,9 @@ class ShearStressErosion:
         wall_distance(t.density, *t.origin, 1.0 / t.cell_size, t.iso, pos, len(pos), l, nrm)
         return l, nrm
 
-    def _sums(self, pos, vel, wall_l, scale, out, normals=None):
-        p = self.params
+    def _wall(self, pos, vel, wall_l, normals):
+        """(pos, vel, l, n) as contiguous float64 arrays, checked; l and n from the field unless the caller
+        found them (once, for the positions given)."""
         pos = np.ascontiguousarray(pos, np.float64)
         vel = np.ascontiguousarray(vel, np.float64)
         if pos.shape != vel.shape or pos.ndim != 2 or pos.shape[1] != 3:
@@ -216,11 +219,16 @@ class ShearStressErosion:
         if normals is None:
             field_l, nrm = self.wall_distances(pos)
             wall_l = field_l if wall_l is None else wall_l
-        else:  # the caller's own (l, n) from the field, found once for the positions given
+        else:
             nrm = np.ascontiguousarray(normals, np.float64)
         wall_l = np.ascontiguousarray(wall_l, np.float64)
         if wall_l.shape != (len(pos),):
             raise ValueError("wall distances must be (n,)")
+        return pos, vel, wall_l, nrm
+
+    def _sums(self, pos, vel, wall_l, scale, out, normals=None):
+        p = self.params
+        pos, vel, wall_l, nrm = self._wall(pos, vel, wall_l, normals)
         shear_sums(*self._args(), pos, vel, wall_l, nrm, p.parallel == "seed", len(pos), self.radius, self.l_min,
                    p.k, p.n, p.tau_c, self.z_floor, scale, out)  # fmt: skip
 
@@ -233,6 +241,14 @@ class ShearStressErosion:
         """The speed along the wall below which no particle erodes: l_min (τ_c/K)^(1/n) (m/s)."""
         p = self.params
         return self.l_min * (p.tau_c / p.k) ** (1.0 / p.n)
+
+    def threshold_note(self) -> str:
+        """Why no water has eroded: the least speed that would, and what to change (a clause of a warning)."""
+        return (
+            f"K θⁿ reaches erosion.tau_c = {self.params.tau_c:g} only where water runs faster than "
+            f"{self.threshold_speed():.3g} m/s along the surface (θ = v/l, l at least l_min = {self.l_min:.3g} m at "
+            "this spacing), and none has; run longer, or lower erosion.tau_c or sph.spacing if such flow should erode"
+        )
 
     def rates(self, pos, vel, wall_l=None) -> np.ndarray:
         """Σ_j max(0, K θⁿ − τ_c) per grid point (the erosion rate is K_ε times it, in solid fraction per second)."""

@@ -597,33 +597,19 @@ def sediment_warning(eroded_m3: float, water_m3: float, strength: str = "erosion
 def no_erosion_warning(eroder) -> str | None:
     """One sentence when the erosion was evaluated but no quantum has moved: either some is pending, below
     a quantum at every node, or none at all, when the slowest water along the surface that reaches τ_c
-    (the eroder's ``threshold_speed``) was never reached. Under the seed's law that speed is
+    (the eroder's ``threshold_note``) was never reached. Under the seed's law that speed is
     l_min (τ_c/K)^(1/n) (θ ≤ v/l_min) and grows with the spacing, so a scene's τ_c set for small particles
-    erodes nothing on a coarse DEM."""
-    p = eroder.params if eroder is not None else None
-    excess = getattr(p, "law", "kristof2009") == "excess_shear"
-    if eroder is None or eroder.removed_total > 0 or (p.erodibility if excess else p.k_eps) == 0:
+    erodes nothing on a coarse DEM. A law whose rate is set to 0 asks for no erosion and is not warned."""
+    if eroder is None or eroder.removed_total > 0 or getattr(eroder.params, eroder.strength) == 0:
         return None
     pending = eroder.pending_volume()
     if pending > 0:
         return (
             f"No ground was eroded yet: {pending:.3g} m³ of erosion is pending, less than one quantum "
-            f"(erosion.quantum = {p.quantum:.3g} of a voxel's density range) at every node; run longer "
-            f"or raise {'erosion.erodibility' if excess else 'erosion.k_eps'} (docs/voxel.md)."
+            f"(erosion.quantum = {eroder.params.quantum:.3g} of a voxel's density range) at every node; run longer "
+            f"or raise erosion.{eroder.strength} (docs/voxel.md)."
         )
-    speed = eroder.threshold_speed()
-    if excess:
-        return (
-            f"No ground was eroded yet: the bed shear stress reaches erosion.critical_stress = "
-            f"{p.critical_stress:g} Pa only where water runs faster than {speed:.3g} m/s along the bed (the log law "
-            f"at half a spacing up, roughness {p.roughness:g} m), and none has; run longer, or lower "
-            "erosion.critical_stress if such flow should erode (docs/voxel.md)."
-        )
-    return (
-        f"No ground was eroded yet: K θⁿ reaches erosion.tau_c = {p.tau_c:g} only where water runs faster than "
-        f"{speed:.3g} m/s along the surface (θ = v/l, l at least l_min = {eroder.l_min:.3g} m at this spacing), and "
-        "none has; run longer, or lower erosion.tau_c or sph.spacing if such flow should erode (docs/voxel.md)."
-    )
+    return f"No ground was eroded yet: {eroder.threshold_note()} (docs/voxel.md)."
 
 
 def _warn(out, note: str | None, opening: str) -> None:
@@ -644,7 +630,7 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
         st = solver.state
         water_m3 = (st.initial + sum(st.added.values())) * solver.m / solver.params.rho0  # all the water, at rest
         # with the load on the particles their cap (erosion.max_concentration) keeps the water clear instead
-        strength = "erosion.erodibility" if cfg.erosion.law == "excess_shear" else "erosion.k_eps"
+        strength = f"erosion.{eroder.strength}" if eroder is not None else "erosion.k_eps"
         clear = None if suspended else sediment_warning(coupler.totals["eroded"], water_m3, strength)
         _warn(out, clear, EROSION_NOTES[0])
         _warn(out, no_erosion_warning(eroder) if coupler.calls else None, EROSION_NOTES[1])
