@@ -5,6 +5,13 @@ each; then where each began to erode (the first node passed, and the first profi
 5 mm, 1 cm, 2 cm, from profiles.csv every 1 s) and a figure of the four runs' profiles.
 
     python benchmarks/overtopping_excess_shear.py OUT_DIR [--spacings 0.02 0.015] [--draw-only]
+    python benchmarks/overtopping_excess_shear.py OUT_DIR --law kristof2009   # the seed's presets, the same way
+    python benchmarks/overtopping_excess_shear.py --stress RUN SPACING        # τ_b along the slope in RUN's frames
+
+The summary also gives, per run, the crest's top and the eroded centre-line section at 4, 6 and 8 s, and
+per preset the RMS difference of the profiles between the first two spacings. ``--stress`` reads a run
+with particle frames (``… --set erosion.erodibility=0 --set run.output_interval=0.5``) and prints the 90th
+percentile of the first layer's τ_b (k_s = 1 mm) in 5 cm bins along the flume at each frame from 1 s.
 
 Each run is ``erosim run overtopping --preset P --set erosion.law=excess_shear --set
 erosion.critical_stress=TC --set erosion.erodibility=0.02 --set sph.spacing=S --set voxels.cell_size=S
@@ -30,21 +37,24 @@ TIMES = [0, 2, 3, 4, 5, 6, 8]
 DROPS = (0.005, 0.01, 0.02)
 
 
-def sets(preset: str, spacing: float) -> list[str]:
+def sets(preset: str, spacing: float, law: str = "excess_shear") -> list[str]:
+    common = [f"sph.spacing={spacing!r}", f"voxels.cell_size={spacing!r}", "run.t_end=8.0", "run.output_interval=2.0",
+              "run.particle_frames=false"]  # fmt: skip
+    if law != "excess_shear":
+        return common  # the preset's own erosion (the seed's law)
     return ["erosion.law=excess_shear", f"erosion.critical_stress={CASES[preset]!r}",
-            f"erosion.erodibility={ERODIBILITY!r}", f"sph.spacing={spacing!r}", f"voxels.cell_size={spacing!r}",
-            "run.t_end=8.0", "run.output_interval=2.0", "run.particle_frames=false"]  # fmt: skip
+            f"erosion.erodibility={ERODIBILITY!r}", *common]  # fmt: skip
 
 
 def one(args) -> str:
-    preset, spacing, folder = args
+    preset, spacing, folder, law = args
     from numba import set_num_threads
 
     from erosim.io.runfolder import RunFolder
     from erosim.scenarios import loader, runner
 
     set_num_threads(1)
-    runner.run(loader.load("overtopping", sets(preset, spacing), preset=preset),
+    runner.run(loader.load("overtopping", sets(preset, spacing, law), preset=preset),
                RunFolder(Path(folder), overwrite=True), progress=False)  # fmt: skip
     return folder
 
@@ -61,6 +71,17 @@ def first_lowered(tab: np.ndarray, drop: float) -> tuple[float | None, list[floa
     return None, []
 
 
+def profile(tab: np.ndarray, t: float, xs: np.ndarray) -> np.ndarray:
+    """The centre-line surface of the profile nearest ``t``, at ``xs``."""
+    times = np.unique(tab[:, 0])
+    row = tab[tab[:, 0] == times[np.argmin(abs(times - t))]]
+    return np.interp(xs, row[:, 1], row[:, 2])
+
+
+XS = np.linspace(0.0, 0.9, 181)  # the embankment's extent from the toe (m)
+LATER = (4.0, 6.0, 8.0)
+
+
 def summary(folder: Path) -> dict:
     rep = json.loads((folder / "report.json").read_text())
     tab = np.loadtxt(folder / "profiles.csv", delimiter=",", skiprows=1)
@@ -70,7 +91,43 @@ def summary(folder: Path) -> dict:
     for d in DROPS:
         t, xs = first_lowered(tab, d)
         out[f"lowered_{d * 1000:g}mm"] = {"t": t, "x_from": min(xs, default=None), "x_to": max(xs, default=None)}
+    start = profile(tab, 0.0, XS)
+    out["crest_top_m"] = {f"{t:g} s": round(float(profile(tab, t, XS).max()), 3) for t in LATER}
+    out["eroded_section_cm2"] = {f"{t:g} s": round(1e4 * float(np.trapezoid(start - profile(tab, t, XS), XS)))
+                                 for t in LATER}  # fmt: skip
     return out
+
+
+def profile_rms_mm(a: Path, b: Path) -> dict:
+    """RMS difference (mm) of two runs' centre-line profiles over the embankment at the later times."""
+    ta, tb = (np.loadtxt(f / "profiles.csv", delimiter=",", skiprows=1) for f in (a, b))
+    return {f"{t:g} s": round(1000 * float(np.sqrt(np.mean((profile(ta, t, XS) - profile(tb, t, XS)) ** 2))), 1)
+            for t in LATER}  # fmt: skip
+
+
+def stress(run: Path, spacing: float) -> None:
+    """Print the 90th percentile of τ_b of the first layer in 5 cm bins along the flume, per frame (module doc)."""
+    from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion, ExcessShearParams
+    from erosim.io.particles import read_pvd, read_vtp
+    from erosim.scenarios import loader
+    from erosim.terrain.voxel import VoxelTerrain
+
+    x0 = loader.load(run / "scenario.toml").config.embankment.x_toe
+    edges = np.arange(0.0, 1.0001, 0.05)
+    print("x from toe (m):", " ".join(f"{e:5.2f}" for e in edges[:-1]))
+    for k, (t, name) in enumerate(read_pvd(run / "particles" / "particles.pvd")):
+        if t < 1.0:
+            continue
+        frame = read_vtp(run / "particles" / Path(name).name)
+        terrain = VoxelTerrain.load(run / "fields" / f"density_{k:04d}.npz")
+        eroder = ExcessShearErosion(terrain, ExcessShearParams(), support=2 * spacing, spacing=spacing)
+        tau = eroder.bed_shear_stress(frame["points"], frame["fields"]["velocity"])
+        x = frame["points"][:, 0] - x0
+        cells = []
+        for a, b in zip(edges[:-1], edges[1:], strict=True):
+            on = (x >= a) & (x < b) & np.isfinite(tau)
+            cells.append(f"{np.percentile(tau[on], 90):5.1f}" if on.sum() >= 3 else "    -")
+        print(f"t = {t:4.1f} s, τ_b p90 (Pa):", " ".join(cells))
 
 
 def figure(folders: dict, path: Path) -> None:
@@ -105,19 +162,29 @@ def figure(folders: dict, path: Path) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("out")
+    ap.add_argument("out", nargs="?")
     ap.add_argument("--spacings", type=float, nargs="+", default=[0.02, 0.015])
+    ap.add_argument("--law", choices=["excess_shear", "kristof2009"], default="excess_shear")
     ap.add_argument("--draw-only", action="store_true", help="only read the runs already in OUT_DIR")
+    ap.add_argument("--stress", nargs=2, metavar=("RUN", "SPACING"), help="τ_b along the slope in RUN's frames")
     a = ap.parse_args()
+    if a.stress:
+        stress(Path(a.stress[0]), float(a.stress[1]))
+        return
     out = Path(a.out)
     folders = {(p, s): out / f"{p}_{s:g}" for p in CASES for s in a.spacings}
     if not a.draw_only:
         with ProcessPoolExecutor(2) as pool:
-            list(pool.map(one, [(p, s, str(f)) for (p, s), f in folders.items()]))
+            list(pool.map(one, [(p, s, str(f), a.law) for (p, s), f in folders.items()]))
     res = {f"{p} {s:g} m": summary(f) for (p, s), f in folders.items()}
+    for p in CASES:
+        first, second = (folders[(p, s)] for s in a.spacings[:2])
+        res[f"{p}: profiles' RMS difference, {a.spacings[0]:g} against {a.spacings[1]:g} m (mm)"] = profile_rms_mm(
+            first, second)  # fmt: skip
     (out / "summary.json").write_text(json.dumps(res, indent=1))
     print(json.dumps(res, indent=1))
-    figure(folders, out / "overtopping_excess_shear.png")
+    if a.law == "excess_shear":
+        figure(folders, out / "overtopping_excess_shear.png")
 
 
 if __name__ == "__main__":
