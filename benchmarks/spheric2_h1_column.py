@@ -13,9 +13,7 @@ Everything goes to ``OUT/h1_column_<spacing>.npz``; the frames are deleted.
 
 from __future__ import annotations
 
-import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -24,15 +22,11 @@ OFFSETS = np.array([(dx, dy) for dx in (-0.04, -0.02, 0.0, 0.02, 0.04) for dy in
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("out", type=Path)
-    ap.add_argument("--spacing", type=float, default=0.03)
-    ap.add_argument("--device", default="cpu")
-    ap.add_argument("--every", type=float, default=0.025)
-    ap.add_argument("--t-end", type=float, default=1.6)
+    from spheric2_lee import frames, run_arguments, run_with_frames
+
+    ap = run_arguments(__doc__, 0.025)
     ap.add_argument("--slab-from", type=float, default=1.1)
     a = ap.parse_args()
-    from spheric2_lee import frames, run_with_frames
 
     from erosim.analysis.gauges import profile_readings, volume_fraction_profile
     from erosim.simulation.callbacks import Probes

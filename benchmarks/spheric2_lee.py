@@ -46,14 +46,20 @@ def frames(folder):
     shutil.rmtree(folder.path / "checkpoint", ignore_errors=True)
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def run_arguments(doc: str, every: float) -> argparse.ArgumentParser:
+    """The options of a run with frames (the SPHERIC benchmarks share them): OUT, spacing, device, frame
+    interval (default ``every``) and end time."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("out", type=Path)
     ap.add_argument("--spacing", type=float, default=0.03)
     ap.add_argument("--device", default="cpu")
-    ap.add_argument("--every", type=float, default=0.05)
+    ap.add_argument("--every", type=float, default=every)
     ap.add_argument("--t-end", type=float, default=1.6)
-    a = ap.parse_args()
+    return ap
+
+
+def main() -> None:
+    a = run_arguments(__doc__, 0.05).parse_args()
     t0 = time.perf_counter()
     folder, _, _ = run_with_frames(a.out, a.spacing, a.device, a.every, a.t_end)
     vol = a.spacing**3
