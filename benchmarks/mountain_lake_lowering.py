@@ -8,6 +8,12 @@ folders (fields at the start and at the end), per run
   paths raises both;
 * the lowering along the spill path north of the largest hollow (x 11–13 m, y ≥ 19.5 m on the library's
   terrain.seed = 11 mountain);
+* per closed hollow of the starting surface holding more than 1 m³, at every saved field: its spill
+  level and its capacity (the water it would hold filled to that level), and the lowering along its
+  outlet's path (from the pour point, steepest descent over the filled starting surface to the map's
+  edge or the next hollow): a lake carving its outlet lowers its spill level, loses capacity, and cuts a
+  channel along that path (`channel_m`: the longest unbroken stretch of it lowered by more than
+  `CHANNEL_DEPTH`);
 
 and a figure of the lowering maps side by side.
 
@@ -24,7 +30,9 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import spearmanr
 
+from erosim.analysis.lake_outlets import hollows as lake_hollows
 from erosim.scenarios.builders_voxel import top_surface
+from erosim.scenarios.loader import read_toml
 from erosim.terrain.priority_flood_barnes2014 import closed_basin_depth
 from erosim.terrain.voxel import VoxelTerrain
 
@@ -46,6 +54,85 @@ def d8_accumulation(z: np.ndarray) -> np.ndarray:
         if to >= 0:
             acc[to] += acc[k]
     return acc.reshape(ny, nx)
+
+
+CHANNEL_DEPTH = 0.1  # m: a cut deeper than this (about the 0.1 m of a rill) counts towards a channel
+
+
+def describe(h, cell: float) -> dict:
+    """A hollow as numbers: its centre, capacity, spill level, outlet path's length and where it spills."""
+    return {"centre_m": [round(c, 2) for c in h.centre(cell)], "capacity_m3": round(h.capacity_m3, 2),
+            "spill_level_m": round(h.spill_level_m, 3), "path_m": round(len(h.path) * cell, 2),
+            "spills_into": h.spills_into}  # fmt: skip
+
+
+def outlet_history(run: Path) -> list[dict]:
+    """Spill level, capacity and the cut along the outlet's path of each hollow at every saved field."""
+    fields = sorted(glob.glob(str(run / "fields" / "density_*.npz")))
+    first = VoxelTerrain.load(fields[0])
+    start, cell = top_surface(first), first.cell_size
+    hollows = lake_hollows(start, cell)
+    every = read_toml(run / "scenario.toml")["run"]["output_interval"]
+    times = [round(int(Path(f).stem.split("_")[1]) * every, 6) for f in fields]
+    history = [describe(h, cell) | {"at": []} for h in hollows]
+    for f, t in zip(fields, times, strict=True):
+        now = top_surface(VoxelTerrain.load(f))
+        depth = closed_basin_depth(now)
+        low = start - now
+        for h, rec in zip(hollows, history, strict=True):
+            cut = np.array([low[p] for p in h.path])
+            longest = length = 0
+            for deep in cut > CHANNEL_DEPTH:
+                length = length + 1 if deep else 0
+                longest = max(longest, length)
+            spill = now + depth
+            rec["at"].append(
+                {
+                    "field": Path(f).name,
+                    "t": t,
+                    "spill_level_m": round(float(spill[h.cells & (depth > 0)].max()), 3)
+                    if (h.cells & (depth > 0)).any() else None,
+                    "capacity_m3": round(float(depth[h.cells].sum() * cell * cell), 3),
+                    "outlet_cut_max_m": round(float(cut.max()), 3),
+                    "outlet_cut_mean_m": round(float(cut.mean()), 3),
+                    "channel_m": round(longest * cell, 2),
+                }
+            )
+    return history
+
+
+def lake_history(run: Path) -> list[dict]:
+    """Per hollow (as :func:`outlets`) and particle frame: the water standing in it (particles over its
+    cells below its spill level + one voxel, times the particle's volume) and the particles on its
+    outlet's path moving down it (faster than 0.1 m/s along the path's direction): a lake that has
+    filled passes its inflow on over its outlet, into the next hollow or off the map."""
+    from erosim.io.particles import read_pvd, read_vtp
+
+    first = VoxelTerrain.load(sorted(glob.glob(str(run / "fields" / "density_*.npz")))[0])
+    start, cell = top_surface(first), first.cell_size
+    spacing = read_toml(run / "scenario.toml")["sph"]["spacing"]
+    hollows = lake_hollows(start, cell)
+    frames = read_pvd(run / "particles" / "particles.pvd")
+    history = [describe(h, cell) | {"t": [], "water_m3": [], "leaving": []} for h in hollows]
+    ny, nx = start.shape
+    for t, name in frames:
+        frame = read_vtp(run / "particles" / name)
+        pos, vel = np.asarray(frame["points"]), np.asarray(frame["fields"]["velocity"])
+        ix = np.clip(np.rint(pos[:, 0] / cell).astype(int), 0, nx - 1)
+        iy = np.clip(np.rint(pos[:, 1] / cell).astype(int), 0, ny - 1)
+        for h, rec in zip(hollows, history, strict=True):
+            standing = h.cells[iy, ix] & (pos[:, 2] <= h.spill_level_m + cell)
+            path = np.zeros_like(h.cells)
+            for p in h.path:
+                path[p] = True
+            (a0, b0), (a1, b1) = h.path[0], h.path[min(len(h.path) - 1, 2)]
+            along = np.array([b1 - b0, a1 - a0], dtype=float)
+            along /= max(np.hypot(*along), 1e-12)
+            moving = path[iy, ix] & (pos[:, 2] <= start[iy, ix] + 2 * spacing) & (vel[:, :2] @ along > 0.1)
+            rec["t"].append(round(float(t), 3))
+            rec["water_m3"].append(round(float(standing.sum() * spacing**3), 3))
+            rec["leaving"].append(int(moving.sum()))
+    return history
 
 
 def lowering(run: Path):
@@ -92,15 +179,21 @@ def figure(runs: list[Path], path: str) -> None:
         y = np.arange(start.shape[0]) * cell
         im = ax.imshow(low, origin="lower", extent=(0, x[-1], 0, y[-1]), cmap="magma_r", vmin=0, vmax=0.3)
         ax.contour(x, y, start, levels=15, colors="k", linewidths=0.3)
+        for h in lake_hollows(start, cell):
+            ax.contour(x, y, h.cells.astype(float), levels=[0.5], colors="tab:blue", linewidths=1.0)
+            iy, ix = np.array(h.path).T
+            ax.plot(ix * cell, iy * cell, color="tab:cyan", lw=1.2)
+            ax.plot(ix[0] * cell, iy[0] * cell, "o", color="tab:cyan", ms=3)
         ax.set_title(f"{run.name}: {cell:g} m voxels", fontsize=10)
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
     fig.colorbar(im, ax=axes[0], label="ground lowered (m)")
-    fig.suptitle("mountain-lake: the ground lowered by the end; contours: the ground at the start", fontsize=10)
+    fig.suptitle("mountain-lake: the ground lowered by the end; black: the ground at the start; blue: its closed "
+                 "hollows over 1 m³; cyan: their outlets' paths from the pour point (dot)", fontsize=9)
     fig.savefig(path, dpi=80)
 
 
 if __name__ == "__main__":
     runs = [Path(a) for a in sys.argv[2:]]
-    print(json.dumps({str(r): measures(r) for r in runs}, indent=1))
+    print(json.dumps({str(r): measures(r) | {"hollows": outlet_history(r)} for r in runs}, indent=1))
     figure(runs, sys.argv[1])
