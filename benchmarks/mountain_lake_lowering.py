@@ -15,9 +15,11 @@ folders (fields at the start and at the end), per run
   channel along that path (`channel_m`: the longest unbroken stretch of it lowered by more than
   `CHANNEL_DEPTH`);
 
-and a figure of the lowering maps side by side.
+and a figure of the lowering maps side by side. With ``--seeds FIRST LAST``, the scan that chose the
+scene's mountain: the seeds whose mountain has a hollow spilling into another, most lakes first.
 
     python benchmarks/mountain_lake_lowering.py FIGURE.png RUN [RUN ...]
+    python benchmarks/mountain_lake_lowering.py --seeds 0 400
 """
 
 from __future__ import annotations
@@ -172,8 +174,9 @@ def figure(runs: list[Path], path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(runs), figsize=(5.2 * len(runs), 4.8), constrained_layout=True, squeeze=False)
-    for ax, run in zip(axes[0], runs, strict=True):
+    fig, axes = plt.subplots(1, len(runs) + 1, figsize=(5.2 * (len(runs) + 1), 4.8), constrained_layout=True,
+                             squeeze=False)  # fmt: skip
+    for ax, run in zip(axes[0, :-1], runs, strict=True):
         start, low, cell = lowering(run)
         x = np.arange(start.shape[1]) * cell
         y = np.arange(start.shape[0]) * cell
@@ -187,13 +190,52 @@ def figure(runs: list[Path], path: str) -> None:
         ax.set_title(f"{run.name}: {cell:g} m voxels", fontsize=10)
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
-    fig.colorbar(im, ax=axes[0], label="ground lowered (m)")
+    fig.colorbar(im, ax=axes[0, :-1], label="ground lowered (m)")
+    ax = axes[0, -1]
+    for run, style in zip(runs, ("-", "--", ":", "-."), strict=False):
+        for k, h in enumerate(outlet_history(run)):
+            if h["capacity_m3"] < 5.0:
+                continue
+            t = [a["t"] for a in h["at"]]
+            drop = [h["spill_level_m"] - (a["spill_level_m"] if a["spill_level_m"] is not None else np.nan)
+                    for a in h["at"]]  # fmt: skip
+            ax.plot(t, drop, style, color=f"C{k}", label=f"{run.name}: ({h['centre_m'][0]:g}, {h['centre_m'][1]:g}) "
+                    f"{h['capacity_m3']:.0f} m³")  # fmt: skip
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("spill level lowered (m)")
+    ax.set_title("lakes of more than 5 m³: their outlets cut", fontsize=10)
+    ax.legend(fontsize=7)
     fig.suptitle("mountain-lake: the ground lowered by the end; black: the ground at the start; blue: its closed "
                  "hollows over 1 m³; cyan: their outlets' paths from the pour point (dot)", fontsize=9)
     fig.savefig(path, dpi=80)
 
 
+def seed_scan(first: int, last: int) -> list[dict]:
+    """The library scene's mountain for each ``terrain.seed`` in [first, last), as its voxels: the hollows
+    of more than 1 m³, how many are deeper than the kernel support h and how many spill into another."""
+    from erosim.scenarios import loader
+    from erosim.scenarios.builders_voxel import build_terrain
+
+    rows = []
+    for seed in range(first, last):
+        cfg = loader.load("mountain-lake", [f"terrain.seed={seed}"]).config
+        terrain = build_terrain(cfg)
+        z = top_surface(terrain)
+        found = lake_hollows(z, terrain.cell_size)
+        deep = sum(bool((h.spill_level_m - z[h.cells]).max() > cfg.sph.support()) for h in found)
+        rows.append({"seed": seed, "hollows": len(found), "deeper_than_h": deep,
+                     "spilling_into_another": sum(h.spills_into >= 0 for h in found)})  # fmt: skip
+    return rows
+
+
 if __name__ == "__main__":
+    if sys.argv[1] == "--seeds":
+        rows = [r for r in seed_scan(int(sys.argv[2]), int(sys.argv[3])) if r["spilling_into_another"]]
+        rows.sort(key=lambda r: (-r["deeper_than_h"], r["seed"]))
+        print(f"{len(rows)} seeds with a hollow spilling into another; most hollows deeper than h first:")
+        for r in rows[:10]:
+            print(r)
+        sys.exit(0)
     runs = [Path(a) for a in sys.argv[2:]]
-    print(json.dumps({str(r): measures(r) | {"hollows": outlet_history(r)} for r in runs}, indent=1))
+    print(json.dumps({str(r): measures(r) | {"hollows": outlet_history(r), "lakes": lake_history(r)} for r in runs}))
     figure(runs, sys.argv[1])
