@@ -176,11 +176,12 @@ def figure(runs: list[Path], path: str) -> None:
 
     fig, axes = plt.subplots(1, len(runs) + 1, figsize=(5.2 * (len(runs) + 1), 4.8), constrained_layout=True,
                              squeeze=False)  # fmt: skip
+    top = max(0.3, max(np.ceil(np.percentile(lowering(run)[1], 99) * 10) / 10 for run in runs))  # colour scale's end
     for ax, run in zip(axes[0, :-1], runs, strict=True):
         start, low, cell = lowering(run)
         x = np.arange(start.shape[1]) * cell
         y = np.arange(start.shape[0]) * cell
-        im = ax.imshow(low, origin="lower", extent=(0, x[-1], 0, y[-1]), cmap="magma_r", vmin=0, vmax=0.3)
+        im = ax.imshow(low, origin="lower", extent=(0, x[-1], 0, y[-1]), cmap="magma_r", vmin=0, vmax=top)
         ax.contour(x, y, start, levels=15, colors="k", linewidths=0.3)
         for h in lake_hollows(start, cell):
             ax.contour(x, y, h.cells.astype(float), levels=[0.5], colors="tab:blue", linewidths=1.0)
