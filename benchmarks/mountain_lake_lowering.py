@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import spearmanr
 
-from erosim.analysis.lake_outlets import hollows as lake_hollows
 from erosim.scenarios.builders_voxel import top_surface
 from erosim.scenarios.loader import read_toml
+from erosim.terrain.lake_outlets import hollows as lake_hollows
 from erosim.terrain.priority_flood_barnes2014 import closed_basin_depth
 from erosim.terrain.voxel import VoxelTerrain
 

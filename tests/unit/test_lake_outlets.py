@@ -1,4 +1,4 @@
-"""Closed hollows, their spill levels, capacities and outlet paths (`erosim.analysis.lake_outlets`) on a
+"""Closed hollows, their spill levels, capacities and outlet paths (`erosim.terrain.lake_outlets`) on a
 tilted plane with two pits whose capacities follow by hand, and the library `mountain-lake` scene's lakes
 spilling into one another (SPEC VX-9)."""
 
@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from erosim.analysis.lake_outlets import hollows
 from erosim.scenarios import loader
 from erosim.scenarios.builders_voxel import build_terrain, top_surface
+from erosim.terrain.lake_outlets import hollows
 
 SLOPE, PIT, NOTCH = 0.05, 0.5, 0.01  # the plane falls 1 in 20 towards +x; pits 0.5 m deep; a 1 cm notch
 
