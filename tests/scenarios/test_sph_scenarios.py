@@ -48,7 +48,7 @@ def test_scenario_runs_a_few_steps(tmp_path, name):
     assert len(frames) >= 2 and frames[0][0] == 0.0
     last = read_vtp(out / "particles" / frames[-1][1])
     assert last["n_points"] == report["fluid_particles"]
-    assert set(last["fields"]) == {"velocity", "pressure", "density"}
+    assert set(last["fields"]) == {"velocity", "pressure", "density", "id"}
     assert np.all(np.isfinite(last["fields"]["pressure"]))
 
     header = (out / "gauges.csv").read_text().splitlines()[0].split(",")

@@ -13,6 +13,7 @@ from PIL import Image
 
 from erosim.cli import cli
 from erosim.core.errors import Interrupted
+from erosim.io.particles import read_pvd, read_vtp
 from erosim.io.runfolder import RunFolder
 from erosim.scenarios import loader, runner
 from erosim.terrain.voxel import VoxelTerrain
@@ -127,7 +128,19 @@ def test_overtopping_runs_and_writes_its_outputs(tmp_path):
             assert len(m.faces) > 100
         VoxelTerrain.load(out / "fields" / f"density_{k:04d}.npz")
     assert (out / "figures" / "profiles.png").stat().st_size > 0
-    assert (out / "particles" / "particles.pvd").is_file()
+    # the frames carry each particle's label (`id`): unique and ascending, new ones for the inflow's
+    # particles, and a particle keeps its own: between two frames 0.15 s apart it moved no further than
+    # the larger of its two speeds carries it in that time, with a spacing for the change of speed
+    frames = read_pvd(out / "particles" / "particles.pvd")
+    a, b = (read_vtp(out / "particles" / name) for _, name in frames[-2:])
+    ia, ib = a["fields"]["id"], b["fields"]["id"]
+    assert np.all(np.diff(ia) > 0) and np.all(np.diff(ib) > 0) and ib.max() > ia.max()
+    both, ka, kb = np.intersect1d(ia, ib, return_indices=True)
+    assert len(both) > 0.5 * len(ia)
+    moved = np.linalg.norm(b["points"][kb] - a["points"][ka], axis=1)
+    speed = np.maximum(np.linalg.norm(a["fields"]["velocity"][ka], axis=1),
+                       np.linalg.norm(b["fields"]["velocity"][kb], axis=1))  # fmt: skip
+    assert np.all(moved <= speed * (frames[-1][0] - frames[-2][0]) + 0.04)
     # the non-erodible base (nodes below 0.03 m) kept every value it had
     start = VoxelTerrain.load(out / "fields" / "density_0000.npz")
     end = VoxelTerrain.load(out / "fields" / "density_0002.npz")

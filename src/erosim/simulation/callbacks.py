@@ -74,7 +74,8 @@ class Checkpointer(Callback):
 
 
 class ParticleFrames(Callback):
-    """``particles/frame_NNNNN.vtp`` (velocity, pressure, density as float32) and ``particles.pvd``."""
+    """``particles/frame_NNNNN.vtp`` (velocity, pressure, density as float32; ``id``, each particle's label
+    for the whole run, as int64) and ``particles.pvd``."""
 
     def __init__(self, schedule: Schedule, fluid, folder: Path):
         super().__init__(schedule, name="frames")
@@ -90,6 +91,7 @@ class ParticleFrames(Callback):
             "velocity": s.fluid_velocities().astype(np.float32),
             "pressure": s.fluid_pressure().astype(np.float32),
             "density": s.fluid_density().astype(np.float32),
+            "id": s.fluid_ids(),
         }
         self.series.write(float(s.t), s.fluid_positions().astype(np.float32), fields)
 

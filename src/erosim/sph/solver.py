@@ -589,6 +589,11 @@ class SPHSolver:
         """(n_fluid, dim) positions in label order (the order fluid_pos was given)."""
         return self._fluid(self.state.pos)
 
+    def fluid_ids(self) -> np.ndarray:
+        """(n_fluid,) the particles' labels in label order: each keeps its label for the whole run (rain and
+        inflows add new ones), so frames can follow a particle from one to the next."""
+        return self._fluid(self.state.ids).astype(np.int64)
+
     def fluid_velocities(self) -> np.ndarray:
         """(n_fluid, dim) velocities (full step) in label order."""
         return self._fluid(self.state.vel)
