@@ -104,10 +104,13 @@ def outlet_history(run: Path) -> list[dict]:
 
 
 def lake_history(run: Path) -> list[dict]:
-    """Per hollow (as :func:`outlets`) and particle frame: the water standing in it (particles over its
-    cells below its spill level + one voxel, times the particle's volume) and the particles on its
-    outlet's path moving down it (faster than 0.1 m/s along the path's direction): a lake that has
-    filled passes its inflow on over its outlet, into the next hollow or off the map."""
+    """Per hollow (as :func:`erosim.terrain.lake_outlets.hollows`) and particle frame: the water standing
+    in it (particles over its cells below its spill level + one voxel, times the particle's volume), the
+    particles on its outlet's path moving down it (faster than 0.1 m/s along the path's direction), and,
+    where the frames carry the particles' labels (`id`), ``from_lakes_above``: how many particles
+    standing in it had stood, in an earlier frame, in a lake that spills into it, and
+    ``arrived_from_lakes_above``: how many such particles it has held so far. A lake that has filled
+    passes its inflow on over its outlet, into the next lake (the lakes join) or off the map."""
     from erosim.io.particles import read_pvd, read_vtp
 
     first = VoxelTerrain.load(sorted(glob.glob(str(run / "fields" / "density_*.npz")))[0])
@@ -115,14 +118,18 @@ def lake_history(run: Path) -> list[dict]:
     spacing = read_toml(run / "scenario.toml")["sph"]["spacing"]
     hollows = lake_hollows(start, cell)
     frames = read_pvd(run / "particles" / "particles.pvd")
-    history = [describe(h, cell) | {"t": [], "water_m3": [], "leaving": []} for h in hollows]
+    history = [describe(h, cell) | {"t": [], "water_m3": [], "leaving": [], "from_lakes_above": [],
+                                    "arrived_from_lakes_above": []} for h in hollows]  # fmt: skip
+    stood = [np.zeros(0, np.int64) for _ in hollows]  # labels of the particles that have stood in each lake
+    arrived = [np.zeros(0, np.int64) for _ in hollows]  # … and of those that came to it from a lake above
     ny, nx = start.shape
     for t, name in frames:
         frame = read_vtp(run / "particles" / name)
         pos, vel = np.asarray(frame["points"]), np.asarray(frame["fields"]["velocity"])
+        ids = frame["fields"].get("id")
         ix = np.clip(np.rint(pos[:, 0] / cell).astype(int), 0, nx - 1)
         iy = np.clip(np.rint(pos[:, 1] / cell).astype(int), 0, ny - 1)
-        for h, rec in zip(hollows, history, strict=True):
+        for j, (h, rec) in enumerate(zip(hollows, history, strict=True)):
             standing = h.cells[iy, ix] & (pos[:, 2] <= h.spill_level_m + cell)
             path = np.zeros_like(h.cells)
             for p in h.path:
@@ -134,6 +141,16 @@ def lake_history(run: Path) -> list[dict]:
             rec["t"].append(round(float(t), 3))
             rec["water_m3"].append(round(float(standing.sum() * spacing**3), 3))
             rec["leaving"].append(int(moving.sum()))
+            if ids is not None:
+                above = [stood[k] for k, u in enumerate(hollows) if u.spills_into == j]
+                came = ids[standing][np.isin(ids[standing], np.concatenate(above))] if above else ids[:0]
+                rec["from_lakes_above"].append(int(came.size))
+                arrived[j] = np.union1d(arrived[j], came)
+                rec["arrived_from_lakes_above"].append(int(arrived[j].size))
+        if ids is not None:
+            for k, h in enumerate(hollows):
+                standing = h.cells[iy, ix] & (pos[:, 2] <= h.spill_level_m + cell)
+                stood[k] = np.union1d(stood[k], ids[standing])
     return history
 
 
