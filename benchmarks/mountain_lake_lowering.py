@@ -108,7 +108,8 @@ def lake_history(run: Path) -> list[dict]:
     in it (particles over its cells below its spill level + one voxel, times the particle's volume), the
     particles on its outlet's path moving down it (faster than 0.1 m/s along the path's direction), and,
     where the frames carry the particles' labels (`id`), ``from_lakes_above``: how many particles
-    standing in it had stood, in an earlier frame, in a lake that spills into it, and
+    standing in it had been held, in an earlier frame, in a lake that spills into it (over its cells,
+    half a particle or more below its spill level: water that leaves only over the pour point), and
     ``arrived_from_lakes_above``: how many such particles it has held so far. A lake that has filled
     passes its inflow on over its outlet, into the next lake (the lakes join) or off the map."""
     from erosim.io.particles import read_pvd, read_vtp
@@ -148,9 +149,9 @@ def lake_history(run: Path) -> list[dict]:
                 arrived[j] = np.union1d(arrived[j], came)
                 rec["arrived_from_lakes_above"].append(int(arrived[j].size))
         if ids is not None:
-            for k, h in enumerate(hollows):
-                standing = h.cells[iy, ix] & (pos[:, 2] <= h.spill_level_m + cell)
-                stood[k] = np.union1d(stood[k], ids[standing])
+            for k, h in enumerate(hollows):  # held: at or below the spill level
+                held = h.cells[iy, ix] & (pos[:, 2] <= h.spill_level_m)
+                stood[k] = np.union1d(stood[k], ids[held])
     return history
 
 
