@@ -31,6 +31,45 @@ from __future__ import annotations
 import resource
 
 
+def tank_solver(fluid, lo, hi, dx: float):
+    """The dam break's tank (``lo`` … ``hi``, open at the top) as a voxel field of Δ = ``dx`` with its
+    wall-weight ramp, and an SPH solver of ``fluid`` felt through it: (solver, terrain)."""
+    from erosim.sph.boundaries.voxel_wall import VoxelWall
+    from erosim.sph.params import SPHParams
+    from erosim.sph.solver import SPHSolver
+    from erosim.terrain.voxel import Box, VoxelTerrain
+
+    params = SPHParams(dim=3, spacing=dx, walls="reflect")
+    band = 1.05 * (params.support() + 3**0.5 * dx)
+    pad = band + 2 * dx
+    lo_v = (lo[0] - pad, lo[1] - pad, lo[2] - pad)
+    hi_v = (hi[0] + pad, hi[1] + pad, hi[2])
+    air = Box(tuple(lo), (hi[0], hi[1], hi[2] + 1.0))  # the tank's inside, open at the top
+    terrain = VoxelTerrain.from_sdf(lambda x, y, z: -air.sdf(x, y, z), lo_v, hi_v, dx, band=band)  # solid outside
+    solver = SPHSolver(params, fluid, domain_lo=[a - 0.05 for a in lo_v], domain_hi=[b + 0.05 for b in hi_v],
+                       boundaries=[VoxelWall(terrain)])  # fmt: skip
+    return solver, terrain
+
+
+def eroder_at_zero_threshold(terrain, solver, dx: float, law: str = "kristof2009", sediment: str = "carried_off"):
+    """The benchmark's eroder: ``law`` at τ_c = 0 (every moving particle, or every particle on the bed,
+    erodes), wrapped in the settling of :mod:`erosim.erosion.settling_voxel` for ``sediment = "suspended"``."""
+    from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
+
+    if law == "excess_shear":
+        from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion, ExcessShearParams
+
+        eroder = ExcessShearErosion(terrain, ExcessShearParams(erodibility=1.0, critical_stress=0.0),
+                                    support=solver.h, spacing=dx)  # fmt: skip
+    else:
+        eroder = ShearStressErosion(terrain, ShearStressParams(k_eps=1.0, tau_c=0.0), support=solver.h)
+    if sediment == "suspended":
+        from erosim.erosion.settling_voxel import SuspendedSediment
+
+        eroder = SuspendedSediment(eroder, solver, settling_velocity=0.02)
+    return eroder
+
+
 def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, warmup: int = 20,
         seconds: float = 8.0, sediment: str = "carried_off", law: str = "kristof2009") -> dict:  # fmt: skip
     """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
@@ -38,48 +77,17 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
 
     from erosim.bench.sph import box_reference, timed_steps
     from erosim.coupling.voxel_coupler import VoxelCoupler
-    from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
     from erosim.simulation.schedules import IterationInterval
-    from erosim.sph.boundaries.voxel_wall import VoxelWall
-    from erosim.sph.params import SPHParams
-    from erosim.sph.solver import SPHSolver
-    from erosim.terrain.voxel import Box, VoxelTerrain
 
     dx = 0.01
     fluid, lo, hi, box, steps, box_wall = box_reference(particles, dx, warmup=warmup, steps=steps,
                                                         seconds=seconds, step_bounds=(100, 500))  # fmt: skip
-
-    params = SPHParams(dim=3, spacing=dx, walls="reflect")
-    h = params.support()
-    cell = dx
-    band = 1.05 * (h + 3**0.5 * cell)
-    pad = band + 2 * cell
-    lo_v = (lo[0] - pad, lo[1] - pad, lo[2] - pad)
-    hi_v = (hi[0] + pad, hi[1] + pad, hi[2])
-    air = Box(tuple(lo), (hi[0], hi[1], hi[2] + 1.0))  # the tank's inside, open at the top
-
-    def tank(x, y, z):
-        return -air.sdf(x, y, z)  # solid outside the tank's inside
-
     results = {}
     for erode in (False, True):
-        terrain = VoxelTerrain.from_sdf(tank, lo_v, hi_v, cell, band=band)
-        wall = VoxelWall(terrain)
-        solver = SPHSolver(params, fluid, domain_lo=[a - 0.05 for a in lo_v], domain_hi=[b + 0.05 for b in hi_v],
-                           boundaries=[wall])  # fmt: skip
+        solver, terrain = tank_solver(fluid, lo, hi, dx)
         coupler = None
         if erode:
-            if law == "excess_shear":  # every particle on the bed erodes (τ_c = 0)
-                from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion, ExcessShearParams
-
-                eroder = ExcessShearErosion(terrain, ExcessShearParams(erodibility=1.0, critical_stress=0.0),
-                                            support=solver.h, spacing=dx)  # fmt: skip
-            else:
-                eroder = ShearStressErosion(terrain, ShearStressParams(k_eps=1.0, tau_c=0.0), support=solver.h)
-            if sediment == "suspended":  # the load on the particles, settling (erosion.settling_voxel)
-                from erosim.erosion.settling_voxel import SuspendedSediment
-
-                eroder = SuspendedSediment(eroder, solver, settling_velocity=0.02)
+            eroder = eroder_at_zero_threshold(terrain, solver, dx, law, sediment)
             coupler = VoxelCoupler(IterationInterval(every), solver, eroder, terrain)
         timed_steps(solver.step, warmup, every, coupler)
         if coupler is not None:
