@@ -184,3 +184,44 @@ def test_a_wall_particle_first_reached_mid_run_steps_from_rest_density(skin):
     assert len(firsts) >= 4  # the front reached new floor particles
     for rho, inc in firsts:
         assert rho == pytest.approx(prm.rho0 + max(inc, 0.0), abs=1e-6)
+
+
+def test_extrapolated_wall_pressure_is_the_fluids_hydrostatic_pressure_carried_to_the_wall():
+    """Adami et al. (2012): with the fluid at hydrostatic pressure p_f = ρ₀g(H − z_f), each neighbour's
+    term p_f + ρ_f g (z_f − z_w) is ρ₀g(H − z_w) up to (ρ_f − ρ₀)g(z_f − z_w), so every wall particle that
+    a fluid particle reaches within h (floor, sides, the obstacle, some above the surface, clamped at 0) reads
+    ρ₀g(H − z_w) whatever the kernel weights. Tolerance 0.5 % of ρ₀gH: ρ_f departs from ρ₀ by at most
+    ρ₀gH/(ρ₀c²)·… ≈ 1 %, over a lever |z_f − z_w| ≤ h ≈ H/5, 0.2 % of ρ₀gH."""
+    s = _case(3, {"wall_pressure": "extrapolated"})  # continuity density: the hydrostatic start
+    st, nf = s.state, s.n_fluid
+    top = float(s.fluid_positions()[:, 2].max()) + s.params.spacing / 2  # the hydrostatic start's surface
+    wall = np.arange(nf, st.n)
+    gap = np.sqrt(((st.pos[wall, None, :] - st.pos[None, :nf, :]) ** 2).sum(axis=2)).min(axis=1)
+    reached, alone = wall[gap < s.h], wall[gap >= s.h]
+    assert reached.size > 500
+    expected = np.maximum(1000.0 * 9.81 * (top - st.pos[reached, 2]), 0.0)
+    np.testing.assert_allclose(st.p[reached], expected, atol=0.005 * 1000.0 * 9.81 * top)
+    listed_alone = np.intersect1d(alone, s.active)  # listed (within h plus the skin), no fluid within h
+    assert listed_alone.size > 0
+    np.testing.assert_array_equal(st.p[listed_alone], 0.0)
+
+
+def test_extrapolated_walls_hold_a_tank_at_rest_and_refuse_the_gpu():
+    """The 3-D tank of _case with no obstacle settles 0.3 s: no fluid particle in a wall, the fluid at rest
+    (|v| < 1 % of √(gH)) with its lowest layer Δx/2 above the floor (within 2 %), as with the dynamic
+    walls; the CUDA solver refuses the option in one sentence."""
+    from erosim.core.errors import ConfigError
+    from erosim.sph.solver_cuda import CudaSPHSolver
+
+    dx = 0.02
+    fluid = _block([0, 0, 0], [0.2, 0.2, 0.16], dx)
+    prm = SPHParams(dim=3, spacing=dx, wall_pressure="extrapolated")
+    s = SPHSolver(prm, fluid, domain_lo=[0, 0, 0], domain_hi=[0.2, 0.2, 0.3])
+    while s.t < 0.3:
+        s.step()
+    x = s.fluid_positions()
+    assert np.all((x > 0) & (x < [0.2, 0.2, 0.3]))
+    assert s.vmax < 0.01 * np.sqrt(9.81 * 0.16)
+    assert np.sort(x[:, 2])[:100].mean() == pytest.approx(dx / 2, rel=0.02)
+    with pytest.raises(ConfigError, match="sph.wall_pressure"):
+        CudaSPHSolver(prm, fluid, domain_lo=[0, 0, 0], domain_hi=[0.2, 0.2, 0.3])

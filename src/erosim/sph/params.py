@@ -97,6 +97,11 @@ class SPHParams(Section):
         "fluid",
         doc="fluid–wall viscous term: 'fluid' (no-slip with the fluid's viscosity) or 'none' (free-slip; docs/sph.md)",
     )
+    wall_pressure: Literal["dynamic", "extrapolated"] = param(
+        "dynamic",
+        doc="boundary particles' pressure: 'dynamic' (their own density by continuity, Crespo et al. 2007) or "
+        "'extrapolated' (from the fluid, hydrostatically, Adami et al. 2012; docs/sph.md)",
+    )
     mu: float = param(1.0e-3, ge=0, unit="Pa*s", doc="dynamic viscosity μ for 'laminar' (water: 1e-3)")
     gravity: tuple[float, ...] | None = param(
         None, unit="m/s^2", doc="gravity vector; default (0, −9.81) in 2-D, (0, 0, −9.81) in 3-D (last axis up)"

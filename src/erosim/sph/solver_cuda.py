@@ -56,6 +56,8 @@ class CudaSPHSolver(SPHSolver):
     def __init__(self, params, fluid_pos, **kwargs):
         if params.shifting != "off":
             raise _unsupported("Particle shifting (sph.shifting)")
+        if params.wall_pressure != "dynamic":
+            raise _unsupported("Wall pressure extrapolated from the fluid (sph.wall_pressure = 'extrapolated')")
         devices.require("cuda")
         if params.density == "summation":
             raise _unsupported("Summation density (sph.density = 'summation')")

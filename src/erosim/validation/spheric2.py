@@ -71,8 +71,14 @@ def errors(run: dict[str, np.ndarray], exp: dict[str, np.ndarray], rho0: float, 
     return out
 
 
-def run(resolution: str = "default", out: Path | None = None, progress: bool = True) -> dict:
-    """Run the case; writes ``validation.json`` and ``figures/spheric2_vs_experiment.png``."""
+def run(
+    resolution: str = "default",
+    out: Path | None = None,
+    progress: bool = True,
+    overrides: tuple[str, ...] | list[str] = (),
+) -> dict:
+    """Run the case; writes ``validation.json`` and ``figures/spheric2_vs_experiment.png``. ``overrides`` are
+    scenario settings (``section.key=value``) applied after the case's own, for studies (docs/sph.md)."""
     from erosim.scenarios.runner import execute
     from erosim.viz.plots import series_vs_experiment
 
@@ -80,7 +86,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")
     dx = RESOLUTIONS[resolution]
     scenario = loader.load(
-        "spheric2", [f"sph.spacing={dx!r}", "run.t_end=1.6", "run.output_interval=0.1", "run.checkpoint_wall_s=600.0"]
+        "spheric2",
+        [f"sph.spacing={dx!r}", "run.t_end=1.6", "run.output_interval=0.1", "run.checkpoint_wall_s=600.0", *overrides],
     )
     cfg = scenario.config
     g = abs(cfg.sph.gravity_vector()[-1])
@@ -129,6 +136,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         "pressure_threshold": PRESSURE_THRESHOLD,
         "resolution": resolution,
         "spacing": dx,
+        "overrides": list(overrides),
         **run_facts(solver, summary, wall),
         "figure": str(fig.relative_to(folder.path)),
     }

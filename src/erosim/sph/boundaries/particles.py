@@ -27,6 +27,7 @@ from numba import njit, prange
 
 from erosim.kernels import sph_kernels as K
 from erosim.sph.boundaries.base import Boundary
+from erosim.sph.boundaries.pressure_extrapolation_adami2012 import extrapolate_driver
 from erosim.sph.eos import tait
 from erosim.sph.forces import kernel_sum
 
@@ -188,7 +189,12 @@ class BoundaryParticles(Boundary):
 
     def bind(self, solver) -> None:
         prm = solver.params
-        if solver.summation:
+        if prm.wall_pressure == "extrapolated":
+            self._extrapolate = extrapolate_driver(solver.dim, prm.kernel)
+            self._g = np.asarray(solver.g, np.float64)
+            self.density = self._extrapolated
+            self.predict = self.correct = None
+        elif solver.summation:
             self._sum = globals()[f"summation_{solver.dim}d_{prm.kernel}"]
             self.density = self._summation_density
             self._base(solver)
@@ -217,6 +223,14 @@ class BoundaryParticles(Boundary):
         st = solver.state
         self._sum(st.pos, solver.start, solver.nbr, st.n_fluid, st.n, solver.m, solver.h, self.rho_base,
                   solver.params.rho0, st.rho)  # fmt: skip
+
+    def _extrapolated(self, solver) -> None:
+        """p and ρ of the active boundary particles from the fluid's (Adami et al. 2012)."""
+        st = solver.state
+        if solver.summation:  # the fluid's summation density is new: its pressure first
+            solver._pressure_all()
+        self._extrapolate(st.pos, st.rho, st.p, solver.start, solver.mid, solver.nbr, solver.active, solver.h,
+                          self._g, *solver.eos_args())  # fmt: skip
 
     def _continuity_rate(self, solver) -> None:
         st = solver.state
