@@ -321,6 +321,9 @@ VALIDATION_CASES = {
 }
 
 
+OVERRIDE_CASES = ("martin-moyce", "spheric2")
+
+
 @cli.command()
 @click.argument("case", type=click.Choice(sorted(VALIDATION_CASES)))
 @click.option("--resolution", type=click.Choice(["coarse", "default", "fine"]), default="default", show_default=True)
@@ -348,8 +351,16 @@ VALIDATION_CASES = {
     help="voxel-at-rest only: the fluid's start, hydrostatic and consistent with the walls (default) or the "
     "plain hydrostatic start.",
 )
+@click.option(
+    "--set",
+    "overrides",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="martin-moyce and spheric2 only: override a setting of the case's scenario (a study of a method, e.g. "
+    "sph.wall_pressure=extrapolated); validation.json records them.",
+)
 @_device_option("martin-moyce and hydrostatic: where the SPH steps run")
-def validate(case, resolution, out, as_json, ground, gate_speed, start, device):
+def validate(case, resolution, out, as_json, ground, gate_speed, start, overrides, device):
     """Run a validation CASE against published experimental or analytic data."""
     from erosim.scenarios.kinds import resolve
 
@@ -359,6 +370,8 @@ def validate(case, resolution, out, as_json, ground, gate_speed, start, device):
         _fail(ErosimError(f"--gate-speed applies to martin-moyce only, not '{case}'; leave it out."))
     if start is not None and case != "voxel-at-rest":
         _fail(ErosimError(f"--start applies to voxel-at-rest only, not '{case}'; leave it out."))
+    if overrides and case not in OVERRIDE_CASES:
+        _fail(ErosimError(f"--set applies to {' and '.join(OVERRIDE_CASES)} only, not '{case}'; leave it out."))
     if device is not None and case not in DEVICE_CASES:
         _fail(ErosimError(f"--device applies to {' and '.join(DEVICE_CASES)} only, not '{case}'; leave it out."))
     _require_device(device)
@@ -370,6 +383,8 @@ def validate(case, resolution, out, as_json, ground, gate_speed, start, device):
         extra["gate_speed"] = gate_speed
     if start is not None:
         extra["start"] = start
+    if overrides:
+        extra["overrides"] = list(overrides)
     result = _guard(fn, resolution, Path(out) if out else None, not (STATE.quiet or as_json), **extra)
     _print_result(result, as_json)
     if not result.get("passed", False):

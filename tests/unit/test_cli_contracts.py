@@ -38,6 +38,20 @@ def test_gate_speed_is_for_martin_moyce_only(cli_runner, tmp_path):
     assert "--gate-speed applies to martin-moyce only" in line
 
 
+def test_validate_set_overrides_a_setting_and_is_recorded(cli_runner, tmp_path):
+    """`--set` reaches the case's scenario (the run folder's scenario.toml holds it) and validation.json
+    lists it; a case that does not take settings, or a key that does not exist, is one sentence, no folder."""
+    args = ["--quiet", "validate", "martin-moyce", "--resolution", "coarse", "--json"]
+    out = _json(cli_runner.invoke(cli, [*args, "--set", "sph.wall_viscosity=none", "--out", str(tmp_path / "mm")]))
+    assert out["overrides"] == ["sph.wall_viscosity=none"]
+    assert 'wall_viscosity = "none"' in (tmp_path / "mm" / "scenario.toml").read_text()
+    line = _one_error_line(cli_runner.invoke(cli, ["validate", "hydrostatic", "--set", "sph.alpha=0.2"]))
+    assert "--set applies to martin-moyce and spheric2 only" in line
+    bad = cli_runner.invoke(cli, [*args, "--set", "sph.nonsense=1", "--out", str(tmp_path / "bad")])
+    assert "Unknown setting 'sph.nonsense'" in _one_error_line(bad)
+    assert not (tmp_path / "bad").exists()
+
+
 def test_bench_sph_json_keys(cli_runner):
     out = _json(cli_runner.invoke(cli, ["bench", "sph", "--particles", "500", "--steps", "3", "--json"]))
     assert {"particles", "neighbours_mean", "particle_steps_per_s", "pair_interactions_per_s", "threads"} <= out.keys()
