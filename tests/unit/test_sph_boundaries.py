@@ -206,13 +206,10 @@ def test_extrapolated_wall_pressure_is_the_fluids_hydrostatic_pressure_carried_t
     np.testing.assert_array_equal(st.p[listed_alone], 0.0)
 
 
-def test_extrapolated_walls_hold_a_tank_at_rest_and_refuse_the_gpu():
+def test_extrapolated_walls_hold_a_tank_at_rest():
     """The 3-D tank of _case with no obstacle settles 0.3 s: no fluid particle in a wall, the fluid at rest
     (|v| < 1 % of √(gH)) with its lowest layer Δx/2 above the floor (within 2 %), as with the dynamic
-    walls; the CUDA solver refuses the option in one sentence."""
-    from erosim.core.errors import ConfigError
-    from erosim.sph.solver_cuda import CudaSPHSolver
-
+    walls (the device path: tests/unit/test_sph_cuda.py)."""
     dx = 0.02
     fluid = _block([0, 0, 0], [0.2, 0.2, 0.16], dx)
     prm = SPHParams(dim=3, spacing=dx, wall_pressure="extrapolated")
@@ -223,5 +220,3 @@ def test_extrapolated_walls_hold_a_tank_at_rest_and_refuse_the_gpu():
     assert np.all((x > 0) & (x < [0.2, 0.2, 0.3]))
     assert s.vmax < 0.01 * np.sqrt(9.81 * 0.16)
     assert np.sort(x[:, 2])[:100].mean() == pytest.approx(dx / 2, rel=0.02)
-    with pytest.raises(ConfigError, match="sph.wall_pressure"):
-        CudaSPHSolver(prm, fluid, domain_lo=[0, 0, 0], domain_hi=[0.2, 0.2, 0.3])

@@ -320,7 +320,8 @@ from erosim.sph.solver_cuda import CudaSPHSolver
 cases = [dict(kernel=k, pressure_form=f, viscosity=v)
          for k, f, v in itertools.product(("wendland", "muller"), ("wcsph", "symmetric"), ("artificial", "laminar"))]
 cases += [dict(integrator="symplectic-euler"), dict(eos="linear"), dict(precision="float32"),
-          dict(walls="reflect"), dict(dim=3)]
+          dict(walls="reflect"), dict(dim=3), dict(wall_pressure="extrapolated"),
+          dict(dim=3, wall_pressure="extrapolated")]
 out = {}
 for case in cases:
     dim = case.get("dim", 2)
@@ -341,14 +342,15 @@ print(json.dumps(out))
 @needs_simulator
 def test_every_variant_agrees_with_cpu():
     """Each kernel × pressure form × viscosity, symplectic Euler, the linear EOS, float32, reflecting
-    walls only and 3-D: one step (with a list rebuild) on the device matches the CPU. float64 to
-    TOL; float32 to 2e-6, about 30 float32 ulps (6e-8 each): the simulator rounds its float64
-    arithmetic to float32 only where it stores, the CPU's compiled code also in between."""
+    walls only, 3-D, and the wall pressure extrapolated from the fluid in 2-D and 3-D: one step (with a
+    list rebuild) on the device matches the CPU. float64 to TOL; float32 to 2e-6, about 30 float32 ulps
+    (6e-8 each): the simulator rounds its float64 arithmetic to float32 only where it stores, the CPU's
+    compiled code also in between."""
     env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
     proc = subprocess.run([sys.executable, "-c", VARIANTS_SCRIPT], env=env, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr[-3000:]
     diffs = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert len(diffs) == 13
+    assert len(diffs) == 15
     for case, diff in diffs.items():
         assert diff <= (2e-6 if "float32" in case else TOL), case
 

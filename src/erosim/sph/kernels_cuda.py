@@ -48,6 +48,7 @@ from erosim.kernels import sph_kernels as K
 from erosim.sph import forces
 from erosim.sph.boundaries import box as _box
 from erosim.sph.boundaries import particles as _bparticles
+from erosim.sph.boundaries import pressure_extrapolation_adami2012 as _adami
 from erosim.sph.eos import tait
 
 SIMULATOR = bool(config.ENABLE_CUDASIM)
@@ -68,6 +69,7 @@ def _dev(fn):
 
 _enforce = _dev(_box.enforce)
 _density_rate_particle = _dev(_bparticles.density_rate_particle)
+_extrapolate_particle = _dev(_adami.extrapolate_particle)
 
 
 def _helper(fn):
@@ -513,6 +515,21 @@ def boundary_density_rate(dim: int, kernel: str):
             _density_rate_particle(gradf, i, pos, vel, start, mid, nbr, m, h, drho)
 
     return rate
+
+
+@functools.cache
+def boundary_extrapolate(dim: int, kernel: str):
+    """Pressure and density of the active boundary particles from the fluid's (Adami et al. 2012,
+    :func:`erosim.sph.boundaries.pressure_extrapolation_adami2012.extrapolate_particle`)."""
+    w = K.kernel_functions(kernel, dim)[0]
+
+    @cuda.jit
+    def extrapolate(pos, rho, p, start, mid, nbr, n_fluid, n, h, g, rho0, b, gamma, pmin):
+        i = cuda.grid(1) + n_fluid
+        if i < n and start[i + 1] > start[i]:
+            _extrapolate_particle(w, i, pos, rho, p, start, mid, nbr, h, g, rho0, b, gamma, pmin)
+
+    return extrapolate
 
 
 # ---------------------------------------------------------------- the fused fluid pass

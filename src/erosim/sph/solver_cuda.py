@@ -6,7 +6,8 @@ force evaluation included), then its particle state is copied to the device, whe
 steps. Each step runs the CPU step's passes in the CPU's order (SPEC SPH-13): kick + drift + EOS →
 box reflection → boundary particles' predictor → neighbour lists rebuilt (cell sort, particle
 re-sort, Verlet lists; :mod:`erosim.sph.kernels_cuda`) when a particle moved half the skin →
-boundary particles' continuity rate → the fused fluid pass → kick + corrector → boundary corrector.
+boundary particles' continuity rate (or, with ``wall_pressure = "extrapolated"``, their pressure from
+the fluid's, and no predictor or corrector) → the fused fluid pass → kick + corrector → boundary corrector.
 Per step only four numbers come back to the host (the largest displacement, speed, acceleration
 and density-diffusion rate K_i, for the rebuild test and the adaptive Δt, which keeps K_iΔt ≤ 0.5 as
 on the CPU: :mod:`erosim.sph.diffusion_limit_molteni2009`; K_i comes out of the fused pass and its
@@ -19,9 +20,9 @@ where the CPU's compiler may not). Checkpoints are the CPU's (:meth:`state_dict`
 on one device resumes on the other.
 
 What the device path covers: ``kind = "sph"`` scenarios (box domains, box obstacles, reflecting and
-boundary-particle walls, 2-D and 3-D, every kernel, EOS, pressure form, viscosity and integrator)
-with continuity density. Summation density, particle sources and sinks and the terrain boundary
-models stay on the CPU; asking for them on the device is a one-sentence error.
+boundary-particle walls with either wall pressure, 2-D and 3-D, every kernel, EOS, pressure form,
+viscosity and integrator) with continuity density. Summation density, particle sources and sinks and
+the terrain boundary models stay on the CPU; asking for them on the device is a one-sentence error.
 """
 
 from __future__ import annotations
@@ -56,8 +57,6 @@ class CudaSPHSolver(SPHSolver):
     def __init__(self, params, fluid_pos, **kwargs):
         if params.shifting != "off":
             raise _unsupported("Particle shifting (sph.shifting)")
-        if params.wall_pressure != "dynamic":
-            raise _unsupported("Wall pressure extrapolated from the fluid (sph.wall_pressure = 'extrapolated')")
         devices.require("cuda")
         if params.density == "summation":
             raise _unsupported("Summation density (sph.density = 'summation')")
@@ -73,6 +72,8 @@ class CudaSPHSolver(SPHSolver):
         prm = self.params
         self._fused = kc.fluid_pass(self.dim, prm.kernel, prm.pressure_form, prm.viscosity)
         self._brate = kc.boundary_density_rate(self.dim, prm.kernel)
+        self._extrapolated = prm.wall_pressure == "extrapolated"
+        self._bextrapolate = kc.boundary_extrapolate(self.dim, prm.kernel)
         self._upload()
 
     # ------------------------------------------------------------------ host ↔ device
@@ -93,6 +94,7 @@ class CudaSPHSolver(SPHSolver):
         self._box = tuple(cuda.to_device(np.ascontiguousarray(a)) for a in (box._lo, box._hi, box._olo, box._ohi))
         self._spare = {name: cuda.device_array_like(self.d[name]) for name in _PERMUTED}
         self._have_boundary_particles = any(isinstance(bd, BoundaryParticles) for bd in self.boundaries)
+        self._d_g = cuda.to_device(np.asarray(self.g, np.float64))
         self._d_disp2 = cuda.device_array(1, np.float64)
         self._d_maxima = cuda.device_array(3, np.float64)  # max |v|², |a|², K_i of a step
         self._d_start = cuda.device_array(n + 1, np.int64)
@@ -222,7 +224,8 @@ class CudaSPHSolver(SPHSolver):
         lo, hi, olo, ohi = self._box
         kc.reflect[bf, kc.TPB](dv["pos"], dv["vel"], nf, lo, hi, olo, ohi)
         bnd = self._have_boundary_particles and n > nf
-        if bnd:
+        dyn = bnd and not self._extrapolated  # dynamic boundary particles step their own density
+        if dyn:
             kc.boundary_update_density[bb, kc.TPB](
                 dv["rho"], dv["rho_old"], dv["drho"], dv["p"], self._d_start, nf, n, dt, rho0, b, gamma, pmin, True
             )  # fmt: skip
@@ -234,10 +237,14 @@ class CudaSPHSolver(SPHSolver):
         if disp2 >= half * half:
             self._device_rebuild(reorder=(self.rebuilds % prm.reorder_every) == 0)
             self.rebuilds += 1
-        # evaluate: boundary continuity rate, then the fused fluid pass
+        # evaluate: boundary continuity rate (or extrapolated pressure), then the fused fluid pass
         start, mid, nbr = self._d_start, self._d_mid, self._d_nbr
-        if bnd:
+        if dyn:
             self._brate[bb, kc.TPB](dv["pos"], dv["vel"], start, mid, nbr, nf, n, self.m, self.h, dv["drho"])
+        elif bnd:
+            self._bextrapolate[bb, kc.TPB](
+                dv["pos"], dv["rho"], dv["p"], start, mid, nbr, nf, n, self.h, self._d_g, rho0, b, gamma, pmin
+            )  # fmt: skip
         g = self.g
         gz = g[2] if self.dim == 3 else 0.0
         kc.zero[1, kc.TPB](self._d_maxima, 3)
@@ -249,7 +256,7 @@ class CudaSPHSolver(SPHSolver):
             dv["vel"], dv["acc"], dv["rho"], dv["rho_old"], dv["drho"], dv["p"], nf, k2, dt, rho0, b, gamma, pmin,
             self.rho_min, self._d_maxima,
         )  # fmt: skip
-        if bnd:
+        if dyn:
             kc.boundary_update_density[bb, kc.TPB](
                 dv["rho"], dv["rho_old"], dv["drho"], dv["p"], start, nf, n, dt, rho0, b, gamma, pmin, False
             )  # fmt: skip
