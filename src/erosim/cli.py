@@ -65,6 +65,7 @@ def _print_result(result: dict, as_json: bool) -> None:
 
 
 DEVICE_CASES = ("martin-moyce", "hydrostatic")  # validations that run on --device cuda
+OVERRIDE_CASES = ("martin-moyce", "spheric2")  # validations that take --set
 
 
 def _device_option(help_text: str):
@@ -319,9 +320,6 @@ VALIDATION_CASES = {
     "voxel-at-rest": "erosim.validation.voxel_at_rest:run",
     "overtopping": "erosim.validation.overtopping:run",
 }
-
-
-OVERRIDE_CASES = ("martin-moyce", "spheric2")
 
 
 @cli.command()

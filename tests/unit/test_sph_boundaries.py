@@ -206,6 +206,30 @@ def test_extrapolated_wall_pressure_is_the_fluids_hydrostatic_pressure_carried_t
     np.testing.assert_array_equal(st.p[listed_alone], 0.0)
 
 
+def test_extrapolated_walls_read_the_fluids_current_pressure_under_summation_density():
+    """With summation density the fluid's pressure is recomputed from its new density before the walls read
+    it: after steps of the 3-D case every listed wall particle holds the module's equation evaluated here by
+    brute force on the state's fluid pressure and density (which the corrector leaves as evaluated under
+    summation density), so the pass read this step's values, not the last step's (relative tolerance 1e-9,
+    rounding of sums over ~30 terms). With continuity density the fluid's pressure comes from the drift,
+    before any boundary pass (the hydrostatic test above)."""
+    from erosim.kernels.sph_kernels import kernel_w
+
+    s = _case(3, {"wall_pressure": "extrapolated", "density": "summation"})
+    for _ in range(5):
+        s.step()
+    st, nf, h = s.state, s.n_fluid, s.h
+    wall = s.active
+    r = st.pos[wall, None, :] - st.pos[None, :nf, :]
+    w = kernel_w(np.sqrt((r**2).sum(axis=2)).ravel(), h, 3, s.params.kernel).reshape(len(wall), nf)
+    terms = st.p[None, :nf] + st.rho[None, :nf] * (r @ s.g)
+    sw = w.sum(axis=1)
+    expected = np.where(sw > 0, np.maximum((w * terms).sum(axis=1) / np.where(sw > 0, sw, 1.0), 0.0), 0.0)
+    scale = float(st.p[:nf].max())
+    assert scale > 10.0 and (sw > 0).sum() > 500
+    np.testing.assert_allclose(st.p[wall], expected, rtol=1e-9, atol=1e-9 * scale)
+
+
 def test_extrapolated_walls_hold_a_tank_at_rest():
     """The 3-D tank of _case with no obstacle settles 0.3 s: no fluid particle in a wall, the fluid at rest
     (|v| < 1 % of √(gH)) with its lowest layer Δx/2 above the floor (within 2 %), as with the dynamic

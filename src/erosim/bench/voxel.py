@@ -123,4 +123,3 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
         "threads": int(numba.get_num_threads()),
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
     }
-

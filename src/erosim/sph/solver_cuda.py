@@ -73,7 +73,7 @@ class CudaSPHSolver(SPHSolver):
         self._fused = kc.fluid_pass(self.dim, prm.kernel, prm.pressure_form, prm.viscosity)
         self._brate = kc.boundary_density_rate(self.dim, prm.kernel)
         self._extrapolated = prm.wall_pressure == "extrapolated"
-        self._bextrapolate = kc.boundary_extrapolate(self.dim, prm.kernel)
+        self._bextrapolate = kc.boundary_extrapolate(self.dim, prm.kernel) if self._extrapolated else None
         self._upload()
 
     # ------------------------------------------------------------------ host ↔ device

@@ -29,7 +29,7 @@ from erosim.kernels import sph_kernels as K
 from erosim.sph.boundaries.base import Boundary
 from erosim.sph.boundaries.pressure_extrapolation_adami2012 import extrapolate_driver
 from erosim.sph.eos import tait
-from erosim.sph.forces import kernel_sum
+from erosim.sph.forces import kernel_sum, pressure_pass
 
 
 def _lattice(lo, hi, dx):
@@ -228,7 +228,7 @@ class BoundaryParticles(Boundary):
         """p and ρ of the active boundary particles from the fluid's (Adami et al. 2012)."""
         st = solver.state
         if solver.summation:  # the fluid's summation density is new: its pressure first
-            solver._pressure_all()
+            pressure_pass(st.rho, *solver.eos_args(), 0, st.n_fluid, st.p)
         self._extrapolate(st.pos, st.rho, st.p, solver.start, solver.mid, solver.nbr, solver.active, solver.h,
                           self._g, *solver.eos_args())  # fmt: skip
 

@@ -51,9 +51,9 @@ def extrapolate_particle(w, i, pos, rho, p, start, mid, nbr, h, g, rho0, b, gamm
         wij = w(math.sqrt(r2), h)
         sw += wij
         sp += (p[j] + rho[j] * gr) * wij
-    pi = max(sp / sw, pmin) if sw > 0.0 else max(0.0, pmin)
+    pi = max(sp / sw, pmin) if sw > 0.0 else 0.0
     p[i] = pi
-    rho[i] = rho0 * max(1.0 + pi / b, 1e-6) ** (1.0 / gamma)
+    rho[i] = rho0 * max(1.0 + pi / b, 1e-6) ** (1.0 / gamma)  # the guard binds only under tension (p_min = −∞)
 
 
 @njit(parallel=True, cache=True)
