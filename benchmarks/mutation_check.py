@@ -382,6 +382,13 @@ MUTATIONS = (
         ("tests/unit/test_priority_flood.py",),
         "the fill's rise over a diagonal step is Δx·s instead of √2·Δx·s",
     ),
+    Mutation(
+        "flood-arrival-is-the-step",
+        "sph/shallow_water_vacondio2012.py",
+        (("self.inv_cell, self.t, wet,", "self.inv_cell, self.last_dt, wet,"),),
+        ("tests/validation/test_flood_solvers.py",),
+        "the flood's arrival map records the step length instead of the time",
+    ),
 )
 
 
