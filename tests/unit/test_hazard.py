@@ -145,3 +145,21 @@ def test_polygon_mask_takes_cells_whose_centres_are_inside():
     assert mask.sum() == 6 * 5  # x centres 1012.5 … 1037.5, y centres 2012.5 … 2032.5
     with pytest.raises(InputError, match=r"The polygon \[\[0, 0\], \[1, 1\]\] is not valid; give at least three"):
         polygon_mask(hm, [[0, 0], [1, 1]])
+
+
+def test_invalid_cells_are_never_flooded_and_the_reservoir_is_left_out_below_the_dam():
+    """Cells outside ``valid`` (nodata, walls) are class 0 and in no area whatever their maxima; the
+    area below the dam leaves out the reservoir's cells and the cells wet at t = 0."""
+    valid = np.ones((1, 6), bool)
+    valid[0, 5] = False
+    maps = HazardMaps((1, 6), wet_depth=0.01, valid=valid)
+    maps.max_depth[:] = 0.2  # H1 everywhere, speed 0
+    maps.arrival[:] = [0.0, 0.0, 0.0, 5.0, 7.0, 9.0]  # cells 0-2 wet at t = 0
+    reservoir = np.array([[True, True, False, False, False, False]])
+    assert maps.classes().tolist() == [[1, 1, 1, 1, 1, 0]]
+    s = maps.summary(2.0, reservoir=reservoir)
+    assert s["flooded_area_m2"] == 10.0 and s["hazard_area_m2"]["H1"] == 10.0
+    assert s["below_dam"]["flooded_area_m2"] == 4.0  # cells 3 and 4: not 2 (wet at t = 0), not 5 (invalid)
+    assert s["below_dam"]["hazard_share"]["H1"] == 1.0
+    with pytest.raises(ValueError, match="shape"):
+        HazardMaps((2, 2), valid=np.ones((3, 3), bool))

@@ -87,7 +87,11 @@ def test_the_water_budget_closes_to_round_off(open_edges):
 
 def test_walls_keep_water_out():
     """A dam break thrown at a wall of nodata cells (and the closed map edges): no particle is ever in
-    a wall cell or off the map, and the wall stops the flow (no particle beyond it)."""
+    a wall cell or off the map, and the wall stops the flow (no particle beyond it); the hazard maxima
+    mark the cells before the wall, never the wall's, though the footprints of the water against it
+    reach over it."""
+    from erosim.analysis.hazard import HazardMaps
+
     bed = np.zeros((12, 60))
     wall = np.zeros_like(bed, dtype=bool)
     wall[:, 30:33] = True
@@ -97,13 +101,21 @@ def test_walls_keep_water_out():
     p = ShallowWaterParams()
     m = ShallowWaterSPH(bed, 1.0, np.column_stack([x, y]), lattice_volume(np.full(x.size, 2.0), 0.5, p.support),
                         0.5, p, wall=wall, surface=2.0)  # fmt: skip
+    maps = HazardMaps(bed.shape, 0.01)
+    reach = 0.0
     while m.t < 8.0:
         m.step()
+        m.update_maxima(maps, maps.wet_depth)
+        half = 0.5 * np.sqrt(m.vol / m.depth)  # the footprint squares' half sides
+        reach = max(reach, float((m.pos[:, 0] + half)[m.depth >= maps.wet_depth].max()))
         col = np.floor(m.pos[:, 0] + 0.5).astype(int)
         row = np.floor(m.pos[:, 1] + 0.5).astype(int)
         assert col.min() >= 0 and col.max() < 60 and row.min() >= 0 and row.max() < 12
         assert not wall[row, col].any()
     assert m.pos[:, 0].max() < 29.5
+    assert reach > 30.0  # a footprint covered the wall's first cell centre
+    assert (maps.max_depth[:, 29] > 0).any()
+    assert (maps.max_depth[wall] == 0).all() and np.isinf(maps.arrival[wall]).all()
 
 
 def test_splitting_keeps_volume_momentum_and_centre_of_mass():

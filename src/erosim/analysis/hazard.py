@@ -24,6 +24,10 @@ so it is 0 where the cell was never wet.
 
 Reports (FL-4): the flooded area is the area of the cells of class 1–6, and each class's share is its
 area over the flooded area (the shares sum to 1 when anything flooded; all are 0 when nothing did).
+Cells outside ``valid`` (nodata, walls) are never flooded: class 0 whatever their maxima hold, so a
+report and the hazard map written from :meth:`HazardMaps.classes` count the same cells. A dam break's
+flooded area holds the reservoir itself; the area flooded *below the dam* leaves out the reservoir's
+cells and every cell already wet at t = 0.
 """
 
 from __future__ import annotations
@@ -75,14 +79,21 @@ class HazardMaps:
 
     Arrays (float64, the grid's shape): ``max_depth`` (m, wet depths only), ``max_speed`` (m/s),
     ``max_dv`` (m²/s), ``arrival`` (s, ``inf`` where never wet). A dense grid of depth and speed is fed
-    with :meth:`update` at every step (or every sampled step) of the run.
+    with :meth:`update` at every step (or every sampled step) of the run. ``valid`` (boolean, the grid's
+    shape; default every cell) marks the cells water can stand on: the others (nodata, walls) are
+    class 0 and count in no area.
     """
 
-    def __init__(self, shape: tuple[int, int], wet_depth: float = WET_DEPTH) -> None:
+    def __init__(self, shape: tuple[int, int], wet_depth: float = WET_DEPTH, valid: np.ndarray | None = None) -> None:
         if not wet_depth > 0:
             raise InputError(f"The wet depth {wet_depth!r} m is not valid; set flood.wet_depth to a positive depth.")
         self.shape = tuple(int(n) for n in shape)
         self.wet_depth = float(wet_depth)
+        if valid is not None:
+            valid = np.asarray(valid, dtype=bool)
+            if valid.shape != self.shape:
+                raise ValueError(f"the valid mask's shape {valid.shape} must be the hazard grid's {self.shape}")
+        self.valid = valid
         self.max_depth = np.zeros(self.shape)
         self.max_speed = np.zeros(self.shape)
         self.max_dv = np.zeros(self.shape)
@@ -90,7 +101,8 @@ class HazardMaps:
 
     def update(self, t: float, depth: np.ndarray, speed: np.ndarray, valid: np.ndarray | None = None) -> None:
         """Take the depth (m) and speed (m/s) of every cell at time ``t`` (s); cells outside ``valid``
-        (e.g. nodata) and cells shallower than ``wet_depth`` are ignored. NaN counts as dry."""
+        (default: the maps' own ``valid``; e.g. nodata) and cells shallower than ``wet_depth`` are
+        ignored. NaN counts as dry."""
         depth = np.asarray(depth, dtype=np.float64)
         speed = np.asarray(speed, dtype=np.float64)
         if depth.shape != self.shape or speed.shape != self.shape:
@@ -98,6 +110,8 @@ class HazardMaps:
                 f"depth {depth.shape} and speed {speed.shape} must have the hazard grid's shape {self.shape}"
             )
         wet = depth >= self.wet_depth
+        if valid is None:
+            valid = self.valid
         if valid is not None:
             wet &= np.asarray(valid, dtype=bool)
         d = np.where(wet, depth, 0.0)
@@ -109,8 +123,12 @@ class HazardMaps:
         self.arrival[first] = float(t)
 
     def classes(self) -> np.ndarray:
-        """The hazard class of every cell (uint8, 0 = dry) from the maxima so far (:func:`classify`)."""
-        return classify(self.max_depth, self.max_speed, self.max_dv, self.wet_depth)
+        """The hazard class of every cell (uint8, 0 = dry or not ``valid``) from the maxima so far
+        (:func:`classify`)."""
+        out = classify(self.max_depth, self.max_speed, self.max_dv, self.wet_depth)
+        if self.valid is not None:
+            out[~self.valid] = 0
+        return out
 
     def state_dict(self) -> dict[str, np.ndarray]:
         """Copies of the four arrays (a checkpoint's content)."""
@@ -129,18 +147,28 @@ class HazardMaps:
                 )
             setattr(self, k, a.copy())
 
-    def summary(self, cell_area_m2: float, inside: np.ndarray | None = None) -> dict:
+    def summary(
+        self, cell_area_m2: float, inside: np.ndarray | None = None, reservoir: np.ndarray | None = None
+    ) -> dict:
         """``flooded_area_m2``, ``hazard_area_m2`` and ``hazard_share`` (H1 … H6: fractions of the flooded
-        area) over the whole grid; with ``inside`` (a boolean mask, e.g. :func:`polygon_mask`), the same
-        three within it under ``"inside"``."""
+        area) over the valid cells; with ``inside`` (a boolean mask, e.g. :func:`polygon_mask`), the same
+        three within it under ``"inside"``; with ``reservoir`` (a boolean mask of the reservoir's cells),
+        the same three below the dam under ``"below_dam"``: the flooded cells outside the reservoir that
+        were dry at t = 0 (arrival time > 0)."""
         classes = self.classes()
         out = _areas(classes, cell_area_m2)
         if inside is not None:
-            inside = np.asarray(inside, dtype=bool)
-            if inside.shape != self.shape:
-                raise ValueError(f"the mask's shape {inside.shape} must be the hazard grid's {self.shape}")
-            out["inside"] = _areas(np.where(inside, classes, 0), cell_area_m2)
+            out["inside"] = _areas(np.where(self._mask(inside), classes, 0), cell_area_m2)
+        if reservoir is not None:
+            below = ~self._mask(reservoir) & (self.arrival > 0.0)
+            out["below_dam"] = _areas(np.where(below, classes, 0), cell_area_m2)
         return out
+
+    def _mask(self, mask) -> np.ndarray:
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != self.shape:
+            raise ValueError(f"the mask's shape {mask.shape} must be the hazard grid's {self.shape}")
+        return mask
 
 
 def _areas(classes: np.ndarray, cell_area_m2: float) -> dict:

@@ -114,9 +114,11 @@ def validate_section(model: type[BaseModel], data: dict, where: str = "") -> Any
         value = err.get("input")
         limits = _limits_text(model, loc)
         msg = err["msg"].rstrip(".")
+        how = f"--set {key}=VALUE"
+        if isinstance(value, str) and value.lstrip().startswith("["):  # an array the shell took apart
+            how = f"""--set '{key}=["a", "b"]' (quoted whole, so that the shell keeps the quotes)"""
         raise ConfigError(
-            f"Setting '{key}' = {value!r} is not valid: {msg}{limits}; "
-            f"change it in the scenario or with --set {key}=VALUE."
+            f"Setting '{key}' = {value!r} is not valid: {msg}{limits}; change it in the scenario or with {how}."
         ) from None
 
 

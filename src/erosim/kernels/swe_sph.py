@@ -369,12 +369,13 @@ def bed_at(bed, pos, n, inv_cell, out):
 
 
 @njit(cache=True)
-def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, max_dv, arrival):
+def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, max_dv, arrival, wall):
     """Running maxima of depth, speed and depth·speed on the DEM's cells, and first wetting times.
 
     Each particle stands for the square of side s_i = √(V_i/d_i) centred on it (the area whose water
     it carries); every cell whose centre lies in that square records the particle's depth, speed
-    and their product if they exceed the cell's maxima. Particles drier than ``wet`` mark nothing.
+    and their product if they exceed the cell's maxima. Particles drier than ``wet`` mark nothing,
+    and ``wall`` cells (nodata, a dam) are never marked: water does not stand on them.
     """
     ny, nx = max_d.shape
     for i in range(n):
@@ -385,6 +386,8 @@ def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, ma
         r_lo, r_hi, c_lo, c_hi = footprint_cells(i, pos, vol, depth, inv_cell, ny, nx)
         for r in range(r_lo, r_hi + 1):
             for c in range(c_lo, c_hi + 1):
+                if wall[r, c]:
+                    continue
                 if d > max_d[r, c]:
                     max_d[r, c] = d
                 if u > max_v[r, c]:

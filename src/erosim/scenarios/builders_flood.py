@@ -20,12 +20,21 @@ hazard maxima (:mod:`erosim.analysis.hazard`) on the DEM's grid. A run leaves
   (:mod:`erosim.io.map_frames`; ``erosim view``'s time slider);
 * ``gauges.csv`` (t, eta_<name>, depth_<name>, speed_<name>) when ``gauges.file`` is given;
 * ``report.json``: flooded_area_m2, hazard_share (H1…H6, fractions of the flooded area),
-  hazard_area_m2, volume_initial_m3, volume_out_m3, water_budget (closure_rel), gauges_summary.
+  hazard_area_m2 (all three over the cells that are neither nodata nor wall, the reservoir included),
+  flooded_area_below_dam_m2, hazard_share_below_dam, hazard_area_below_dam_m2 (the same without the
+  reservoir's cells and every cell wet at t = 0), volume_initial_m3, volume_out_m3, water_budget
+  (closure_rel), gauges_summary.
+
+Inputs that would silently do nothing are named: a barrier with no segment over the DEM is refused; a
+reservoir in a closed hollow (no open edge, barrier or breach lets its water out: the connected water
+below the level on the breached DEM is the reservoir itself) and a reservoir that releases less than
+1 % of its volume in the first tenth of the run are warned of (report.json ``warnings`` and the console).
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +53,12 @@ from erosim.terrain.reservoir import barrier_mask, cut_breach, fill_reservoir
 
 #: particles beyond this many would not fit a workstation (about 200 B each, times the splitting)
 MAX_PARTICLES = 20_000_000
+#: a reservoir that releases less than this share of its volume in the first tenth of the run is warned of
+SLOW_RELEASE = 0.01
+
+
+def _fmt_point(p) -> str:
+    return "[" + ", ".join(f"{float(v):.10g}" for v in p) + "]"
 
 
 class FloodSetUp:
@@ -57,6 +72,13 @@ class FloodSetUp:
         self.dem = hm
         res = cfg.reservoir
         barrier = barrier_mask(hm, res.barrier) if res.barrier is not None else None
+        if barrier is not None and not barrier.any():
+            x0, x1, y0, y1 = hm.extent
+            raise InputError(
+                f"reservoir.barrier [{', '.join(_fmt_point(p) for p in res.barrier)}] has no segment over the DEM "
+                f"(x {x0:.10g}..{x1:.10g}, y {y0:.10g}..{y1:.10g}); draw the dam's line across the valley in the "
+                "DEM's coordinates."
+            )
         self.depth0 = fill_reservoir(hm, res.level, res.seed, barrier=barrier, open_edges=cfg.outflow.edges)
         self.terrain = cut_breach(hm, cfg.breach) if cfg.breach is not None else hm
         nodata = hm.nodata if hm.nodata is not None else np.zeros(hm.shape, bool)
@@ -68,6 +90,36 @@ class FloodSetUp:
         self.wall = wall
         self.barrier = barrier
         self.level = float(res.level)
+        self.closed_hollow = self._closed_hollow(res.seed, cfg)
+
+    def _closed_hollow(self, seed, cfg: FloodScenario) -> str | None:
+        """The warning sentence when no open edge, barrier or breach lets the reservoir's water out: the
+        connected water below the level on the breached DEM (its walls kept) is the reservoir itself."""
+        from scipy import ndimage
+
+        from erosim.core.heightmap import cell_of
+
+        hm = self.terrain
+        below = (hm.z < self.level) & ~self.wall & hm.valid
+        labels, _ = ndimage.label(below)  # 4-connected, as the fill
+        row, col = cell_of(self.dem, float(seed[0]), float(seed[1]))
+        reach = labels == labels[row, col]
+        if reach.sum() > (self.depth0 > 0).sum():
+            return None
+        area = (self.depth0 > 0).sum() * hm.cell_size**2
+        if self.barrier is None:
+            why = "it has no reservoir.barrier"
+        elif not (ndimage.binary_dilation(self.depth0 > 0) & self.barrier).any():
+            why = "reservoir.barrier does not touch it"
+        elif cfg.breach is None:
+            why = "the ground under reservoir.barrier is above the level where it holds the water"
+        else:
+            why = "the breach does not open reservoir.barrier below the level where it holds the water"
+        return (
+            f"The reservoir at level {self.level:.10g} m fills a closed hollow of {area:,.0f} m² from the seed "
+            f"{_fmt_point(seed)} and {why}, so no water leaves it and the maps show a lake; draw reservoir.barrier "
+            "across the valley where the water is held (and a breach through it), or raise reservoir.level."
+        )
 
     def particles(self, spacing: float, bed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Particles of equal volume over the reservoir (solver's cell frame) and their volumes.
@@ -199,6 +251,83 @@ class HazardTracker(cb.Callback):
             self.maps.load_state_dict(state)
 
 
+class ReleaseCheck(cb.Callback):
+    """Warns when the reservoir has released less than :data:`SLOW_RELEASE` of its volume by a tenth of
+    the run: the water beyond the reservoir's cells widened by a particle spacing (at least two cells,
+    so that a shore's particles moving as the water settles do not count) and through the open edges,
+    less what was there at t = 0, over the initial volume."""
+
+    def __init__(self, solver, site: FloodSetUp, t_end: float, out):
+        from scipy import ndimage
+
+        super().__init__(TimeInterval(0.1 * t_end), name="release")
+        self.solver, self.site, self.out = solver, site, out
+        widen = max(2, math.ceil(solver.spacing / site.dem.cell_size))
+        self.held = ndimage.binary_dilation(site.depth0 > 0, iterations=widen)
+        self.outside0: float | None = None
+        self.released: float | None = None
+        self.at = 0.0  # the time it was measured
+
+    def _outside(self) -> float:
+        pos, vol = _particles_on_grid(self.solver)
+        cs = self.site.dem.cell_size
+        ny, nx = self.held.shape
+        col = np.clip(np.floor(pos[:, 0] / cs + 0.5).astype(np.int64), 0, nx - 1)
+        row = np.clip(np.floor(pos[:, 1] / cs + 0.5).astype(np.int64), 0, ny - 1)
+        return float(vol[~self.held[row, col]].sum()) + float(self.solver.budget()["volume_out_m3"])
+
+    def __call__(self, sim) -> None:
+        if self.outside0 is None:
+            self.outside0 = self._outside()
+        elif self.released is None:
+            self.released = (self._outside() - self.outside0) / self.solver.volume_initial
+            self.at = float(sim.time)
+            warning = self.warning()
+            if warning is not None:
+                self.out.warn(warning)
+                if sim.progress:
+                    print(f"{sim.label}: warning: {warning}", file=sys.stderr, flush=True)
+
+    def warning(self) -> str | None:
+        if self.released is None or self.released >= SLOW_RELEASE:
+            return None
+        t = self.at
+        return (
+            f"The reservoir released only {100 * max(self.released, 0.0):.2g} % of its "
+            f"{self.solver.volume_initial:,.0f} m³ in the first {t:.4g} s (a tenth of the run): the dam opens "
+            "little below reservoir.level or the ground beyond is high; check breach.line, breach.bottom_width "
+            "and breach.floor (or reservoir.barrier) if a dam break was meant."
+        )
+
+    def state_dict(self) -> dict[str, Any]:
+        state = {}
+        if self.outside0 is not None:
+            state["outside0"] = np.asarray(self.outside0)
+        if self.released is not None:
+            state["released"] = np.asarray([self.released, self.at])
+        return state
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        if "outside0" in state:
+            self.outside0 = float(state["outside0"])
+        if "released" in state:
+            self.released, self.at = (float(v) for v in np.asarray(state["released"]))
+            warning = self.warning()
+            if warning is not None:  # the resumed run's report keeps it
+                self.out.warn(warning)
+
+
+def _particles_on_grid(solver) -> tuple[np.ndarray, np.ndarray]:
+    """(positions in the cell frame, volumes) of a flood solver's water particles."""
+    if hasattr(solver, "pos"):  # the shallow-water solvers
+        return np.asarray(solver.pos), np.asarray(solver.vol)
+    inner = solver.solver  # the 3-D SPH flood: the SPH frame (y north from the south-west node)
+    st, n = inner.state, inner.n_fluid
+    ny = solver.site.terrain.shape[0]
+    pos = np.column_stack([st.pos[:n, 0], (ny - 1) * solver.cell - st.pos[:n, 1]])
+    return pos, inner.m / st.rho[:n]
+
+
 class FloodGauges(cb.Callback):
     """Free-surface elevation, depth and speed at the gauges every ``run.sample_interval``."""
 
@@ -305,15 +434,20 @@ def setup(scenario, out) -> Setup:
     warnings = list(site.dem.notes)
     if facts["nodata_cells"]:
         warnings.append(f"{facts['nodata_cells']} cells of the DEM are nodata: walls the water cannot enter.")
+    if site.closed_hollow is not None:
+        warnings.append(site.closed_hollow)
     spacing = solver.spacing
     assumed.append(
         f"reservoir: {solver.volume_initial:,.0f} m³ over {(site.depth0 > 0).sum() * hm.cell_size**2:,.0f} m² at "
         f"level {site.level:g} m; {solver.n:,} particles at {spacing:g} m spacing"
     )
     assumed.append(f"open edges: {', '.join(cfg.outflow.edges) or 'none (every map edge is a wall)'}")
-    maps = HazardMaps(hm.shape, cfg.flood.wet_depth)
+    maps = HazardMaps(hm.shape, cfg.flood.wet_depth, valid=~site.wall)  # nodata and the dam: never flooded
     inside = polygon_mask(hm, cfg.hazard.inside) if cfg.hazard.inside is not None else None
+    reservoir = site.depth0 > 0
     callbacks: list = [HazardTracker(solver, maps)]
+    if site.closed_hollow is None:  # one sentence per problem: a closed hollow releases nothing anyway
+        callbacks.append(ReleaseCheck(solver, site, cfg.run.t_end, out))
     gauges = None
     if cfg.gauges.file:
         from erosim.io.gauge_points import read_gauge_points
@@ -336,7 +470,8 @@ def setup(scenario, out) -> Setup:
 
     def report(sim) -> dict[str, Any]:
         solver.sync_maxima(maps)
-        summary = maps.summary(hm.cell_size**2, inside)
+        summary = maps.summary(hm.cell_size**2, inside, reservoir)
+        below = summary["below_dam"]
         budget = solver.budget()
         rep = {
             "method": "shallow-water SPH (Vacondio et al. 2012) over the DEM; hazard classes of FL-3",
@@ -344,6 +479,9 @@ def setup(scenario, out) -> Setup:
             "flooded_area_m2": summary["flooded_area_m2"],
             "hazard_share": summary["hazard_share"],
             "hazard_area_m2": summary["hazard_area_m2"],
+            "flooded_area_below_dam_m2": below["flooded_area_m2"],
+            "hazard_share_below_dam": below["hazard_share"],
+            "hazard_area_below_dam_m2": below["hazard_area_m2"],
             "volume_initial_m3": budget["volume_initial_m3"],
             "volume_out_m3": budget["volume_out_m3"],
             "water_budget": budget,
@@ -367,6 +505,7 @@ def setup(scenario, out) -> Setup:
         return {
             "flooded_area_m2": rep["flooded_area_m2"],
             "hazard_share": {k: round(v, 3) for k, v in rep["hazard_share"].items()},
+            "flooded_area_below_dam_m2": rep["flooded_area_below_dam_m2"],
             "volume_out_m3": rep["volume_out_m3"],
             "particles": rep["particles"],
             "steps": rep["steps"],

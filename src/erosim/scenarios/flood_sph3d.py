@@ -173,6 +173,7 @@ class SPHFlood:
         footprint_maxima(
             np.ascontiguousarray(pos), np.ascontiguousarray(vel), np.ascontiguousarray(vol), np.ascontiguousarray(d_i),
             n, 1.0 / self.cell, self.solver.t, wet, maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
+            np.ascontiguousarray(self.site.wall),
         )  # fmt: skip
 
     def _at_nodes(self) -> tuple[np.ndarray, np.ndarray]:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import copy
 import difflib
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -127,9 +128,15 @@ def read_toml(path: Path) -> dict[str, Any]:
         raise ConfigError(f"Scenario file '{path}' is not UTF-8 text; save it as UTF-8 TOML.") from None
 
 
+#: a bare word in an array, ``[east, north]``: what the shell leaves of ``["east", "north"]``
+_BARE_WORD = re.compile(r"(?<=[\[,])(\s*)([A-Za-z_][\w.\-/]*)(\s*)(?=[,\]])")
+_TOML_WORDS = {"true", "false", "inf", "nan"}
+
+
 def parse_override(item: str) -> tuple[list[str], Any]:
     """``"a.b=c"`` → (["a", "b"], value); the value is read as TOML (numbers, booleans, arrays,
-    strings), falling back to a bare string (``terrain.file=dem.tif``)."""
+    strings), falling back to a bare string (``terrain.file=dem.tif``). An array of bare words,
+    ``[east, north]`` (the shell strips the quotes of ``["east", "north"]``), is read as strings."""
     key, sep, raw = item.partition("=")
     key = key.strip()
     if not sep or not key or any(not part for part in key.split(".")):
@@ -139,6 +146,14 @@ def parse_override(item: str) -> tuple[list[str], Any]:
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw
+        if raw.startswith("[") and raw.endswith("]"):
+            quoted = _BARE_WORD.sub(
+                lambda m: m.group(0) if m.group(2) in _TOML_WORDS else f'{m.group(1)}"{m.group(2)}"{m.group(3)}', raw
+            )
+            try:
+                value = tomllib.loads(f"v = {quoted}")["v"]
+            except tomllib.TOMLDecodeError:
+                pass
     return key.split("."), value
 
 

@@ -199,8 +199,9 @@ def cfl_limit(vel, depth, hsup, n, g, out):
 
 
 @cuda.jit
-def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, max_dv, arrival):
-    """The CPU's ``footprint_maxima`` with atomic maxima (and minima for the arrival time)."""
+def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, max_dv, arrival, wall):
+    """The CPU's ``footprint_maxima`` with atomic maxima (and minima for the arrival time); wall cells
+    are never marked."""
     i = cuda.grid(1)
     if i >= n:
         return
@@ -212,6 +213,8 @@ def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, ma
     r_lo, r_hi, c_lo, c_hi = _footprint(i, pos, vol, depth, inv_cell, ny, nx)
     for r in range(r_lo, r_hi + 1):
         for c in range(c_lo, c_hi + 1):
+            if wall[r, c]:
+                continue
             cuda.atomic.max(max_d, (r, c), d)
             cuda.atomic.max(max_v, (r, c), u)
             cuda.atomic.max(max_dv, (r, c), d * u)

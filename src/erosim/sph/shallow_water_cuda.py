@@ -284,7 +284,7 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         n, kc, d = self.n, self._kc, self._d
         if n:
             self._ks.footprint_maxima[kc.blocks(n), kc.TPB](
-                d["pos"], d["vel"], d["vol"], d["depth"], n, self.inv_cell, self.t, wet, *held[1]
+                d["pos"], d["vel"], d["vol"], d["depth"], n, self.inv_cell, self.t, wet, *held[1], d["wall"]
             )  # fmt: skip
 
     def sync_maxima(self, maps) -> None:

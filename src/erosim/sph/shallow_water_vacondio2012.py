@@ -431,10 +431,11 @@ class ShallowWaterSPH:
         return b + depth, depth, speed
 
     def update_maxima(self, maps, wet: float) -> None:
-        """Raise the hazard maxima and arrival times of ``maps`` (arrays on the DEM grid) at time t."""
+        """Raise the hazard maxima and arrival times of ``maps`` (arrays on the DEM grid) at time t; the
+        wall cells are never marked."""
         K.footprint_maxima(
             self.pos, self.vel, self.vol, self.depth, self.n, self.inv_cell, self.t, wet,
-            maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
+            maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival, self.wall,
         )  # fmt: skip
 
     def sync_maxima(self, maps) -> None:
