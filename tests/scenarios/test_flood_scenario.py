@@ -319,20 +319,15 @@ def test_a_reservoir_in_a_closed_hollow_is_named():
     assert closed is not None and "it has no reservoir.barrier" in closed
 
 
-@pytest.mark.parametrize(
-    "sets, words",
-    [
-        (["breach.floor=36.0", "run.t_end=1.0"], "warning: The reservoir at level 35 m fills a closed hollow"),
-        (["breach.line=[[1050.0, 860.0], [1050.0, 940.0]]", "breach.bottom_width=20.0"],
-         "warning: The reservoir released only 0 % of its"),
-    ],
-)  # fmt: skip
-def test_a_flood_that_releases_nothing_warns_on_the_console_and_in_the_report(tmp_path, sets, words):
-    """The library's valley with its breach above the level (a closed hollow: said before the run), or
-    one cell of breach on the valley's flank where the ground is 0.7 m below the level (no particle
-    leaves in the first 60 s of 600, against 6.6 % of the water through the valley's own breach at this
-    spacing: said when the tenth is reached)."""
-    args = [a for s in [*sets, "flood.settle_steps=60", "flood.spacing=40.0", "run.map_frames=0"] for a in ("--set", s)]
+def test_a_flood_that_releases_nothing_warns_on_the_console_and_in_the_report(tmp_path):
+    """One cell of breach on the library valley's flank, where the ground is 0.7 m below the level: no
+    particle leaves in the first 60 s of 600, against 6.6 % of the water through the valley's own breach
+    at this spacing; said when the tenth is reached, once on the console and once in the report (a
+    closed hollow's sentence goes the way of every set-up warning, before the run)."""
+    sets = ["breach.line=[[1050.0, 860.0], [1050.0, 940.0]]", "breach.bottom_width=20.0", "flood.settle_steps=60",
+            "flood.spacing=40.0", "run.map_frames=0"]  # fmt: skip
+    words = "warning: The reservoir released only 0 % of its"
+    args = [a for s in sets for a in ("--set", s)]
     proc, out = _cli(args, tmp_path)
     assert proc.returncode == 0, proc.stderr
     said = [ln for ln in proc.stderr.splitlines() if words in ln]
