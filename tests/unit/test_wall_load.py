@@ -60,3 +60,27 @@ def test_face_area_uses_the_walls_own_step():
     layers = [np.stack([np.full(y.size, x), y.ravel(), z.ravel()], axis=1) for x in (0.8, 0.77)]
     wall = np.vstack(layers)  # two layers behind the face: the same columns
     assert _face_area(wall, np.array([1.0, 0.0, 0.0]), 0.03) == pytest.approx(9 * 0.031 * 0.0322)
+
+
+def test_a_sensor_at_the_foot_of_a_wall_feels_the_corner():
+    """Sensors 3 and 15 mm above the floor on the tank's side walls (H/16, after 0.6 s at rest). Their patch
+    reaches the floor: its area is the wetted face's alone, and the load includes the particles behind the face
+    under the floor (the corner), which the fluid at the face's foot pushes on. Each reads the mean of
+    ρ₀g(H − z) over its face, ρ₀g(H − z̄) with z̄ the face particles' mean height, within 1 % as the tank's other
+    walls (measured 0.2 % here, 0.4 % at H/40); before, counting the corner's area and not its load, the 3 mm
+    sensor read 0.50 of it (0.66 at H/40), the 15 mm one 0.67."""
+    from erosim.sph.wall_load import at_the_face_end
+
+    dx = 0.2 / 16
+    cfg = loader.load("hydrostatic", [f"sph.spacing={dx!r}"]).config
+    s = build(cfg).solver
+    while s.t < 0.6:
+        s.step()
+    bpos = np.asarray(s.state.pos[s.state.n_fluid :], dtype=np.float64)
+    for q in ([0.0, 0.003], [0.2, 0.003], [0.0, 0.015]):
+        normal, solid = probe_wall(cfg, q)
+        idx = patch(bpos, q, normal, s.h, s.h, solid)
+        face, corner = at_the_face_end(bpos, idx, q, normal, s.h, s.h, s.lo, s.hi, dx)
+        assert bpos[face, 1].min() > 0 and len(corner) and np.all(bpos[corner, 1] < 0)
+        exact = 1000 * 9.81 * (0.2 - bpos[face, 1].mean())
+        assert wall_pressure(s, q, normal, s.h, solid) == pytest.approx(exact, rel=0.01), q
