@@ -166,6 +166,11 @@ def run(scenario, overrides, preset, out, resume, overwrite, device):
     run_folder, summary = _guard(
         execute, scenario, list(overrides), preset, out, resume, overwrite, progress=not STATE.quiet
     )
+    from erosim.scenarios.runner import COMPLETE
+
+    if summary and COMPLETE in summary:  # --resume of a completed run: one line, nothing written
+        click.echo(summary[COMPLETE])
+        return
     if summary:
         _print_result(summary, as_json=False)
     click.echo(f"Results in {run_folder.path}/: {_contents(run_folder.path)}")

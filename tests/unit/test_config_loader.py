@@ -69,6 +69,7 @@ def test_resolved_toml_round_trips(toy_kind, tmp_path):
     again.write_text(sc.to_toml())
     sc2 = loader.load(again)
     assert sc2.config == sc.config and sc2.kind == "toy"
+    assert sc2.preset == "sticky"  # by name (its values are already in), so a resumed run reports it too
 
 
 @pytest.mark.parametrize(

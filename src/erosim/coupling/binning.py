@@ -113,9 +113,15 @@ class FluidGrid:
         )  # fmt: skip
 
     def state_dict(self) -> dict[str, Any]:
-        """The running maxima (the other fields are recomputed by the next binning)."""
-        return {"max_depth": self.max_depth.copy(), "max_speed": self.max_speed.copy()}
+        """Every field as the last binning left it, the running maxima included: what is read between
+        binnings (rain landing on the water, the pictures) is then the same after a resume."""
+        out: dict[str, Any] = {k: getattr(self, k).copy() for k in self.FIELDS}
+        out["outside"] = int(self.outside)
+        return out
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
-        self.max_depth[...] = state["max_depth"]
-        self.max_speed[...] = state["max_speed"]
+        """Restore :meth:`state_dict`; a checkpoint of an older erosim (maxima only) leaves the rest zero."""
+        for k in self.FIELDS:
+            if k in state:
+                getattr(self, k)[...] = state[k]
+        self.outside = int(np.asarray(state.get("outside", 0)))

@@ -53,11 +53,15 @@ class Scenario:
     source: Path | None = None
 
     def resolved(self) -> dict[str, Any]:
-        """The complete configuration as plain data (no presets: they are already applied)."""
+        """The complete configuration as plain data. A preset's values are already applied: it stays
+        by name only, as an empty preset, so a run of this file (or its ``--resume``) reports it."""
         head = {"schema_version": SCHEMA_VERSION, "kind": self.kind, "name": self.name}
         if self.description:
             head["description"] = self.description
-        return {**head, **self.config.model_dump(mode="json", exclude_none=True)}
+        if self.preset:
+            head["preset"] = self.preset
+        tail = {"presets": {self.preset: {}}} if self.preset else {}
+        return {**head, **self.config.model_dump(mode="json", exclude_none=True), **tail}
 
     def to_toml(self) -> str:
         note = "# Resolved scenario written by erosim; `erosim run <this file>` repeats the run.\n"

@@ -2,11 +2,14 @@
 a :class:`~erosim.simulation.simulation.Simulation` → the run folder.
 
 ``erosim run`` calls :func:`run`; validation cases call :func:`execute` to get the simulation (and so
-the models) back in their final state; ``erosim demo`` is :func:`demo`.
+the models) back in their final state; ``erosim demo`` is :func:`demo`. ``--resume`` of a run that
+has completed (and whose end the command line does not move) changes nothing: the summary is the one
+line :data:`COMPLETE` says.
 """
 
 from __future__ import annotations
 
+import json
 import sys
 import time
 from pathlib import Path
@@ -17,11 +20,40 @@ from erosim.scenarios import kinds
 from erosim.scenarios.loader import Scenario, write_resolved
 from erosim.simulation.simulation import Simulation
 
+#: the summary's one key when ``--resume`` finds the run complete (its value: the line to print)
+COMPLETE = "complete"
+
+
+def _complete(out: RunFolder, time_now: float, stop: float, unit: str) -> dict[str, str]:
+    line = (
+        f"The run in '{out.path}' is complete (t = {time_now:.6g} of {stop:.6g} {unit}); nothing was run or "
+        "changed. To run it further, resume it with a later end (--set run.t_end=… or the kind's own)."
+    )
+    return {COMPLETE: line}
+
+
+def _completed_report(out: RunFolder) -> dict | None:
+    """The folder's report when it says the run completed, else None."""
+    try:
+        rep = json.loads((out.path / "report.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return rep if isinstance(rep, dict) and rep.get("status") == "completed" else None
+
 
 def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: bool = True):
     """Build and run ``scenario`` into ``out``; returns (summary for the command line, simulation)."""
     from erosim.scenarios import estimate
 
+    done = _completed_report(out) if resume else None
+    if done is not None:  # the same scenario (no --set moved its end): nothing to build
+        try:
+            same = (out.path / "scenario.toml").read_text(encoding="utf-8") == scenario.to_toml()
+        except OSError:
+            same = False
+        progress_of = done.get("progress", {})
+        if same and {"time", "stop_time", "unit"} <= set(progress_of):
+            return _complete(out, progress_of["time"], progress_of["stop_time"], progress_of["unit"]), None
     guess = estimate.check(scenario.kind, scenario.config)  # refuses a run that would not fit in memory
     if guess is not None and progress:  # something to read while a large terrain is generated
         print(f"{scenario.name}: {guess.line()}", file=sys.stderr, flush=True)
@@ -38,6 +70,8 @@ def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progres
     )  # fmt: skip
     if resume:
         sim.restore()
+        if done is not None and sim.done():  # completed, and the command line did not move its end
+            return _complete(out, sim.time, sim.stop_time, sim.unit), sim
     write_resolved(scenario, out)
 
     def report(s: Simulation) -> dict[str, Any]:

@@ -16,7 +16,9 @@ entries ``model.<name>.<key>`` / ``callback.<name>.<key>``, schedules continuing
 the status (completed / unstable / interrupted / failed) written to ``report.json`` whatever
 happens, and Ctrl-C: the first press is held until the current iteration and its callbacks are
 complete (a checkpoint never sees half a step), then a checkpoint is written and
-:class:`~erosim.core.errors.Interrupted` raised with the resume command; a second press stops at once.
+:class:`~erosim.core.errors.Interrupted` raised with the resume command; once the run has completed, the
+first press is held until the final outputs are written, and the console says so; a second press
+stops at once.
 A sweep's worker, where no signal reaches the run's thread, asks the same of every run in its process
 with :func:`request_stop`.
 The pattern is Oceananigans' ``Simulation`` / ``Callback`` / ``Checkpointer``.
@@ -26,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -63,11 +66,11 @@ def stop_requested() -> bool:
 
 
 @contextlib.contextmanager
-def held_interrupts():
+def held_interrupts(first: Callable[[], None] | None = None):
     """Hold the first Ctrl-C (SIGINT) until the caller looks at it; a second one raises at once.
 
-    Yields a list that is non-empty once Ctrl-C was pressed. Outside the main thread (where signal
-    handlers cannot be set) nothing is held.
+    Yields a list that is non-empty once Ctrl-C was pressed; ``first()`` is called at the first press
+    (to say what happens now). Outside the main thread (where signal handlers cannot be set) nothing is held.
     """
     pressed: list[int] = []
 
@@ -75,6 +78,8 @@ def held_interrupts():
         if pressed:
             raise KeyboardInterrupt
         pressed.append(signum)
+        if first is not None:
+            first()
 
     try:
         old = signal.signal(signal.SIGINT, handler)
@@ -230,7 +235,7 @@ class Simulation:
         steps0 = self.iteration_start = self.iteration
         extra: dict[str, Any] = {}
         self._loop_start = time.perf_counter()
-        with held_interrupts() as pressed:
+        with held_interrupts(self._pressed) as pressed:
             try:
                 with ProgressBar(
                     self.stop_time, self.label, unit=self.unit, enabled=self.progress, start=self.time
@@ -275,6 +280,16 @@ class Simulation:
                 rep = self._report(steps0, extra, report)
                 self.out.write_report(rep, seed=seed)
         return rep
+
+    def _pressed(self) -> None:
+        """The first Ctrl-C: during the steps it stops after the current one (said then); once the run
+        has completed it is held until the final outputs are written, which is said now."""
+        if self.status == "completed":
+            print(
+                f"{self.label}: the run has completed and is finishing its outputs (maps, figures); they take a "
+                f"moment. Press Ctrl-C again to stop now (`erosim run --resume {self.out.path}` then writes them).",
+                file=sys.stderr, flush=True,
+            )  # fmt: skip
 
     def _stopped(self, status: str, error: str | None = None) -> None:
         if self._loop_start is not None and self.status == "running":

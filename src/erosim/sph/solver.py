@@ -36,7 +36,7 @@ from erosim.sph.params import SPHParams
 from erosim.sph.shifting_lind2012 import FickianShifting
 from erosim.sph.state import ParticleState
 
-_STATE_SCALARS = ("t", "steps", "c", "b", "gamma", "m", "rebuilds", "vmax", "amax", "kmax")
+_STATE_SCALARS = ("t", "steps", "c", "b", "gamma", "m", "rebuilds", "vmax", "amax", "kmax", "last_dt")
 _FIELDS = ("pos", "vel", "rho", "p", "acc", "drho", "rho_old", "ids", "ref")
 
 
@@ -660,6 +660,7 @@ class SPHSolver:
         for k in ("steps", "rebuilds"):
             setattr(self, k, int(np.asarray(state[k])))
         self.kmax = float(np.asarray(state.get("kmax", 0.0)))  # checkpoints before the diffusion's bound: 0
+        self.last_dt = float(np.asarray(state.get("last_dt", 0.0)))  # reported only; older checkpoints: 0
         for bd in self.boundaries:
             prefix = f"boundary.{bd.name}."
             bd.load_state_dict({k[len(prefix) :]: v for k, v in state.items() if k.startswith(prefix)})
