@@ -56,7 +56,7 @@ def test_library_scenario_writes_the_run_folder(tmp_path):
 def test_own_dem_and_hardness_files(tmp_path):
     ny, nx = 48, 60
     jj, ii = np.indices((ny, nx))
-    z = 100.0 + 0.2 * ii + 3.0 * np.sin(jj / 7.0)
+    z = 100.0 - 0.2 * ii + 3.0 * np.sin(jj / 7.0)  # falling eastward, the stream's way
     dem = tmp_path / "dem.tif"
     hio.write(dem, Heightmap(z=z, cell_size=5.0))
     d = np.full((ny, nx), 0.3)

@@ -186,7 +186,7 @@ def test_stream_cells_outside_the_map_keep_their_height():
     outside = np.zeros(h.shape, bool)
     outside[:, 30:34] = True
     em = [Emitter(x=0.05, y=0.5, width=60.0, particles=300, steps=60, speed=10.0, max_speed=20.0,
-                  radius_per_mass=30.0, depth_per_mass=0.05)]  # fmt: skip
+                  radius_per_mass=30.0, depth_per_mass=0.05, slope_exponent=0.0)]  # fmt: skip
     stream = ParticleStream(h, np.full(h.shape, 0.3), 10.0, em, seed=2, outside=outside)
     while not stream.done:
         stream.advance()

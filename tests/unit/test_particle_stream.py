@@ -6,10 +6,18 @@ import numpy as np
 import pytest
 
 from erosim.core.errors import ConfigError, InputError
-from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream, _steer, erode
+from erosim.erosion.particle_stream_warszawski import Emitter as GradedEmitter
+from erosim.erosion.particle_stream_warszawski import ParticleStream, _steer, erode
 from erosim.terrain.hardness import Strata, strata
 
 N = 96
+
+
+class Emitter(GradedEmitter):
+    """An emitter with the seed's plain lowering (slope_exponent = 0): these tests check ST-2…ST-5
+    as the seed states them; the graded bed has its own tests (test_particle_stream_graded.py)."""
+
+    slope_exponent: float = 0.0
 
 
 def flat(n=N, value=10.0):

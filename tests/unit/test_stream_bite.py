@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
+from erosim.erosion.particle_stream_warszawski import Emitter as GradedEmitter
+from erosim.erosion.particle_stream_warszawski import ParticleStream
 from erosim.terrain.hardness import Strata, strata
 
 N = 49  # odd: the window centre 0.5·(N − 1) = 24 is a cell, where Δh = e·m exactly
@@ -13,6 +14,13 @@ H0 = 10.0
 # hard lowerings are the same product e·m·g·(1 − d) up to one more rounded multiplication. A
 # broken law shows up at the scale of d·e·m ≈ 0.1 m, 1e13 times larger.
 RTOL, ATOL = 1e-12, 1e-14
+
+
+class Emitter(GradedEmitter):
+    """An emitter with the seed's plain lowering (slope_exponent = 0): these tests check ST-2…ST-5
+    as the seed states them; the graded bed has its own tests (test_particle_stream_graded.py)."""
+
+    slope_exponent: float = 0.0
 
 
 def _impact(d, strata_spec=None, **kw):

@@ -61,6 +61,21 @@ erodibility::
 so ``d = 1`` never changes and the terrain only goes down. The kernels add up the lowerings (m,
 in ``acc[0]``); times the cell area that is the removed volume.
 
+Graded bed (a choice made here, ``slope_exponent`` n > 0, the default; n = 0 is the seed's rule
+above exactly). With the same gradation at every impact a stream cuts deepest where most particles
+pass — at the emitter — and its floor climbs downstream over the original relief: a closed trough
+that water could not have carved. So, as in a stream-power law, the gradation scales with the
+ground's fall ahead, and no cell is cut below the ground at the footprint's edge ahead::
+
+    F = h(P_k) − h(P_k + λ u_α),   Δh(r) = e m (F / (λ S₀))ⁿ (1 − r²/λ²),
+    h ← max(h − Δh (1 − d), h(P_k) − F)
+
+(``u_α`` the heading; where ``P_k + λ u_α`` is off the map or nodata, ``F = h(P_k − λ u_α) −
+h(P_k)``, the fall continued; ``F ≤ 0`` cuts nothing). The point read lies outside the footprint,
+so an impact shrinks the fall it reads: sills are cut from their crests down, pits cannot form, and
+the floor grades to the outlet (monotone on uniform rock; a hard band holds a knickpoint). A stream
+aimed up a slope, or over level ground, has no fall and carves nothing.
+
 Order of one step of a particle (it moves on the heightmap, so every step touches the surface and
 is both a collision and an impact): impact point ``P_k`` (off the map → back to the pool),
 collision turn of the heading (ST-4), deformation around ``P_k`` (ST-5), move to ``C_{k+1}``
@@ -101,7 +116,8 @@ EX, EY, EDIR, EWIDTH, ELENGTH, ESPREAD = 0, 1, 2, 3, 4, 5
 ESPEED, EVJIT, EVMAX, EAMAX, EGAMMA, EPROBES, ESTEER = 6, 7, 8, 9, 10, 11, 12
 EMASS, EMJIT, EDEPTH, ERADIUS, ERHO, EROT, EBETA, ESTEPS = 13, 14, 15, 16, 17, 18, 19, 20
 ECOSD, ESIND = 21, 22  # cos and sin of the probe spacing Δ = γ/J
-NCOL = 23
+ESLOPE0, ESLOPEN = 23, 24  # stream-power slope: reference fall per cell S₀ (m) and exponent n
+NCOL = 25
 
 # hardness a probe off the map reads: harder than any rock, so streams keep to the map
 OFF_MAP = 2.0
@@ -187,7 +203,7 @@ def _steer(d, px, py, alpha, v, cos_step, sin_step, nprobe, step, steer):
 
 
 @njit(cache=True, inline="always")
-def _stamp(h, d, x0, y0, lam, depth):
+def _stamp(h, d, x0, y0, lam, depth, zmin):
     """ST-5: h ← h − e·m·(1 − r²/λ²)·(1 − d) where positive; returns the summed lowering (m)."""
     ny, nx = h.shape
     j0 = max(int(math.ceil(y0 - lam)), 0)
@@ -203,6 +219,7 @@ def _stamp(h, d, x0, y0, lam, depth):
             g = 1.0 - (dx * dx + dy * dy) * inv
             if g > 0.0:
                 dh = depth * g * max(0.0, 1.0 - d[j, i])  # nodata cells (OFF_MAP) are not cut
+                dh = min(dh, max(0.0, h[j, i] - zmin))  # graded bed: nothing cut below the ground ahead
                 h[j, i] -= dh
                 total += dh
     return total
@@ -233,7 +250,7 @@ def strata_init(h, strata, edges, values, d, floor):
 
 
 @njit(cache=True, inline="always")
-def _stamp_strata(h, d, floor, x0, y0, lam, depth, strata, edges, values):
+def _stamp_strata(h, d, floor, x0, y0, lam, depth, zmin, strata, edges, values):
     """:func:`_stamp`, then each lowered cell takes the hardness of the band its new height is in
     (looked up only when the cell is cut below its stratum's ``floor``)."""
     ny, nx = h.shape
@@ -251,6 +268,7 @@ def _stamp_strata(h, d, floor, x0, y0, lam, depth, strata, edges, values):
             g = 1.0 - (dx * dx + dy * dy) * inv
             if g > 0.0:
                 dh = depth * g * max(0.0, 1.0 - d[j, i])  # nodata cells (OFF_MAP) are not cut
+                dh = min(dh, max(0.0, h[j, i] - zmin))  # graded bed: nothing cut below the ground ahead
                 h[j, i] -= dh
                 total += dh
                 if h[j, i] < floor[j, i]:
@@ -285,6 +303,40 @@ def _act(h, d, table, e, st, s, key, age):
     st[s, 2] = alpha
     st[s, 5] = beta + table[e, EROT]
     return px, py, True
+
+
+@njit(cache=True, inline="always")
+def _off(d, x, y):
+    """Whether (x, y) is off the map or on a nodata cell (hardness OFF_MAP)."""
+    ny, nx = d.shape
+    if x < 0.0 or y < 0.0 or x > nx - 1.0 or y > ny - 1.0:
+        return True
+    return d[int(y + 0.5), int(x + 0.5)] >= OFF_MAP
+
+
+@njit(cache=True, inline="always")
+def _graded_depth(h, d, px, py, alpha, lam, depth, s0, n):
+    """Graded bed: the gradation ``e m (S / S₀)ⁿ`` at the impact, with ``F`` the ground's fall
+    from the impact point to the edge of its footprint straight ahead (distance λ; from λ behind to
+    the impact point where ahead is off the map or nodata) and ``S = F / λ``; 0 where the ground
+    ahead is not lower. The point λ ahead lies outside the cut, so each impact shrinks the fall it
+    reads and the bed grades towards its outlet. Returns (gradation e m (S/S₀)ⁿ, the lowest height
+    a cell may be cut to, h(P) − F)."""
+    ux = lam * math.cos(alpha)
+    uy = lam * math.sin(alpha)
+    qx, qy = px + ux, py + uy
+    if _off(d, qx, qy):
+        bx, by = px - ux, py - uy
+        if _off(d, bx, by):
+            return 0.0, 0.0
+        hp = bilinear(h, px, py)
+        fall = bilinear(h, bx, by) - hp
+    else:
+        hp = bilinear(h, px, py)
+        fall = hp - bilinear(h, qx, qy)
+    if not fall > 0.0:  # no fall (or a NaN height): nothing to cut
+        return 0.0, hp
+    return depth * (fall / (lam * s0)) ** n, hp - fall
 
 
 # ----------------------------------------------------------------------------------- drivers
@@ -322,10 +374,15 @@ def advance(h, d, table, st, serial, age, emitted, total, acc, seed, rounds, str
             px, py, ok = _act(h, d, table, e, st, s, key, age[s])
             if ok:
                 lam, depth = table[e, ERADIUS] * m, table[e, EDEPTH] * m
+                zmin = -math.inf
+                if table[e, ESLOPEN] > 0.0:
+                    depth, zmin = _graded_depth(
+                        h, d, px, py, st[s, 2], lam, depth, table[e, ESLOPE0], table[e, ESLOPEN]
+                    )
                 if floor is None:
-                    acc[0] += _stamp(h, d, px, py, lam, depth)
+                    acc[0] += _stamp(h, d, px, py, lam, depth, zmin)
                 else:
-                    acc[0] += _stamp_strata(h, d, floor, px, py, lam, depth, strata, edges, values)
+                    acc[0] += _stamp_strata(h, d, floor, px, py, lam, depth, zmin, strata, edges, values)
                 impacts += 1
                 age[s] += 1
             if not ok or age[s] >= table[e, ESTEPS]:
@@ -368,6 +425,16 @@ class Emitter(Section):
     mass_jitter: float = param(0.2, ge=0, lt=1, unit="1", doc="relative mass jitter ±")
     depth_per_mass: float = param(0.02, ge=0, unit="m", doc="e: lowering at the impact point per unit mass")
     radius_per_mass: float = param(4.0, gt=0, unit="m|cell", doc="kappa: radius of influence per unit mass")
+    slope_exponent: float = param(
+        1.0,
+        ge=0,
+        unit="1",
+        doc="n: the lowering scales as (S / reference_slope)^n with S the ground's fall ahead, so a stream grades "
+        "its bed to its outlet and digs no pits (0 = the seed's plain lowering)",
+    )
+    reference_slope: float = param(
+        0.05, gt=0, unit="1", doc="S_0: the fall per unit length at which the lowering is e m"
+    )
     pivot_offset: float = param(0.0, ge=0, unit="m|cell", doc="rho: rotational motion, pivot shift from the track")
     rotation_speed_deg: float = param(0.0, unit="deg/step", doc="r: rotational speed")
     rotation_angle_deg: float = param(0.0, unit="deg", doc="beta_0: initial rotation angle")
@@ -412,6 +479,7 @@ def emitter_table(emitters: list[Emitter] | dict[str, Emitter], shape: tuple[int
         t[k, ERHO], t[k, EROT] = em.pivot_offset / cell_size, -math.radians(em.rotation_speed_deg)
         t[k, EBETA] = -math.radians(em.rotation_angle_deg)
         t[k, ESTEPS] = em.steps
+        t[k, ESLOPE0], t[k, ESLOPEN] = em.reference_slope * cell_size, em.slope_exponent
         t[k, ECOSD] = math.cos(t[k, EGAMMA] / t[k, EPROBES])
         t[k, ESIND] = math.sin(t[k, EGAMMA] / t[k, EPROBES])
     return t

@@ -23,7 +23,7 @@ import numpy as np
 
 from erosim.core.errors import InputError
 from erosim.core.heightmap import Heightmap
-from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
+from erosim.erosion.particle_stream_warszawski import EDIR, EX, EY, Emitter, ParticleStream
 from erosim.scenarios.schema_common import build_terrain, terrain_facts
 from erosim.scenarios.schema_stream import HardnessSection, StreamScenario
 from erosim.scenarios.setup import Setup
@@ -111,9 +111,33 @@ def _strata_picture(z: np.ndarray, d: np.ndarray, cell_size: float) -> np.ndarra
     return np.clip(tint * shade[..., None], 0.0, 1.0)
 
 
-def canyon_figure(path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: float, spec: Strata | None) -> None:
-    """Map (relief tinted by hardness) and a north–south cross-section through the deepest cut
-    in the middle of the map (30–70 % of its width).
+def long_profile(h0: np.ndarray, h: np.ndarray, x0: float, y0: float, heading: float):
+    """The canyon's floor along the stream: distance (cells) along ``heading`` (grid radians) from
+    the emitter at (x0, y0) (column, row), and for each cell-long bin of the cut cells the lowest
+    height after and the height there before (NaN where nothing was cut)."""
+    erosion = h0 - h
+    cut = erosion > 0.02 * max(float(erosion.max()), 1e-12)
+    jj, ii = np.nonzero(cut)
+    if ii.size == 0:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    along = np.rint((ii - x0) * np.cos(heading) + (jj - y0) * np.sin(heading)).astype(int)
+    lo = along.min()
+    n = along.max() - lo + 1
+    after = np.full(n, np.inf)
+    before = np.full(n, np.nan)
+    for k, j, i in zip(along - lo, jj, ii, strict=True):
+        if h[j, i] < after[k]:
+            after[k], before[k] = h[j, i], h0[j, i]
+    after[~np.isfinite(after)] = np.nan
+    return np.arange(lo, lo + n, dtype=float), after, before
+
+
+def canyon_figure(
+    path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: float, spec: Strata | None, emitter: tuple | None = None
+) -> None:
+    """Map (relief tinted by hardness, axes in metres, scale bar), a north–south cross-section
+    through the deepest cut in the middle of the map (30–70 % of its width), and the canyon's long
+    profile along the first emitter's heading (``emitter`` = (column, row, heading in grid radians)).
 
     The section's rock is coloured by its hardness — the strata themselves when they are known
     (``spec``), else the surface hardness of each cell — under the final surface; the dashed line is
@@ -123,6 +147,7 @@ def canyon_figure(path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: floa
     from matplotlib.figure import Figure
 
     from erosim.core.atomic import atomic_path
+    from erosim.viz.plots import _scale_bar
 
     erosion = h0 - h
     ny, nx = h.shape
@@ -146,13 +171,27 @@ def canyon_figure(path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: floa
     rock = np.where(zs <= h[rows, col][None, :], rock, np.nan)
     dist = (rows - r0) * cell
 
-    fig = Figure(figsize=(10, 4.2), dpi=100)
+    fig = Figure(figsize=(15, 4.6), dpi=100)
     FigureCanvasAgg(fig)
-    ax0, ax1 = fig.add_axes([0.01, 0.08, 0.36, 0.84]), fig.add_axes([0.45, 0.14, 0.46, 0.76])
-    ax0.imshow(_strata_picture(h, d, cell), interpolation="nearest")
-    ax0.plot([col, col], [r0, r1 - 1], color="cyan", lw=1.5)
-    ax0.set_axis_off()
-    ax0.set_title("after: relief tinted by hardness", fontsize=10)
+    ax0 = fig.add_axes([0.045, 0.12, 0.25, 0.78])
+    ax1 = fig.add_axes([0.36, 0.12, 0.28, 0.78])
+    ax2 = fig.add_axes([0.73, 0.12, 0.26, 0.78])
+    km = nx * cell > 5000.0
+    f = 1e-3 if km else 1.0
+    unit = "km" if km else "m"
+    extent = (0.0, nx * cell * f, 0.0, ny * cell * f)  # x east from the west edge, y north from the south edge
+
+    def to_y(r):
+        return (ny - 0.5 - r) * cell * f
+
+    ax0.imshow(_strata_picture(h, d, cell), interpolation="nearest", extent=extent)
+    ax0.plot([(col + 0.5) * cell * f] * 2, [to_y(r0), to_y(r1 - 1)], color="cyan", lw=1.5)
+    if emitter is not None:
+        ax0.plot((emitter[0] + 0.5) * cell * f, to_y(emitter[1]), "o", mec="white", mfc="none", ms=8, mew=1.5)
+    _scale_bar(ax0, extent, km)
+    ax0.set_xlabel(f"x ({unit})")
+    ax0.set_ylabel(f"y ({unit})")
+    ax0.set_title("after: relief tinted by hardness (o: emitter)", fontsize=10)
     im = ax1.imshow(
         rock,
         extent=[dist[0], dist[-1], zs[-1, 0], zs[0, 0]],
@@ -169,6 +208,15 @@ def canyon_figure(path, h0: np.ndarray, h: np.ndarray, d: np.ndarray, cell: floa
     ax1.set_title(f"cross-section at x = {col * cell:.0f} m (cyan line)", fontsize=10)
     ax1.legend(loc="lower left", fontsize=8)
     fig.colorbar(im, ax=ax1, label="hardness (1 = unerodible)", fraction=0.05, pad=0.02)
+    if emitter is not None:
+        along, after, before = long_profile(h0, h, emitter[0], emitter[1], emitter[2])
+        ax2.plot(along * cell, before, "k--", lw=1.0, label="ground before, where the floor is")
+        ax2.plot(along * cell, after, "-", color="tab:blue", lw=1.4, label="canyon floor after")
+        ax2.legend(loc="best", fontsize=8)
+    ax2.set_xlabel("distance downstream from the emitter (m)")
+    ax2.set_ylabel("height (m)")
+    ax2.set_title("long profile along the stream", fontsize=10)
+    ax2.grid(alpha=0.3)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")
 
@@ -197,7 +245,9 @@ def write_outputs(out, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) ->
                colorbar=hard, extent=box)  # fmt: skip
     depth = {"cmap": "magma", "vmin": 0.0, "vmax": max(float(erosion.max()), 1e-9), "label": "erosion depth (m)"}
     map_figure(figs / "erosion.png", erosion, cs, "Erosion", colorbar=depth, extent=box)
-    canyon_figure(figs / "canyon.png", hm.z, stream.h, stream.d, hm.cell_size, stream.strata)
+    first = stream.table[0]
+    canyon_figure(figs / "canyon.png", hm.z, stream.h, stream.d, hm.cell_size, stream.strata,
+                  (first[EX], first[EY], first[EDIR]))  # fmt: skip
     return {
         "height_png_range": png.get("height_range"),
         "height_raw_range": raw.get("height_range"),
