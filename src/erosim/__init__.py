@@ -2,6 +2,7 @@
 
 import hashlib
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -29,26 +30,35 @@ def source_hash(pkg: Path) -> str:
 
 def _numba_cache_dir() -> None:
     """Put Numba's on-disk cache of compiled kernels in a folder named by a hash of this package's
-    sources, ``~/.cache/erosim/numba/<version>-<hash>`` (``$XDG_CACHE_HOME`` honoured).
+    sources, ``<root>/<version>-<hash>``, under ``$NUMBA_CACHE_DIR`` when the user sets it, else under
+    ``~/.cache/erosim/numba`` (``$XDG_CACHE_HOME`` honoured).
 
     Numba keys a cached function by its own file only: a jitted caller that inlines a callee from
     another file (a kernel, a boundary pass) stays cached when only the callee's file changes, so a
-    run after an edit could execute the old physics. A folder per source hash makes that impossible;
-    the newest few folders are kept. ``NUMBA_CACHE_DIR`` set by the user wins.
+    run after an edit could execute the old physics. A folder per source hash makes that impossible,
+    wherever the cache lives; the newest few such folders are kept (nothing else under a user's root
+    is touched). A ``NUMBA_CACHE_DIR`` that already names this hash's folder (as erosim passes it on to
+    the processes it starts) is used as it is.
     """
-    if os.environ.get("NUMBA_CACHE_DIR"):
+    key = f"{__version__}-{source_hash(Path(__file__).resolve().parent)}"
+    user = os.environ.get("NUMBA_CACHE_DIR")
+    if user and Path(user).name == key:
         return
-    root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "erosim" / "numba"
-    folder = root / f"{__version__}-{source_hash(Path(__file__).resolve().parent)}"
+    root = Path(user) if user else Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "erosim" / "numba"
+    folder = root / key
     try:
         folder.mkdir(parents=True, exist_ok=True)
         os.utime(folder)
-        old = sorted((p for p in root.iterdir() if p.is_dir() and p != folder), key=lambda p: p.stat().st_mtime)
+        ours = re.compile(r"\d+\.\d+\.\d+\S*-[0-9a-f]{16}$")
+        old = sorted(
+            (p for p in root.iterdir() if p.is_dir() and p != folder and ours.match(p.name)),
+            key=lambda p: p.stat().st_mtime,
+        )
         for stale in old[: max(0, len(old) - (_CACHES_KEPT - 1))]:
             import shutil
 
             shutil.rmtree(stale, ignore_errors=True)
-    except OSError:  # no writable home: Numba's default cache beside the sources
+    except OSError:  # no writable cache root: Numba's default cache beside the sources
         return
     os.environ["NUMBA_CACHE_DIR"] = str(folder)
     if "numba" in sys.modules:  # imported before erosim: its config has read the environment already

@@ -33,3 +33,19 @@ def test_the_cache_folder_is_used_by_numba(tmp_path):
     code = "import numba; import erosim; print(numba.config.CACHE_DIR)"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == str(expected)
+
+
+def test_a_users_cache_dir_is_a_root_keyed_by_the_sources_too(tmp_path):
+    """NUMBA_CACHE_DIR set by the user holds the same <version>-<hash> folder, so an edit of the
+    sources never meets a stale cache there either; a folder of the user's own is left alone."""
+    key = f"{erosim.__version__}-{erosim.source_hash(PKG)}"
+    mine = tmp_path / "notes"
+    mine.mkdir()
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    code = "import numba, os, erosim; print(numba.config.CACHE_DIR); print(os.environ['NUMBA_CACHE_DIR'])"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == [str(tmp_path / key)] * 2 and (tmp_path / key).is_dir() and mine.is_dir()
+    # a child process handed the keyed folder keeps it (no folder inside the folder)
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / key)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == [str(tmp_path / key)] * 2
