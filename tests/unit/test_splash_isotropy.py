@@ -89,3 +89,22 @@ def test_jet_layers_have_no_preferred_axis():
     # and the bearings fill the circle: every one of 16 sectors gets its share within 30 %
     counts = np.histogram(phi, bins=16, range=(-np.pi, np.pi))[0]
     assert counts.min() > 0.7 * counts.mean()
+
+
+def test_a_single_impact_digs_a_round_crater():
+    """One strike off the nodes (a crater wider than a cell): the eroded patch's radius varies by < 10 %
+    with direction and the heightmap loses the imprint's volume (node sampling of a cap: a few %)."""
+    from erosim.erosion.splash import crater_increment, crater_radius, crater_volume
+
+    r = Raster(0.0, 0.0, 0.01, 0.01, 61, 61)
+    radius, depth = 0.12, 0.03
+    dz = crater_increment(r, np.array([[0.3037, 0.2969]]), radius, np.array([depth]))
+    # the contour at half the depth, r = √(R² − (R − d/2)²) = 0.0638 m (about 6 cells): well resolved,
+    # where the edge at a = 0.0794 m is cut off by the nodes to within a cell
+    half = float(np.sqrt(radius**2 - (radius - depth / 2) ** 2))
+    front = _front(-dz, 30.37, 29.69, 0.5 * depth) * r.dx
+    assert (front.max() - front.min()) / front.mean() < 0.10, front  # the issue's bound
+    assert abs(front.mean() - half) < 0.5 * r.dx  # linear interpolation between nodes: within half a cell
+    assert float(crater_radius(radius, depth)) < 0.3  # the crater lies within the map
+    vol = -dz.sum() * r.cell_area
+    assert abs(vol - float(crater_volume(radius, depth))) < 0.05 * vol  # midpoint sum of a smooth cap
