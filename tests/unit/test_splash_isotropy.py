@@ -29,12 +29,12 @@ def test_point_source_wets_a_disk_and_conserves_water():
     """Water fed into one surface particle of uniform dry ground (Darcy absorption, then moisture
     diffusion): the wet front's radius varies by < 10 % with direction, and the water in the ground is
     what was absorbed, to rounding."""
-    r = Raster(0.0, 0.0, 0.05, 0.05, 25, 25)
+    r = Raster(0.0, 0.0, 0.05, 0.05, 17, 17)  # 32 × 32 columns: the front stays 10 spacings from the edges
     g = PorousGround(r, np.zeros(r.shape), 0.025, 2, 0.4, 0.0, 2650.0)
     w = g.weights(2.0e-3)
-    c = int(g.column_of(np.array([[0.6 - 1e-9, 0.6 - 1e-9]]))[0])
+    c = int(g.column_of(np.array([[0.4 - 1e-9, 0.4 - 1e-9]]))[0])
     absorbed = 0.0
-    for _ in range(150):
+    for _ in range(30):  # 0.6 s: the front ~5 spacings out, where a lattice's anisotropy shows (it fades later)
         taken, gained = absorb(np.array([5.0e-6]), np.array([c]), g.theta, g.pore, g.area, 1.0e-2, 0.02)
         g.theta += gained / g.pore
         absorbed += float(taken.sum())
@@ -43,9 +43,10 @@ def test_point_source_wets_a_disk_and_conserves_water():
     # ~1e-6 m³: rounding ~1e-15 relative per term)
     assert abs(g.water() - absorbed) <= 1e-12 * absorbed
     theta = g.theta[: g.ncol].reshape(g.ncy, g.ncx)
-    radius = _front(theta, c % g.ncx, c // g.ncx, 0.05 * theta.max())
+    radius = _front(theta, c % g.ncx, c // g.ncx, 1e-3 * theta.max())  # the wet front's leading edge
     assert radius.min() > 3.0  # the front has moved several spacings: a disk, not one particle
-    # the isotropy bound of the issue: < 10 % spread of the front's radius with direction
+    # the isotropy bound of the issue: < 10 % spread of the front's radius with direction (measured 1.0 %;
+    # moisture exchanged between axis neighbours only, a 5-point stencil in plan, spreads 12 %)
     assert (radius.max() - radius.min()) / radius.mean() < 0.10, radius
 
 
