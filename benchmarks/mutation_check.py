@@ -404,6 +404,21 @@ MUTATIONS = (
         ("tests/unit/test_particle_stream_graded.py",),
         "the particle stream's gradation ignores the fall ahead and cuts below it (a closed trough)",
     ),
+    Mutation(
+        "jet-layers-unturned",
+        "coupling/sources.py",
+        (("s.add_fluid(self.turned(self.events), self.vel, source=self.name)",
+          "s.add_fluid(self.layer, self.vel, source=self.name)"),),  # fmt: skip
+        ("tests/unit/test_splash_isotropy.py",),
+        "a 3-D jet's lattice disc (a '+' at radius ~Δx) falls unturned: wet patch and crater '+'-shaped",
+    ),
+    Mutation(
+        "ground-moisture-axis-neighbours-only",
+        "coupling/porous_ground.py",
+        (("i, j, _ = pairs_within(self.pos, 1.1 * self.h)", "i, j, _ = pairs_within(self.pos, 1.01 * self.s)"),),
+        ("tests/unit/test_splash_isotropy.py",),
+        "moisture diffuses only between axis neighbours (a 5-point stencil in plan) instead of the kernel's support",
+    ),
 )
 
 

@@ -16,7 +16,10 @@ checkpoint state), acting between steps.
   fraction carried over), each dropped in a node chosen with probability ∝ p_k, at a random point of
   its cell, ``height`` above the ground (or the water already there);
 * :class:`PointInflow` — a vertical jet of discharge Q (m³/s) from a disc of radius r at a height
-  above the ground: a lattice layer of the disc every Δx/u seconds at u = Q/(area of the layer);
+  above the ground: a lattice layer of the disc every Δx/u seconds at u = Q/(area of the layer), each
+  layer turned about the jet's axis by the golden angle from the one before (in 3-D), so the stream
+  has no preferred direction (a lattice disc of radius ~Δx is a "+" of five particles; stacked
+  unturned it lands as four axis-aligned streams and wets and digs a "+");
 * :class:`EdgeOutflow` — particles beyond an open map edge are removed and counted;
 * :class:`OutsideOutflow` — particles over a DEM's nodata (the node nearest them outside the
   terrain) are removed and counted, as at an open edge.
@@ -36,6 +39,8 @@ from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 
 EDGES = ("west", "east", "south", "north")
+#: the golden angle π(3 − √5) (rad): successive turns by it never repeat and fill the circle evenly (Vogel 1979)
+GOLDEN_ANGLE = float(np.pi * (3.0 - np.sqrt(5.0)))
 
 
 def lake_particles(raster: Raster, ground: np.ndarray, level: float, spacing: float, dim: int,
@@ -198,6 +203,7 @@ class PointInflow(_Source):
         top = float(sample(raster, ground, pts).max()) + height
         pts[:, d - 1] = top
         self.layer = pts
+        self.centre = centre
         area = len(cols) * dx ** (d - 1)
         self.speed = float(discharge) / area  # m/s through the layer
         if self.speed <= 0:
@@ -216,7 +222,20 @@ class PointInflow(_Source):
         self.carry = due - layers
         for _ in range(layers):
             self.events += 1
-            s.add_fluid(self.layer, self.vel, source=self.name)
+            s.add_fluid(self.turned(self.events), self.vel, source=self.name)
+
+    def turned(self, event: int) -> np.ndarray:
+        """The layer of ``event``, turned about the jet's axis by ``event`` golden angles π(3 − √5) (3-D):
+        a rigid turn (the particles' spacings are kept), and successive layers cover every direction evenly."""
+        if self.solver.dim != 3:
+            return self.layer
+        a = event * GOLDEN_ANGLE
+        c, s = np.cos(a), np.sin(a)
+        out = self.layer.copy()
+        rel = self.layer[:, :2] - self.centre
+        out[:, 0] = self.centre[0] + c * rel[:, 0] - s * rel[:, 1]
+        out[:, 1] = self.centre[1] + s * rel[:, 0] + c * rel[:, 1]
+        return out
 
 
 class EdgeOutflow:
