@@ -569,9 +569,18 @@ def setup(scenario, out) -> Setup:
             **{"warning": w for w in out.warnings if w.startswith(EROSION_NOTES)},  # noqa: B035 (one at most)
         }
 
+    assumed: list[str] = []
+    if cfg.terrain.shape == "heightmap" and cfg.terrain.uses_file and not cfg.terrain.voxels_file:
+        from erosim.scenarios.schema_common import build_terrain as heightmap
+        from erosim.scenarios.schema_common import terrain_facts
+
+        assumed = terrain_facts(heightmap(cfg.terrain, cfg.seed), cfg.terrain)[1]
+        assumed.append(f"voxels: {terrain.shape[2]} × {terrain.shape[1]} × {terrain.shape[0]} nodes of "
+                       f"{terrain.cell_size:g} m, particles of {cfg.sph.spacing:g} m (voxels.scale = "
+                       f"'{scenario.config.voxels.scale}')")  # fmt: skip
     return Setup(
         models=[solver], callbacks=callbacks, stop_time=run.t_end, unit="s", report=report_fn, summary=summary,
-        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed,
+        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, assumed=assumed,
     )  # fmt: skip
 
 
