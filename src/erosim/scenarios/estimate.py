@@ -8,7 +8,11 @@ time from ``report.json``; ``docs/performance.md``):
   (``erosim run hydrology --set terrain.size=N --set run.cycles=1``, N = 512, 1024, 2048);
 * map cells (particle stream): 180 B and 3 µs per cell; 0.45 µs per particle update (2.2·10⁶/s);
 * SPH particles: 800 B each (fluid, walls and neighbour lists; ``erosim bench sph`` at 10⁵ and 10⁶),
-  1·10⁶ particle-steps/s per core, steps from the CFL limit 0.2·h/c with the auto sound speed;
+  2.2·10⁶ particle-steps/s per core, 1.5 ms per step and 10 s of start (``spheric2`` at 0.05, 0.03 and
+  0.025 m: 32, 137 and 230 s, estimated 39, 138 and 242 s); steps from the solver's limit C·h_s/(c + v),
+  h_s = h/2, with the auto sound speed and v the free fall's speed (12 161 steps at 0.025 m, 11 694
+  estimated); ``sph-terrain``, ``splash`` and ``voxel`` runs add their own passes (:func:`from_solver`,
+  :func:`voxel`);
 * floods: the reservoir filled from the scenario (a DEM read and a labelling, well under a second); shallow
   water: 250 B per particle, 80 B per map cell, 3.5·10⁵ particle-steps/s (``erosim bench flood``),
   Δt = 0.15·H/(3√(g d_max)); 3-D SPH: as SPH particles above, with the sound speed 10√(2g·fall);
