@@ -89,7 +89,7 @@ def test_rain_splash_on_a_users_dem_writes_wetness_on_its_grid(tmp_path):
     assert rep["water_budget"]["absorbed"] > 0 and rep["impacts"]["count"] > 0  # no evaporation: all by seepage
     # values for 5 cm cells, scaled to the DEM's 1 m by Froude similarity: λ = 20, times × √20
     assert rep["froude_scale"] == pytest.approx(20.0) and rep["t_end"] == pytest.approx(0.3 * math.sqrt(20.0))
-    assert any("Froude similarity" in w for w in rep["warnings"])
+    assert any("Froude similarity" in a and "run.t_end 0.3 → 1.342 s" in a for a in rep["assumed"])
 
 
 def test_rain_splash_through_the_cli_on_a_dem_with_nodata_and_a_60_degree_slope(tmp_path):
@@ -119,7 +119,8 @@ def test_rain_splash_through_the_cli_on_a_dem_with_nodata_and_a_60_degree_slope(
         cmd += ["--set", f"{k}={v}"]
     done = subprocess.run(cmd, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    assert "assumed: nodata: 9 cells" in done.stderr and "assumed: size: about" in done.stderr
+    assert "assumed: nodata: 9 cells" in done.stderr
+    assert "rain-splash: about " in done.stderr and "of memory and" in done.stderr  # the estimate, before the run
     rep = json.loads((out / "report.json").read_text())
     assert rep["status"] == "completed" and rep["t"] >= rep["t_end"]
     assert rep["terrain"]["nodata_cells"] == 9 and rep["terrain"]["shape"] == [n, n]

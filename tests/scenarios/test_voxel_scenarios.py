@@ -68,6 +68,16 @@ def test_mountain_lake_turns_any_dem_into_voxels_and_refuses_one_too_large(tmp_p
     rep = json.loads((tmp_path / "dem" / "report.json").read_text())
     assert rep["resolution"]["spacing"] == 1.0 and rep["voxels"]["cell_size_m"] == 1.0
     assert rep["particles_inside_solid"] == 0
+    import rasterio
+
+    maps = tmp_path / "dem" / "maps"
+    with rasterio.open(maps / "height.tif") as ds:  # the DEM's grid, north up
+        height = ds.read(1)
+    # the top surface of the voxels is the DEM's plane to float32 rounding of the ramp (as the profile above)
+    assert height.shape == dem.shape and np.allclose(height, dem, atol=1e-3)
+    for name in ("height_initial", "erosion", "deposition", "water_depth"):
+        assert (maps / f"{name}.tif").is_file()
+    assert rep["maps"]["water_depth"]["min"] >= 0.0
     code, text = _cli("run", "mountain-lake", "--out", str(tmp_path / "big"), "--set",
                       f"terrain.file={tmp_path / 'dem.npy'}", "--set", "voxels.max_bytes=2000")  # fmt: skip
     assert code != 0 and "use voxels of at least" in " ".join(text.split()), text

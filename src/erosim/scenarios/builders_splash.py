@@ -127,6 +127,26 @@ def froude_scaled(cfg: SplashScenario, cell: float) -> tuple[SplashScenario, flo
     return out, lam
 
 
+def coarsening(raster, fluid_spacing: float, ground_spacing: float, layers: int, most: int) -> tuple[float, float]:
+    """The fluid and ground spacings, grown together (their ratio kept) so that the porous ground's columns
+    (whole ground spacings across the map) times ``layers`` stay within ``most`` particles: unchanged when they
+    fit or ``most`` is 0, else the fluid spacing rounded up to two significant digits."""
+    w, h = (raster.nx - 1) * raster.dx, (raster.ny - 1) * raster.dy
+    ratio = fluid_spacing / ground_spacing
+
+    def count(s: float) -> int:
+        return int(w // s) * int(h // s) * layers
+
+    if most <= 0 or count(ground_spacing) <= most:
+        return fluid_spacing, ground_spacing
+    dx = fluid_spacing * math.sqrt(count(ground_spacing) / most)
+    step = 10.0 ** (math.floor(math.log10(dx)) - 1)
+    dx = math.ceil(dx / step - 1e-9) * step
+    while count(dx / ratio) > most:
+        dx += step
+    return dx, dx / ratio
+
+
 def drop_column(cfg: SplashScenario, geo, dx: float, h: float) -> tuple[np.ndarray, np.ndarray]:
     """Positions and velocities of the drops: a column over the patch's centre, the first one support h
     (plus half a spacing) above the ground."""
@@ -278,23 +298,76 @@ def hollow_depth(z: np.ndarray) -> np.ndarray:
     return reconstruction(seed, z, method="erosion") - z
 
 
+def footprint_volume(raster, xy: np.ndarray, volume: np.ndarray, side: float) -> np.ndarray:
+    """Volumes (m³, one per node's cell) of water spread from points ``xy`` over the square footprints of
+    ``side`` metres centred on them, each cell taking the share of a footprint that it covers (the cells are
+    the nodes' squares); a footprint's share beyond the map goes to the cells it covers inside, so the
+    volume is conserved: Σ = Σ ``volume``."""
+    nx, ny, dx, dy = raster.nx, raster.ny, raster.dx, raster.dy
+    out = np.zeros(ny * nx)
+    if len(xy) == 0:
+        return out.reshape(ny, nx)
+    a = max(float(side), 1e-12)
+
+    def weights(c, x0, d, n):
+        """Per axis: node indices (m, k) and the footprint's share of each (rows sum to 1 inside the map)."""
+        lo = (c - 0.5 * a - x0) / d
+        first = np.floor(lo + 0.5).astype(np.int64)
+        m = int(math.ceil(a / d)) + 1
+        idx = first[:, None] + np.arange(m)[None, :]
+        cell_lo = x0 + (idx - 0.5) * d
+        w = np.clip(np.minimum(c[:, None] + 0.5 * a, cell_lo + d) - np.maximum(c[:, None] - 0.5 * a, cell_lo), 0.0,
+                    None)  # fmt: skip
+        w = np.where((idx >= 0) & (idx < n), w, 0.0)
+        total = w.sum(axis=1, keepdims=True)
+        return np.clip(idx, 0, n - 1), w / np.where(total > 0, total, 1.0), total[:, 0] > 0
+
+    ix, wx, okx = weights(np.asarray(xy[:, 0], np.float64), raster.x0, dx, nx)
+    iy, wy, oky = weights(np.asarray(xy[:, 1], np.float64), raster.y0, dy, ny)
+    vol = np.where(okx & oky, np.asarray(volume, np.float64), 0.0)
+    for j in range(iy.shape[1]):
+        for i in range(ix.shape[1]):
+            out += np.bincount(iy[:, j] * nx + ix[:, i], vol * wy[:, j] * wx[:, i], ny * nx)
+    return out.reshape(ny, nx)
+
+
+def pond(z: np.ndarray, hollows: np.ndarray, volume: np.ndarray, cell_area: float) -> np.ndarray:
+    """Depth (m) of the water ``volume`` (m³ per cell) that lies in each closed hollow (``hollows`` > 0, its
+    depth below the spill level; 8-connected cells form one hollow) standing level in it: the level L with
+    Σ max(L − z, 0)·A = the hollow's water, at most its spill level (water beyond spills and is not
+    counted). Depths are those of a physical volume on the grid, however large the particles."""
+    from scipy import ndimage
+
+    depth = np.zeros_like(z, dtype=np.float64)
+    labels, n = ndimage.label(hollows > 0, structure=np.ones((3, 3)))
+    if n == 0:
+        return depth
+    held = ndimage.sum_labels(volume, labels, np.arange(1, n + 1))
+    for k in np.nonzero(held > 0)[0]:
+        cells = labels == k + 1
+        zc = z[cells]
+        spill = float((zc + hollows[cells]).max())
+        order = np.sort(zc)
+        # volume to fill up to each cell's bottom: A·Σ_{j<i} (z_i − z_j)
+        below = cell_area * (np.arange(len(order)) * order - np.concatenate([[0.0], np.cumsum(order)[:-1]]))
+        i = int(np.searchsorted(below, held[k], side="right")) - 1
+        level = order[i] + (held[k] - below[i]) / (cell_area * (i + 1))
+        depth[cells] = np.maximum(min(level, spill) - zc, 0.0)
+    return depth
+
+
 def standing_water(wet: WetGround, raster, hollows: np.ndarray) -> np.ndarray:
-    """Puddles (m): the water the fluid particles still hold (V_p times their ``water`` share) over each
-    node's cell, at the nodes of closed hollows (``hollows`` > 0) — water that stands because it
-    cannot run off; water elsewhere is on its way down the slope and not counted."""
+    """Puddles (m): the water the fluid particles still hold (V_p times their ``water`` share), spread over
+    each particle's footprint (a square of the fluid spacing: :func:`footprint_volume`), gathered by closed
+    hollow (``hollows`` > 0) and standing level in it (:func:`pond`) — water that stands because it cannot
+    run off; water elsewhere is on its way down the slope and not counted."""
     st = wet.solver.state
     nf = st.n_fluid
-    depth = np.zeros(hollows.shape)
     if nf == 0:
-        return depth
+        return np.zeros(hollows.shape)
     pos = st.pos[:nf].astype(np.float64)
-    ix = np.floor((pos[:, 0] - raster.x0) / raster.dx + 0.5).astype(np.int64)
-    iy = np.floor((pos[:, 1] - raster.y0) / raster.dy + 0.5).astype(np.int64)
-    inside = (ix >= 0) & (ix < raster.nx) & (iy >= 0) & (iy < raster.ny)
-    vol = st.water[:nf][inside] * wet.vp
-    flat = np.bincount(iy[inside] * raster.nx + ix[inside], vol, raster.nx * raster.ny)
-    depth = flat.reshape(raster.ny, raster.nx) / raster.cell_area
-    return np.where(hollows > 0, depth, 0.0)
+    volume = footprint_volume(raster, pos[:, :2], st.water[:nf] * wet.vp, wet.solver.params.spacing)
+    return pond(wet.terrain, hollows, volume, raster.cell_area)
 
 
 class SplashOutputs(cb.Callback):
@@ -376,6 +449,11 @@ def setup(scenario, out) -> Setup:
     cfg, lam = froude_scaled(cfg, geo.raster.dx)
     s_ground = ground_spacing(dx, cfg.ground)
     r = geo.raster
+    coarsened = None
+    if cfg.drop is None:
+        fitted = coarsening(r, dx, s_ground, cfg.ground.layers, cfg.scale.max_ground)
+        if fitted != (dx, s_ground):
+            coarsened, (dx, s_ground) = (dx, s_ground), fitted
     span = min((r.nx - 1) * r.dx, (r.ny - 1) * r.dy)
     if span < 2 * s_ground:
         raise ConfigError(
@@ -384,12 +462,13 @@ def setup(scenario, out) -> Setup:
         )
     solver = build_solver(cfg, geo, dx)
     gs = cfg.ground
-    columns = int(((r.nx - 1) * r.dx) // s_ground) * int(((r.ny - 1) * r.dy) // s_ground)
+    columns = columns_for(r, s_ground)
     if columns * gs.layers > MAX_GROUND:
         raise ConfigError(
             f"The ground would need {columns * gs.layers:.3g} particles of {s_ground:g} m, more than the "
-            f"{MAX_GROUND:.0e} that fit in a laptop's memory (about 1 kB each with their pairs); raise "
-            "scale.spacing_cells (up to 2) or sph.spacing, or lower ground.layers."
+            f"{MAX_GROUND:.0e} that fit in a laptop's memory (about 1 kB each with their pairs); leave "
+            "scale.max_ground at its default (the particles are then coarsened to fit), or give a coarser "
+            "ground.spacing (0: the fluid's) or fewer ground.layers."
         )
     perm = None
     if gs.topsoil_layers > 0:
@@ -418,12 +497,14 @@ def setup(scenario, out) -> Setup:
                             "particles or rain there; water reaching them leaves and counts in "
                             "water_budget.left_nodata); the maps keep them as nodata.")  # fmt: skip
         if lam != 1.0:
-            assumed.append(f"scaled: the scenario's values are for {cfg.scale.reference_cell:g} m cells, scaled to "
-                           f"{r.dx:g} m by Froude similarity (λ = {lam:.4g}; heights and lengths × λ, times and "
-                           f"speeds × √λ): t_end {cfg.run.t_end:.4g} s, rain from {cfg.rain.height:.4g} m")  # fmt: skip
+            assumed.append(scaling_line(scenario.config, cfg, lam, r.dx))
+        if coarsened is not None:
+            assumed.append(f"particles: the fluid's {coarsened[0]:.3g} m and the ground's {coarsened[1]:.3g} m would "
+                           f"need {columns_for(r, coarsened[1]) * gs.layers:,} ground particles on this "
+                           f"{(r.nx - 1) * r.dx:g} m × {(r.ny - 1) * r.dy:g} m terrain; both are coarsened to "
+                           f"{dx:.3g} m and {s_ground:.3g} m ({ground.n:,} ground particles; scale.max_ground = "
+                           f"{cfg.scale.max_ground:,}: raise it for finer particles, 0 never to coarsen)")  # fmt: skip
     cost = run_cost(cfg, solver, ground)
-    if cfg.drop is None:
-        assumed.append(cost["line"])
     if cfg.rain.rate > 0:
         chance = terrain_kind._rain_map(cfg, geo)
         if geo.nodata is not None:
@@ -456,7 +537,7 @@ def setup(scenario, out) -> Setup:
         if facts is not None:
             rep["terrain"] = {**facts, **rep["terrain"]}
             rep["assumed"] = assumed
-        rep["cost_estimate"] = {k: v for k, v in cost.items() if k != "line"}
+        rep["cost_estimate"] = {k: v for k, v in cost.items() if k != "estimate"}
         left = outside.left if outside is not None else {"water": 0.0, "mud": 0.0}
         rep["water_budget"]["left_nodata"] = left["water"] * wet.vp  # part of left_edges
         rep["solid_budget"]["mud_left_nodata"] = left["mud"] * wet.vp  # part of mud_left_edges
@@ -477,15 +558,30 @@ def setup(scenario, out) -> Setup:
         out["wall_time_s"] = round(sim.wall_time, 2)
         return out
 
-    if lam != 1.0:  # a warning, not only an assumption: values given with --set are scaled too
-        warnings.append(f"The scenario's values are for {cfg.scale.reference_cell:g} m cells; on these "
-                        f"{geo.raster.dx:g} m cells they are scaled by Froude similarity (λ = {lam:.4g}): lengths × "
-                        f"λ, times and speeds × √λ (t_end {run.t_end:.4g} s).")  # fmt: skip
-
     return Setup(
         models=[solver], callbacks=callbacks, stop_time=run.t_end, unit="s", report=report, summary=summary,
         checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, warnings=warnings, assumed=assumed,
+        estimate=cost["estimate"],
     )  # fmt: skip
+
+
+def columns_for(raster, spacing: float) -> int:
+    """Columns of porous ground of ``spacing`` m on the map (whole spacings across it)."""
+    return int(((raster.nx - 1) * raster.dx) // spacing) * int(((raster.ny - 1) * raster.dy) // spacing)
+
+
+def scaling_line(given: SplashScenario, scaled: SplashScenario, lam: float, cell: float) -> str:
+    """One line that says how :func:`froude_scaled` changed the values one reads most (times, rain)."""
+    pairs = [("run.t_end", given.run.t_end, scaled.run.t_end, "s")]
+    if given.run.rain_until is not None:
+        pairs.append(("run.rain_until", given.run.rain_until, scaled.run.rain_until, "s"))
+    if given.rain.rate > 0:
+        pairs += [("rain.rate", given.rain.rate, scaled.rain.rate, "mm/h"),
+                  ("rain.height", given.rain.height, scaled.rain.height, "m")]  # fmt: skip
+    changes = ", ".join(f"{k} {a:.4g} → {b:.4g} {u}" for k, a, b, u in pairs)
+    return (f"scaled: the scenario's values are for {given.scale.reference_cell:g} m cells; on these {cell:g} m cells "
+            f"every dimensional value (--set ones too) is scaled by Froude similarity, λ = {lam:.4g} (lengths × λ, "
+            f"times and speeds × √λ = {math.sqrt(lam):.4g}): {changes}")  # fmt: skip
 
 
 def surface_wetness(wet: WetGround, geo) -> dict[str, float]:
@@ -500,6 +596,8 @@ def surface_wetness(wet: WetGround, geo) -> dict[str, float]:
 #: pair at each coupling: fitted to the 80 × 80 DEM of docs/splash.md (490 s: 26 s of SPH steps, 442 s of
 #: seepage passes over 5.6·10⁶ pairs) and checked on an 18 × 18 one (estimate 3.6 s, measured 3.1 s)
 STEP_S, PARTICLE_STEP_S, PAIR_COUPLING_S = 2.0e-3, 3.0e-6, 4.5e-8
+#: bytes per ground particle (its state and cell lists) and per diffusion pair (two indices and a weight)
+GROUND_BYTES, PAIR_BYTES = 400.0, 24.0
 
 
 def run_cost(cfg: SplashScenario, solver, ground: PorousGround) -> dict[str, Any]:
@@ -514,15 +612,18 @@ def run_cost(cfg: SplashScenario, solver, ground: PorousGround) -> dict[str, Any
         fluid += int(rained / solver.params.spacing**3)
     pairs = len(ground.i)
     seconds = steps * (STEP_S + PARTICLE_STEP_S * 0.5 * fluid + PAIR_COUPLING_S * pairs / cfg.run.every)
-    m = int(round(seconds / 60))
-    when = f"{seconds:.0f} s" if seconds < 90 else f"{m} min"
+    from erosim.scenarios.estimate import BASE_BYTES, SPH_PARTICLE_BYTES, START_S, Estimate
+
+    seconds += START_S
     dx = solver.params.spacing
-    line = (f"size: about {steps:,} steps of {dt:.3g} s, up to {fluid:,} fluid particles of {dx:.3g} m, "
+    what = (f"about {steps:,} steps of {dt:.3g} s, up to {fluid:,} fluid particles of {dx:.3g} m, "
             f"{ground.n:,} ground particles of {ground.s:.3g} m ({ground.ncol:,} columns × {ground.layers} layers, "
-            f"{pairs:,} diffusion pairs): roughly {when} of one core's time; less with a coarser ground.spacing, fewer "
-            "ground.layers or a shorter run.t_end")  # fmt: skip
+            f"{pairs:,} diffusion pairs)")  # fmt: skip
+    memory = BASE_BYTES + SPH_PARTICLE_BYTES * fluid + GROUND_BYTES * ground.n + PAIR_BYTES * pairs
+    fix = "coarsen ground.spacing, lower ground.layers or shorten run.t_end"
+    est = Estimate(what, memory, seconds, fix)
     return {"steps": steps, "dt_s": dt, "fluid_particles": fluid, "ground_particles": ground.n,
-            "ground_pairs": pairs, "seconds": seconds, "line": line}  # fmt: skip
+            "ground_pairs": pairs, "seconds": seconds, "memory_bytes": memory, "estimate": est}  # fmt: skip
 
 
 def splash_report(cfg: SplashScenario, geo, dx: float, solver, wet: WetGround, sim) -> dict[str, Any]:

@@ -20,6 +20,8 @@ A run leaves
   embankment's upstream toe (a heightmap: along the middle row, x in the terrain's frame), every
   ``run.profile_interval``; ``figures/profiles.png`` with the profiles every ``run.figure_interval``
   (and the last);
+* ``maps/`` (a heightmap's voxels): height.tif, height_initial.tif, erosion.tif, deposition.tif and
+  water_depth.tif on the DEM's grid with its CRS (:class:`VoxelMaps`);
 * ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y}: the first
   node, solid at the start, that the eroded surface has passed (density at or below the iso level),
   ``first_transfer`` the same for the first quantum moved (:mod:`erosim.coupling.voxel_coupler`), the
@@ -365,6 +367,51 @@ class VoxelOutputs(cb.Callback):
         return out
 
 
+class VoxelMaps(cb.Callback):
+    """``maps/`` of a heightmap's voxels at the end, on the DEM's grid with its CRS (the field's node columns:
+    the DEM's nodes at ``voxels.scale = "dem"``, else a grid of the voxels' size from the DEM's first node):
+    height.tif and height_initial.tif (the top surface, :func:`top_surface`), erosion.tif and
+    deposition.tif (its lowering and raising, m) and water_depth.tif (the fluid's volume over each column:
+    each particle's Δx³ spread over its footprint, :func:`erosim.scenarios.builders_splash.footprint_volume`)."""
+
+    def __init__(self, terrain, solver, dem, out):
+        super().__init__(Schedule(), name="maps")
+        from erosim.core.heightmap import Heightmap, transform_of
+
+        self.terrain, self.solver, self.out = terrain, solver, out
+        self.initial = top_surface(terrain)
+        ny, nx = self.initial.shape
+        c = terrain.cell_size
+        a, b, x0, d, e, y0 = transform_of(dem)
+        south = y0 + e * (dem.z.shape[0] - 0.5)  # the DEM's southern nodes' y (e < 0)
+        transform = (c, 0.0, x0 + 0.5 * a - 0.5 * c, 0.0, -c, south + (ny - 1) * c + 0.5 * c)
+        self.like = Heightmap(np.zeros((ny, nx)), c, crs=dem.crs, transform=transform)
+
+    def finalize(self, sim) -> dict[str, Any]:
+        from erosim.coupling.raster import Raster
+        from erosim.io import heightmaps as hio
+        from erosim.scenarios.builders_splash import footprint_volume
+
+        now = top_surface(self.terrain)
+        ny, nx = now.shape
+        c = self.terrain.cell_size
+        x0, y0 = float(self.terrain.lo[0]), float(self.terrain.lo[1])
+        pos = self.solver.fluid_positions()
+        dx = self.solver.params.spacing
+        volume = footprint_volume(Raster(x0, y0, c, c, nx, ny), pos[:, :2], np.full(len(pos), dx**3), dx)
+        fields = {"height": now, "height_initial": self.initial, "erosion": np.maximum(self.initial - now, 0.0),
+                  "deposition": np.maximum(now - self.initial, 0.0), "water_depth": volume / (c * c)}  # fmt: skip
+        written = {}
+        for name, arr in fields.items():
+            north_up = np.ascontiguousarray(arr[::-1])
+            if name.startswith("height"):
+                hio.write(self.out.maps / f"{name}.tif", north_up, like=self.like)
+            else:
+                hio.write_raster(self.out.maps / f"{name}.tif", north_up.astype(np.float32), self.like)
+            written[name] = {"path": f"maps/{name}.tif", "min": float(arr.min()), "max": float(arr.max())}
+        return {"maps": written}
+
+
 def surface_figure(path, start, end, water: np.ndarray, t: float, name: str) -> Path:
     """``figures/surface.png``: the surface at the start tinted by height, and at ``t`` coloured by the lowering
     of the top surface (per node column, on faces facing up) with the ``water`` particles as dots."""
@@ -569,9 +616,21 @@ def setup(scenario, out) -> Setup:
             **{"warning": w for w in out.warnings if w.startswith(EROSION_NOTES)},  # noqa: B035 (one at most)
         }
 
+    assumed: list[str] = []
+    if cfg.terrain.shape == "heightmap" and not cfg.terrain.voxels_file:
+        from erosim.scenarios.schema_common import build_terrain as heightmap
+        from erosim.scenarios.schema_common import terrain_facts
+
+        dem = heightmap(cfg.terrain, cfg.seed)
+        callbacks.append(VoxelMaps(terrain, solver, dem, out))
+    if cfg.terrain.shape == "heightmap" and cfg.terrain.uses_file and not cfg.terrain.voxels_file:
+        assumed = terrain_facts(dem, cfg.terrain)[1]
+        assumed.append(f"voxels: {terrain.shape[2]} × {terrain.shape[1]} × {terrain.shape[0]} nodes of "
+                       f"{terrain.cell_size:g} m, particles of {cfg.sph.spacing:g} m (voxels.scale = "
+                       f"'{scenario.config.voxels.scale}')")  # fmt: skip
     return Setup(
         models=[solver], callbacks=callbacks, stop_time=run.t_end, unit="s", report=report_fn, summary=summary,
-        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed,
+        checkpoint_wall_s=run.checkpoint_wall_s, seed=cfg.seed, assumed=assumed,
     )  # fmt: skip
 
 

@@ -8,7 +8,11 @@ time from ``report.json``; ``docs/performance.md``):
   (``erosim run hydrology --set terrain.size=N --set run.cycles=1``, N = 512, 1024, 2048);
 * map cells (particle stream): 180 B and 3 µs per cell; 0.45 µs per particle update (2.2·10⁶/s);
 * SPH particles: 800 B each (fluid, walls and neighbour lists; ``erosim bench sph`` at 10⁵ and 10⁶),
-  1·10⁶ particle-steps/s per core, steps from the CFL limit 0.2·h/c with the auto sound speed;
+  2.2·10⁶ particle-steps/s per core, 1.5 ms per step and 10 s of start (``spheric2`` at 0.05, 0.03 and
+  0.025 m: 32, 137 and 230 s, estimated 39, 138 and 242 s); steps from the solver's limit C·h_s/(c + v),
+  h_s = h/2, with the auto sound speed and v the free fall's speed (12 161 steps at 0.025 m, 11 694
+  estimated); ``sph-terrain``, ``splash`` and ``voxel`` runs add their own passes (:func:`from_solver`,
+  :func:`voxel`);
 * floods: the reservoir filled from the scenario (a DEM read and a labelling, well under a second); shallow
   water: 250 B per particle, 80 B per map cell, 3.5·10⁵ particle-steps/s (``erosim bench flood``),
   Δt = 0.15·H/(3√(g d_max)); 3-D SPH: as SPH particles above, with the sound speed 10√(2g·fall);
@@ -30,7 +34,10 @@ from erosim.core.errors import ConfigError
 BASE_BYTES = 250e6
 HYDRO_CELL_BYTES, HYDRO_CELL_S, HYDRO_CELL_CYCLE_S = 315.0, 2e-6, 0.25e-6
 STREAM_CELL_BYTES, STREAM_CELL_S, STREAM_UPDATE_S = 180.0, 3e-6, 0.45e-6
-SPH_PARTICLE_BYTES, SPH_STEPS_PER_CORE_S = 800.0, 1e6
+SPH_PARTICLE_BYTES, SPH_STEPS_PER_CORE_S = 800.0, 2.2e6
+#: a run's start (imports, loading the compiled kernels, final outputs) and each SPH step's fixed cost
+#: (Python, callbacks, neighbour-list bookkeeping): dam-break-2d, 2 576 particles, 9 586 steps in 42.5 s
+START_S, SPH_STEP_S = 10.0, 1.5e-3
 GRID_CELL_BYTES = 200.0  # the sph-terrain coupler's maps per cell
 
 
@@ -40,6 +47,7 @@ class Estimate:
     memory: float  # bytes
     seconds: float | None  # rough wall time; None when the sizes do not tell
     fix: str  # what makes the run smaller
+    steps: float | None = None  # SPH steps to the end, where the kind counts them
 
     def line(self) -> str:
         time = f" and {_duration(self.seconds)}" if self.seconds is not None else ""
@@ -113,13 +121,48 @@ def map_cells(terrain) -> int | None:
     return None if size is None else size[0]
 
 
+def sph_steps(t_end: float, c: float, v: float, cfl: float, support: float) -> float:
+    """Steps to ``t_end`` at the solver's CFL limit Δt = C·h_s/(c + v), h_s = h/2 the smoothing length
+    (``erosim.sph.integrators.step_limit``), v the fastest water expected."""
+    return t_end * (c + v) / (cfl * 0.5 * support)
+
+
+def sph_seconds(particles: float, steps: float, step_extra_s: float = 0.0, rate: float | None = None) -> float:
+    """Wall time of ``steps`` SPH steps over ``particles`` (fluid and boundary, the mean over the run): the
+    start (imports, compiled kernels, final outputs), a fixed cost per step and the particle-steps (``rate``
+    per core and second; SPH_STEPS_PER_CORE_S by default)."""
+    per_core = rate or SPH_STEPS_PER_CORE_S
+    return START_S + steps * (SPH_STEP_S + step_extra_s + particles / (per_core * _cores()))
+
+
 def _sph_steps(params, top: float, floor: float, t_end: float, speed: float) -> float | None:
-    """Steps to ``t_end`` at the CFL limit with the solver's sound speed (``SPHParams.sound_speed_for``);
-    None when nothing sets a speed (no gravity, fluid at rest, no sound speed)."""
+    """Steps to ``t_end`` at the CFL limit with the solver's sound speed (``SPHParams.sound_speed_for``) and the
+    fastest water expected (the initial speed or a free fall from ``top`` to ``floor``); None when nothing sets
+    a speed (no gravity, fluid at rest, no sound speed)."""
     if params.dt:
         return t_end / params.dt
-    c = params.sound_speed_for(top - floor + 0.5 * params.spacing, speed)
-    return t_end * c / (params.cfl * params.support()) if c > 0 else None
+    fall = top - floor + 0.5 * params.spacing
+    c = params.sound_speed_for(fall, speed)
+    if c <= 0:
+        return None
+    g = math.sqrt(sum(x * x for x in params.gravity_vector()))
+    return sph_steps(t_end, c, max(speed, math.sqrt(2.0 * g * fall)), params.cfl, params.support())
+
+
+def from_solver(what: str, solver, t_end: float, *, added: float = 0.0, speed: float | None = None,
+                extra_bytes: float = 0.0, step_extra_s: float = 0.0, fix: str = "",
+                rate: float | None = None) -> Estimate:
+    """The estimate of a run from its built solver: the particles it has and the ``added`` ones (rain,
+    inflows, over the run: their mean counts for time, all of them for memory), steps from the solver's sound
+    speed and ``speed`` (the fastest water expected; c/10 by default, the auto sound speed's rule), ``extra_bytes``
+    and ``step_extra_s`` for the kind's own maps and passes."""
+    p = solver.params
+    v = solver.c / 10.0 if speed is None else speed
+    steps = t_end / p.dt if p.dt > 0 else sph_steps(t_end, solver.c, v, p.cfl, solver.h)
+    n0 = solver.n_fluid + solver.n_boundary
+    seconds = sph_seconds(n0 + 0.5 * added, steps, step_extra_s, rate)
+    text = f"{what}, {n0 + added:,.0f} particles at most, about {steps:,.0f} steps"
+    return Estimate(text, BASE_BYTES + SPH_PARTICLE_BYTES * (n0 + added) + extra_bytes, seconds, fix, steps)
 
 
 def hydrology(cfg) -> Estimate | None:
@@ -155,10 +198,10 @@ def sph(cfg) -> Estimate:
     top = max(f.hi[-1] for f in cfg.fluid)
     speed = max((math.sqrt(sum(v * v for v in f.velocity)) for f in cfg.fluid if f.velocity), default=0.0)
     steps = _sph_steps(p, top, cfg.domain.lo[-1], cfg.run.t_end, speed)
-    seconds = n * steps / (SPH_STEPS_PER_CORE_S * _cores()) if steps is not None else None
+    seconds = sph_seconds(n, steps) if steps is not None else None
     what = f"{n:,.0f} particles" + (f", about {steps:,.0f} steps" if steps is not None else "")
     fix = "raise sph.spacing or make the fluid blocks smaller"
-    return Estimate(what, BASE_BYTES + SPH_PARTICLE_BYTES * n, seconds, fix)
+    return Estimate(what, BASE_BYTES + SPH_PARTICLE_BYTES * n, seconds, fix, steps)
 
 
 def sph_terrain(cfg) -> Estimate | None:
@@ -199,9 +242,9 @@ def flood(cfg) -> Estimate | None:
         n = volume / spacing**3
         p = SPHParams(dim=3, spacing=spacing)
         c = 10.0 * math.sqrt(2 * g * d_max)
-        steps = cfg.run.t_end * c / (p.cfl * p.support())
+        steps = sph_steps(cfg.run.t_end, c, c / 10.0, p.cfl, p.support())
         memory = BASE_BYTES + SPH_PARTICLE_BYTES * n + SWE_CELL_BYTES * cells
-        seconds = n * steps / (SPH_STEPS_PER_CORE_S * _cores())
+        seconds = sph_seconds(n, steps)
         fix = "raise flood.spacing or use flood.solver = 'swe'"
     else:
         n = float((site.depth0 > 0).sum()) * hm.cell_size**2 / spacing**2
@@ -216,6 +259,7 @@ def flood(cfg) -> Estimate | None:
 
 ESTIMATORS = {
     "hydrology": hydrology, "particle-stream": stream, "sph": sph, "sph-terrain": sph_terrain, "flood": flood,
+    "voxel": lambda cfg: voxel(cfg),
 }  # fmt: skip
 
 
@@ -232,3 +276,60 @@ def check(kind: str, cfg) -> Estimate | None:
             f"{est.fix}, or use a machine with more memory."
         )
     return est
+
+
+#: a voxel run's particle-steps per second per core (the wall-weight walls read the field at every particle)
+#: and its fixed cost per step: fitted to ``mountain-lake`` (docs/voxel.md: 89 932 steps in 171 s on one
+#: thread beside other runs, 1 300 particles on average) and ``overtopping --resolution coarse``
+VOXEL_STEPS_PER_CORE_S, VOXEL_STEP_S = 1.0e6, 1.5e-3
+
+
+def voxel(cfg) -> Estimate:
+    """The field (nodes of ``voxels.cell_size`` over the terrain, as ``builders_voxel.build_terrain`` lays
+    them), the water (below ``water.level``, the rain and inflows over the run) and steps from the sound
+    speed ``build_solver`` takes (10·√(2gH), H from the highest water to the field's bottom)."""
+    from erosim.scenarios.builders_voxel import at_dem_scale, band_for, overflow_head
+    from erosim.terrain.voxel import memory_bytes
+
+    cfg = at_dem_scale(cfg)
+    f, v, p, run = cfg.terrain, cfg.voxels, cfg.sph, cfg.run
+    c, dx, band = v.cell_size, p.spacing, band_for(cfg)
+    water = 0.0  # m³ at the start
+    added = sum(j.discharge for j in cfg.inflows.values()) * run.t_end
+    if f.voxels_file:
+        return None
+    if f.shape == "heightmap":
+        import numpy as np
+
+        from erosim.scenarios.schema_common import build_terrain as heightmap
+
+        hm = heightmap(f, cfg.seed)
+        z = np.asarray(hm.z, np.float64)
+        zmax, zmin = float(np.nanmax(z)), float(np.nanmin(z))
+        lift = max([cfg.rain.height] + [j.height for j in cfg.inflows.values()])
+        top, bottom = zmax + lift + band + 2 * c, zmin - max(band + 2 * c, v.depth)
+        ny, nx = z.shape
+        extent = ((nx - 1) * hm.cell_size, (ny - 1) * hm.cell_size)
+        if cfg.water.level is not None:
+            water = float(np.nansum(np.maximum(cfg.water.level - z, 0.0))) * hm.cell_size**2
+        added += cfg.rain.rate / 3.6e6 * extent[0] * extent[1] * run.t_end
+        highest = max([cfg.water.level or -math.inf, zmax + lift])
+        fall = highest - bottom
+    else:
+        e = cfg.embankment
+        extent, bottom, top = (f.length + 4 * c, f.width + 4 * c), -(band + 2 * c), f.top
+        if cfg.water.level is not None:
+            water = (e.x_toe + 0.5 * e.height * e.upstream) * f.width * cfg.water.level
+        added += cfg.inflow.discharge * run.t_end
+        fall = max(cfg.water.level or 0.0, e.base + e.height + overflow_head(cfg.inflow.discharge, f.width))
+    nodes = (extent[0] / c + 1) * (extent[1] / c + 1) * ((top - bottom) / c + 1)
+    n0, n_add = water / dx**3, added / dx**3
+    speed = p.sound_speed_for(max(fall, dx)) if p.sound_speed <= 0 else p.sound_speed
+    steps = run.t_end / p.dt if p.dt > 0 else sph_steps(run.t_end, speed, speed / 10.0, p.cfl, p.support())
+    per_step = VOXEL_STEP_S + (n0 + 0.5 * n_add) / (VOXEL_STEPS_PER_CORE_S * _cores())
+    seconds = START_S + nodes * 2e-7 + steps * per_step  # the field's set-up (distances, weights) per node
+    memory = BASE_BYTES + memory_bytes(int(nodes), erosion=cfg.erosion.enabled) * 3 + SPH_PARTICLE_BYTES * (n0 + n_add)
+    what = (f"{nodes:,.0f} voxels of {c:g} m, {n0 + n_add:,.0f} particles of {dx:g} m at most, "
+            f"about {steps:,.0f} steps")  # fmt: skip
+    fix = "raise voxels.cell_size with sph.spacing, or shorten run.t_end"
+    return Estimate(what, memory, seconds, fix, steps)

@@ -55,10 +55,12 @@ def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progres
         if same and {"time", "stop_time", "unit"} <= set(progress_of):
             return _complete(out, progress_of["time"], progress_of["stop_time"], progress_of["unit"]), None
     guess = estimate.check(scenario.kind, scenario.config)  # refuses a run that would not fit in memory
-    if guess is not None and progress:  # something to read while a large terrain is generated
+    if guess is not None and guess.seconds is not None and progress:  # to read while a large terrain is generated
         print(f"{scenario.name}: {guess.line()}", file=sys.stderr, flush=True)
     builder = kinds.resolve(kinds.get(scenario.kind).builder)
     setup = builder(scenario, out)
+    if setup.estimate is not None and progress and not resume:  # time known once the models are built
+        print(f"{scenario.name}: {setup.estimate.line()}", file=sys.stderr, flush=True)
     for note in setup.warnings:
         out.warn(note)
     if progress and not resume:

@@ -75,6 +75,10 @@ class ScaleSection(Section):
                                          "scaling")  # fmt: skip
     sound_factor: float = param(10.0, ge=3, le=40, unit="1", doc="sound speed as a multiple of the fastest water "
                                 "expected (drops, jets, the highest fall), unless sph.sound_speed is set")  # fmt: skip
+    max_ground: int = param(200_000, ge=0, le=2_000_000, unit="particles", doc="on a terrain whose porous ground "
+                            "would need more particles than this, the fluid and ground particles are coarsened "
+                            "together (their ratio kept) until it fits, and the console says so; 0: never coarsen "
+                            "(refuse beyond 2 million instead)")  # fmt: skip
 
 
 class SplashRun(Section):

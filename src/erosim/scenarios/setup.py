@@ -14,7 +14,9 @@ class Setup:
     ``report(sim)`` gives the kind's entries of ``report.json`` (whatever the run's status);
     ``summary(sim, report)`` the few lines the command line prints. ``warnings`` go into the report
     and onto the console; ``assumed`` (what the run takes its inputs to be: cell size and where it came
-    from, heights, nodata, CRS, parameters scaled to the terrain) onto the console before the run.
+    from, heights, nodata, CRS, parameters scaled to the terrain) onto the console before the run, as is
+    ``estimate`` (:class:`erosim.scenarios.estimate.Estimate`: memory and time from the built models) where the
+    scenario alone did not tell them.
     """
 
     models: list
@@ -27,3 +29,4 @@ class Setup:
     seed: int | None = None
     warnings: list[str] = field(default_factory=list)
     assumed: list[str] = field(default_factory=list)
+    estimate: Any = None

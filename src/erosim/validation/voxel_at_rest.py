@@ -21,6 +21,7 @@ over the last ``window`` seconds the piezometric head of each particle, p_i/(ρ�
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -87,15 +88,24 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     rho0, g = s.params.rho0, 9.81
     inside_max = 0
     heads, zs = [], []
-    while s.t < t_end:
-        s.step()
-        inside_max = max(inside_max, wall.inside(s))
-        if s.t > t_end - window and s.steps % 10 == 0:
-            z = s.fluid_positions()[:, 2]
-            heads.append(s.fluid_pressure() / (rho0 * g) + z)
-            zs.append(z)
-        if progress and s.steps % 500 == 0:
-            print(f"voxel-at-rest: t = {s.t:.2f} / {t_end:g} s", flush=True)
+    if progress:
+        from erosim.scenarios import estimate
+
+        guess = estimate.from_solver(f"a tank of {vt.shape[2]} × {vt.shape[1]} × {vt.shape[0]} voxels", s, t_end,
+                                     speed=0.0, rate=estimate.VOXEL_STEPS_PER_CORE_S,
+                                     step_extra_s=estimate.VOXEL_STEP_S - estimate.SPH_STEP_S)  # fmt: skip
+        print(f"voxel-at-rest: {guess.line()}", file=sys.stderr, flush=True)
+    from erosim.simulation.progress import ProgressBar
+
+    with ProgressBar(t_end, "voxel-at-rest", unit="s", enabled=progress) as bar:
+        while s.t < t_end:
+            s.step()
+            inside_max = max(inside_max, wall.inside(s))
+            if s.t > t_end - window and s.steps % 10 == 0:
+                z = s.fluid_positions()[:, 2]
+                heads.append(s.fluid_pressure() / (rho0 * g) + z)
+                zs.append(z)
+            bar.update(float(s.t), int(s.steps))
     head, z = np.mean(heads, axis=0), np.mean(zs, axis=0)  # the same particle in every sample
     l = s.in_label_order(wall.distances(s)[0])  # the getters' order, as the densities
     e = errors(head, z, s.fluid_density(), l, rho0=rho0, h=s.h, bottom=-SINK)
