@@ -7,6 +7,7 @@ exit; ``--debug`` shows the traceback instead.
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 from pathlib import Path
@@ -51,39 +52,16 @@ def _print_result(result: dict, as_json: bool) -> None:
         click.echo(to_json(result))
         return
     from rich.console import Console
-    from rich.markup import escape
     from rich.table import Table
 
     table = Table(show_header=False, box=None)
-    for depth, key, value in _result_rows(result):
-        label = "  " * depth + str(key)
-        table.add_row(f"[bold]{escape(label)}[/bold]" if depth == 0 else escape(label), escape(value))
-    Console().print(table)
-
-
-def _scalar_text(value) -> str:
-    if isinstance(value, bool) or value is None:
-        return str(value)
-    if isinstance(value, float):
-        return f"{value:,.6g}"
-    return str(value)
-
-
-def _result_rows(result: dict, depth: int = 0):
-    """(indent, key, text) rows of a result: nested tables (hazard shares, gauges, criteria) as
-    indented rows and lists of numbers on one line, so the summary reads as a table, not JSON."""
     for key, value in result.items():
-        if isinstance(value, dict) and value:
-            yield depth, key, ""
-            yield from _result_rows(value, depth + 1)
-        elif isinstance(value, (list, tuple)) and value and all(isinstance(v, dict) for v in value):
-            yield depth, key, ""
-            for k, item in enumerate(value):
-                yield from _result_rows({f"[{k}]": item}, depth + 1)
-        elif isinstance(value, (list, tuple)):
-            yield depth, key, ", ".join(_scalar_text(v) for v in value) if value else "(none)"
-        else:
-            yield depth, key, _scalar_text(value)
+        if isinstance(value, float):
+            value = f"{value:,.6g}"
+        elif isinstance(value, (list, dict)):
+            value = json.dumps(value, default=str)
+        table.add_row(f"[bold]{key}[/bold]", str(value))
+    Console().print(table)
 
 
 DEVICE_CASES = ("martin-moyce", "hydrostatic")  # validations that run on --device cuda
