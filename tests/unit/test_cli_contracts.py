@@ -249,17 +249,3 @@ def test_python_dash_m_erosim_is_the_command(tmp_path):
     assert run.returncode == 2, run.stdout + run.stderr
     assert "no-such-scenario" in run.stdout + run.stderr
     assert not (tmp_path / "r").exists()
-
-
-@pytest.mark.parametrize("columns", [80, 60, 200])
-def test_list_is_one_whole_line_per_scenario_at_any_width(cli_runner, monkeypatch, columns):
-    from erosim.scenarios import loader
-
-    monkeypatch.setenv("COLUMNS", str(columns))
-    res = cli_runner.invoke(cli, ["list"])
-    assert res.exit_code == 0, res.output
-    lines = res.output.splitlines()
-    names = loader.library_names()
-    assert len(lines) == len(names) + 1  # a header, then one line each
-    assert all(len(line) <= columns for line in lines)
-    assert [line.split()[0] for line in lines[1:]] == names  # never cut
