@@ -263,19 +263,22 @@ def _first_sentence(text: str) -> str:
 @cli.command(name="list")
 def list_():
     """List the scenario library."""
-    from rich.console import Console
-    from rich.markup import escape
-    from rich.table import Table
+    import shutil
 
     from erosim.scenarios import loader
 
-    table = Table("scenario", "kind", "presets", "what it is")
+    # one line per scenario at any width: names, kinds and presets whole, the description cut to fit
+    rows = [("scenario", "kind", "presets", "what it is (erosim describe NAME)")]
     for name in loader.library_names():
         data = loader.read_toml(loader.LIBRARY / f"{name}.toml")
-        first = _first_sentence(str(data.get("description", "")))
         presets = ", ".join(sorted(data.get("presets", {}) or {}))
-        table.add_row(name, str(data.get("kind", "?")), presets, escape(first))
-    Console().print(table)
+        rows.append((name, str(data.get("kind", "?")), presets, _first_sentence(str(data.get("description", "")))))
+    widths = [max(len(r[k]) for r in rows) for k in range(3)]
+    room = shutil.get_terminal_size((120, 24)).columns - sum(widths) - 6
+    for r in rows:
+        text = r[3] if len(r[3]) <= room else r[3][: max(room - 1, 0)] + "…"
+        line = "  ".join(c.ljust(w) for c, w in zip(r[:3], widths, strict=True))
+        click.echo((line + "  " + text if room >= 10 else line).rstrip())
 
 
 @cli.command()

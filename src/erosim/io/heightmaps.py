@@ -248,22 +248,49 @@ def read(
         raise InputError(f"Heightmap file '{p}' does not exist; check the path.")
     try:
         if fmt == "geotiff":
-            return _read_geotiff(p, cs)
-        if fmt == "png16":
-            return _read_png(p, cs, rng)
-        if fmt == "raw16":
-            return _read_raw(p, cs, rng, raw_shape)
-        if fmt == "asc":
-            return _read_asc(p, cs)
-        if fmt == "npy":
-            return _georeferenced(p, np.load(p, allow_pickle=False), cs)
-        return _read_npz(p, cs)
+            hm = _read_geotiff(p, cs)
+        elif fmt == "png16":
+            hm = _read_png(p, cs, rng)
+        elif fmt == "raw16":
+            hm = _read_raw(p, cs, rng, raw_shape)
+        elif fmt == "asc":
+            hm = _read_asc(p, cs)
+        elif fmt == "npy":
+            hm = _georeferenced(p, np.load(p, allow_pickle=False), cs)
+        else:
+            hm = _read_npz(p, cs)
     except InputError:
         raise
     except Exception as exc:  # library errors on a corrupt file: one sentence, not a traceback
         raise InputError(
             f"Cannot read heightmap '{p}' ({type(exc).__name__}: {exc}); is it a valid {fmt} file?"
         ) from exc
+    _check_heights(hm, p)
+    return hm
+
+
+#: heights beyond this (m) are no terrain: Earth's surface spans about −11 km … +9 km
+MAX_HEIGHT = 1.0e5
+
+
+def _check_heights(hm: Heightmap, p: Path) -> None:
+    """Refuse, in one sentence and before any run, heights no terrain has (an undeclared nodata value
+    such as 1e30 or −3.4e38, or heights in another unit), which would otherwise break the physics and
+    the pictures only after the run."""
+    z = np.asarray(hm.z, dtype=np.float64)
+    valid = np.isfinite(z)
+    if hm.nodata is not None:
+        valid &= ~np.asarray(hm.nodata, dtype=bool)
+    if not valid.any():
+        raise InputError(f"Heightmap '{p}' has no valid height (every cell is nodata or not a number); check the file.")
+    worst = float(np.abs(z[valid]).max())
+    if worst > MAX_HEIGHT:
+        n = int((np.abs(z[valid]) > MAX_HEIGHT).sum())
+        raise InputError(
+            f"Heightmap '{p}' has {n:,} cell{"s" if n > 1 else ""} with heights up to {worst:.3g} m, beyond any terrain "
+            f"(|z| <= {MAX_HEIGHT:.0e} m); if they are nodata, declare the file's nodata value (e.g. "
+            f"gdal_edit.py -a_nodata VALUE '{p.name}'), else convert the heights to metres."
+        )
 
 
 def _read_sample(key: str, cs: float | None) -> Heightmap:
