@@ -249,3 +249,55 @@ def test_python_dash_m_erosim_is_the_command(tmp_path):
     assert run.returncode == 2, run.stdout + run.stderr
     assert "no-such-scenario" in run.stdout + run.stderr
     assert not (tmp_path / "r").exists()
+
+
+def _tiny_case(resolution="default", out=None, progress=True):
+    """A stand-in validation case: one small real run (hydrology, 32² cells, 8 cycles) through the
+    runner, a verdict from its final state and validation.json, as the real cases are built."""
+    from erosim.core import atomic
+    from erosim.io.runfolder import RunFolder
+    from erosim.scenarios import loader
+    from erosim.scenarios.runner import execute
+
+    scenario = loader.load("hydrology", ["terrain.size=32", "run.cycles=8", "run.frames=0"])
+    folder = RunFolder(out)
+    summary, sim = execute(scenario, folder, progress=progress)
+    result = {"case": "hydrostatic", "resolution": resolution, "iterations": sim.iteration, "resumed": sim.resumed,
+              "passed": sim.status == "completed" and sim.iteration == 8}  # fmt: skip
+    atomic.write_json(folder.path / "validation.json", result)
+    return result
+
+
+@pytest.mark.parametrize("how", [["validate", "--resume"], ["run", "--resume"]])
+def test_an_interrupted_validation_resumes_with_its_verdict(cli_runner, tmp_path, monkeypatch, how):
+    """Ctrl-C during a validation (here a stop request after 3 of 8 steps, as a Ctrl-C makes it), then
+    `erosim validate --resume DIR` or the printed `erosim run --resume DIR`: the run continues from its
+    checkpoint and the case gives its verdict and validation.json, exit 0, as a fresh validation does."""
+    from erosim import cli as cli_mod
+    from erosim.simulation import simulation as simmod
+
+    monkeypatch.setitem(cli_mod.VALIDATION_CASES, "hydrostatic", f"{__name__}:_tiny_case")
+    real_step, calls = simmod.Simulation._step, [0]
+
+    def step(self):
+        calls[0] += 1
+        if calls[0] == 3:
+            simmod.request_stop()
+        real_step(self)
+
+    monkeypatch.setattr(simmod.Simulation, "_step", step)
+    out = tmp_path / "val"
+    try:
+        first = cli_runner.invoke(cli, ["--quiet", "validate", "hydrostatic", "--resolution", "coarse", "--out", str(out)])
+    finally:
+        simmod.clear_stop_request()
+    assert first.exit_code == 130, first.output
+    assert f"erosim validate --resume {out}" in first.output
+    assert not (out / "validation.json").exists() and (out / "checkpoint").is_dir()
+    monkeypatch.setattr(simmod.Simulation, "_step", real_step)
+    second = cli_runner.invoke(cli, ["--quiet", *how, str(out)])
+    assert second.exit_code == 0, second.output
+    rec = json.loads((out / "validation.json").read_text())
+    # resumed, not restarted: the 8 steps in all, the resolution kept from the interrupted command
+    assert rec == {"case": "hydrostatic", "resolution": "coarse", "iterations": 8, "resumed": True, "passed": True}
+    assert "passed" in second.output and "True" in second.output

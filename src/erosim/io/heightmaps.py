@@ -287,7 +287,8 @@ def _check_heights(hm: Heightmap, p: Path) -> None:
     if worst > MAX_HEIGHT:
         n = int((np.abs(z[valid]) > MAX_HEIGHT).sum())
         raise InputError(
-            f"Heightmap '{p}' has {n:,} cell{"s" if n > 1 else ""} with heights up to {worst:.3g} m, beyond any terrain "
+            f"Heightmap '{p}' has {n:,} cell{'s' if n > 1 else ''} with heights up to {worst:.3g} m, beyond any "
+            "terrain "
             f"(|z| <= {MAX_HEIGHT:.0e} m); if they are nodata, declare the file's nodata value (e.g. "
             f"gdal_edit.py -a_nodata VALUE '{p.name}'), else convert the heights to metres."
         )
@@ -712,8 +713,9 @@ def convert(
 
     ``cell_size`` overrides the source's cell size; ``raw_shape``/``height_range`` help read
     RAW16/PNG16 sources. The result is :func:`write`'s (``georeference``: where the CRS and
-    transform went; ``not_kept``: what ``dst`` cannot hold) plus ``src``, the heights' min/max and
-    the nodata count.
+    transform went; ``not_kept``: what ``dst`` cannot hold) plus ``src``, the heights' min/max,
+    the nodata count and ``crs``, the source's coordinate system by name (or that it names none: a
+    transform alone places the grid in map units of no known system).
     """
     _format(dst, "write")  # fail before reading a large file
     hm = read(src, cell_size=cell_size, raw_shape=raw_shape, height_range=height_range)
@@ -724,6 +726,20 @@ def convert(
         z_min=float(hm.z.min()),
         z_max=float(hm.z.max()),
         nodata_cells=int(hm.nodata.sum()) if hm.nodata is not None else 0,
-        georeferenced=hm.crs is not None,
+        crs=_crs_label(hm),
     )
     return info
+
+
+def _crs_label(hm: Heightmap) -> str:
+    """The source's coordinate system in words: ``EPSG:32633 (WGS 84 / UTM zone 33N)`` or why none."""
+    if not hm.crs:
+        return "none in the source" + (" (the transform is kept, in unnamed map units)" if hm.transform else "")
+    name = hm.crs.split('"')[1] if '"' in hm.crs else ""
+    try:
+        from rasterio.crs import CRS
+
+        code = CRS.from_wkt(hm.crs).to_epsg()
+    except Exception:  # a WKT GDAL cannot parse is still carried over as written
+        code = None
+    return f"EPSG:{code} ({name})" if code else name or "custom (WKT)"
