@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from erosim.core.errors import ConfigError, InputError, InstabilityError, Interrupted
+from erosim.core.errors import ConfigError, ErosimError, InputError, InstabilityError, Interrupted
 from erosim.io import checkpoint as ckpt
 from erosim.simulation.callbacks import Callback, Checkpointer
 from erosim.simulation.progress import ProgressBar
@@ -287,7 +287,7 @@ class Simulation:
         run's other maps and its report."""
         try:
             return write(self) or {}
-        except (KeyboardInterrupt, InputError, ConfigError):
+        except (OSError, MemoryError, ErosimError):  # a full disk, bad input: the run's own outcome, as before
             raise
         except Exception as exc:
             note = (f"The final output '{name}' failed ({type(exc).__name__}: {exc}); the run completed and its "
