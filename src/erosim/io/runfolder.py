@@ -48,8 +48,11 @@ class RunFolder:
                     f"Cannot resume '{self.path}': it holds no checkpoint/ folder; "
                     "pass the folder of a run that was interrupted or wrote checkpoints."
                 )
-        elif self.path.exists() and any(self.path.iterdir()) and not overwrite and not validation_session.reopens(
-            self.path
+        elif (
+            self.path.exists()
+            and any(self.path.iterdir())
+            and not overwrite
+            and not validation_session.reopens(self.path)
         ):  # (a folder of a validation being resumed is opened as it is)
             raise ConfigError(
                 f"Output folder '{self.path}' already exists and is not empty; "
