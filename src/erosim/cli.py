@@ -49,19 +49,50 @@ def _print_result(result: dict, as_json: bool) -> None:
     if as_json:
         from erosim.core.atomic import to_json
 
-        click.echo(to_json(result))
+        click.echo(to_json(result, ensure_ascii=False))
         return
     from rich.console import Console
+
+    Console().print(_summary_table(result))
+
+
+def _cell(value):
+    """One value of a summary, for a table cell: numbers to 6 significant digits, a table of key/value
+    pairs as a nested table, a list of tables as a table with a column per key, other lists joined."""
+    from rich.markup import escape
     from rich.table import Table
 
-    table = Table(show_header=False, box=None)
+    if isinstance(value, bool) or value is None:
+        return str(value)
+    if isinstance(value, float):
+        return f"{value:,.6g}"
+    if isinstance(value, int):
+        return f"{value}"
+    if isinstance(value, dict):
+        return _summary_table(value, bold=False) if value else "(none)"
+    if isinstance(value, (list, tuple)):
+        if value and all(isinstance(v, dict) for v in value):
+            columns = list(dict.fromkeys(k for v in value for k in v))
+            table = Table(*columns, box=None, header_style="italic", pad_edge=False)
+            for v in value:
+                table.add_row(*(_cell(v.get(c, "")) for c in columns))
+            return table
+        if any(isinstance(v, (dict, list, tuple)) for v in value):
+            return escape(json.dumps(value, default=str, ensure_ascii=False))
+        return ", ".join(str(_cell(v)) for v in value) if value else "(none)"
+    return escape(str(value))
+
+
+def _summary_table(result: dict, bold: bool = True):
+    """A summary as a two-column table (key, value); nested tables for nested values, never raw JSON."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    table = Table(show_header=False, box=None, pad_edge=False)
     for key, value in result.items():
-        if isinstance(value, float):
-            value = f"{value:,.6g}"
-        elif isinstance(value, (list, dict)):
-            value = json.dumps(value, default=str)
-        table.add_row(f"[bold]{key}[/bold]", str(value))
-    Console().print(table)
+        name = escape(str(key))
+        table.add_row(f"[bold]{name}[/bold]" if bold else name, _cell(value))
+    return table
 
 
 DEVICE_CASES = ("martin-moyce", "hydrostatic")  # validations that run on --device cuda
@@ -159,6 +190,12 @@ def run(scenario, overrides, preset, out, resume, overwrite, device):
     """Run SCENARIO (a library name or a TOML file) and write a run folder."""
     from erosim.api import execute
 
+    if resume is not None and scenario is None and not overrides and device is None:
+        from erosim.validation import session
+
+        if session.find(resume) is not None:  # a validation's folder: continued as the validation, with its verdict
+            click.get_current_context().invoke(validate, resume=resume)
+            return
     _require_device(device)
     if device is not None:
         _check_device_kind(scenario, resume, preset)
@@ -263,19 +300,22 @@ def _first_sentence(text: str) -> str:
 @cli.command(name="list")
 def list_():
     """List the scenario library."""
-    from rich.console import Console
-    from rich.markup import escape
-    from rich.table import Table
+    import shutil
 
     from erosim.scenarios import loader
 
-    table = Table("scenario", "kind", "presets", "what it is")
+    # one line per scenario at any width: names, kinds and presets whole, the description cut to fit
+    rows = [("scenario", "kind", "presets", "what it is (erosim describe NAME)")]
     for name in loader.library_names():
         data = loader.read_toml(loader.LIBRARY / f"{name}.toml")
-        first = _first_sentence(str(data.get("description", "")))
         presets = ", ".join(sorted(data.get("presets", {}) or {}))
-        table.add_row(name, str(data.get("kind", "?")), presets, escape(first))
-    Console().print(table)
+        rows.append((name, str(data.get("kind", "?")), presets, _first_sentence(str(data.get("description", "")))))
+    widths = [max(len(r[k]) for r in rows) for k in range(3)]
+    room = shutil.get_terminal_size((120, 24)).columns - sum(widths) - 6
+    for r in rows:
+        text = r[3] if len(r[3]) <= room else r[3][: max(room - 1, 0)] + "…"
+        line = "  ".join(c.ljust(w) for c, w in zip(r[:3], widths, strict=True))
+        click.echo((line + "  " + text if room >= 10 else line).rstrip())
 
 
 @cli.command()
@@ -328,7 +368,7 @@ VALIDATION_CASES = {
 
 
 @cli.command()
-@click.argument("case", type=click.Choice(sorted(VALIDATION_CASES)))
+@click.argument("case", type=click.Choice(sorted(VALIDATION_CASES)), required=False)
 @click.option(
     "--resolution",
     type=click.Choice(["coarse", "default", "fine"]),
@@ -372,13 +412,28 @@ VALIDATION_CASES = {
     "sph.wall_pressure=extrapolated); validation.json records them.",
 )
 @_device_option("martin-moyce and hydrostatic: where the SPH steps run")
-def validate(case, resolution, out, as_json, ground, gate_speed, start, overrides, device):
+@click.option(
+    "--resume", type=click.Path(file_okay=False), default=None,
+    help="Continue an interrupted validation from its folder and give its verdict (the case and its options are "
+    "the folder's).",
+)  # fmt: skip
+def validate(case, resolution, out, as_json, ground, gate_speed, start, overrides, device, resume):
     """Run a validation CASE against published experimental or analytic data.
 
     Exit status 0 when the case's criteria hold, 1 otherwise, the failed criteria then named in one line
     (martin-moyce and spheric2: docs/sph.md)."""
     from erosim.scenarios.kinds import resolve
+    from erosim.validation import session
 
+    if resume is not None:  # the case and its options from the folder (validation_run.json)
+        if case is not None or out is not None:
+            _fail(ErosimError("Give either a CASE or --resume DIR, not both; --resume reads the case from DIR."))
+        out, rec = _validation_record(Path(resume))
+        case, resolution, opts = rec["case"], rec.get("resolution", "default"), dict(rec.get("options") or {})
+        ground, gate_speed, start, device = (opts.get(k) for k in ("ground", "gate_speed", "start", "device"))
+        overrides = tuple(opts.get("overrides") or ())
+    elif case is None:
+        _fail(ErosimError(f"Name a validation case ({', '.join(sorted(VALIDATION_CASES))}) or pass --resume DIR."))
     if ground is not None and case != "martin-moyce":
         _fail(ErosimError(f"--ground applies to martin-moyce only, not '{case}'; leave it out."))
     if gate_speed is not None and case != "martin-moyce":
@@ -400,7 +455,15 @@ def validate(case, resolution, out, as_json, ground, gate_speed, start, override
         extra["start"] = start
     if overrides:
         extra["overrides"] = list(overrides)
-    result = _guard(fn, resolution, Path(out) if out else None, not (STATE.quiet or as_json), **extra)
+    with session.validating(case, resolution, extra, resume=Path(out) if resume is not None else None):
+        try:
+            result = _guard(fn, resolution, Path(out) if out else None, not (STATE.quiet or as_json), **extra)
+        except SystemExit as stop:  # interrupted with the case's folder kept: how to continue it
+            root = session.root()
+            if stop.code == Interrupted.exit_code and root is not None and (root / session.MARK).is_file():
+                click.echo(f"erosim: continue the validation, with its verdict: `erosim validate --resume {root}`.",
+                           err=True)  # fmt: skip
+            raise
     criteria = result.get("criteria")
     if as_json or not criteria:
         _print_result(result, as_json)
@@ -412,6 +475,17 @@ def validate(case, resolution, out, as_json, ground, gate_speed, start, override
         if "verdict" in result:  # the failed criteria, named in one line (on stderr: --json keeps stdout one object)
             click.echo(f"erosim: validation {result['verdict']}", err=True)
         sys.exit(1)
+
+
+def _validation_record(folder: Path) -> tuple[Path, dict]:
+    """(root, record) of the validation in ``folder`` (or one of its two parents), else one sentence."""
+    from erosim.validation import session
+
+    found = session.find(folder)
+    if found is None or found[1].get("case") not in VALIDATION_CASES:
+        _fail(ErosimError(f"'{folder}' is not the folder of a validation (no readable {session.MARK}); pass the "
+                          "folder that `erosim validate` named when it was interrupted."))  # fmt: skip
+    return found
 
 
 # ------------------------------------------------------------------------------------------ bench

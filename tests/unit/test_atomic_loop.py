@@ -52,3 +52,16 @@ def test_atomic_files_get_usual_permissions(tmp_path):
     os.umask(umask)
     path = atomic.write_text(tmp_path / "p.txt", "x")
     assert (path.stat().st_mode & 0o777) == (0o666 & ~umask)
+
+
+@pytest.mark.parametrize("keep", [0, 10, 200, -20])
+def test_a_truncated_checkpoint_is_one_sentence(tmp_path, keep):
+    """A checkpoint cut short (a full disk, a copy stopped half-way) is named as damaged, with what
+    to do, instead of a zip library traceback (BadZipFile, EOFError)."""
+    from erosim.core.errors import InputError
+
+    path = checkpoint.save(tmp_path, {"pos": np.arange(3000.0), "t": np.float64(1.5)}, {"scenario": "x"})
+    data = path.read_bytes()
+    path.write_bytes(data[:keep] if keep >= 0 else data[:keep])
+    with pytest.raises(InputError, match="is damaged .* cannot be resumed; start it again"):
+        checkpoint.load(tmp_path)

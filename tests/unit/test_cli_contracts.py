@@ -249,3 +249,132 @@ def test_python_dash_m_erosim_is_the_command(tmp_path):
     assert run.returncode == 2, run.stdout + run.stderr
     assert "no-such-scenario" in run.stdout + run.stderr
     assert not (tmp_path / "r").exists()
+
+
+def _tiny_case(resolution="default", out=None, progress=True):
+    """A stand-in validation case: one small real run (hydrology, 32² cells, 8 cycles) through the
+    runner, a verdict from its final state and validation.json, as the real cases are built."""
+    from erosim.core import atomic
+    from erosim.io.runfolder import RunFolder
+    from erosim.scenarios import loader
+    from erosim.scenarios.runner import execute
+
+    scenario = loader.load("hydrology", ["terrain.size=32", "run.cycles=8", "run.frames=0"])
+    folder = RunFolder(out)
+    summary, sim = execute(scenario, folder, progress=progress)
+    result = {"case": "hydrostatic", "resolution": resolution, "iterations": sim.iteration, "resumed": sim.resumed,
+              "passed": sim.status == "completed" and sim.iteration == 8}  # fmt: skip
+    atomic.write_json(folder.path / "validation.json", result)
+    return result
+
+
+@pytest.mark.parametrize("how", [["validate", "--resume"], ["run", "--resume"]])
+def test_an_interrupted_validation_resumes_with_its_verdict(cli_runner, tmp_path, monkeypatch, how):
+    """Ctrl-C during a validation (here a stop request after 3 of 8 steps, as a Ctrl-C makes it), then
+    `erosim validate --resume DIR` or the printed `erosim run --resume DIR`: the run continues from its
+    checkpoint and the case gives its verdict and validation.json, exit 0, as a fresh validation does."""
+    from erosim import cli as cli_mod
+    from erosim.simulation import simulation as simmod
+
+    monkeypatch.setitem(cli_mod.VALIDATION_CASES, "hydrostatic", f"{__name__}:_tiny_case")
+    real_step, calls = simmod.Simulation._step, [0]
+
+    def step(self):
+        calls[0] += 1
+        if calls[0] == 3:
+            simmod.request_stop()
+        real_step(self)
+
+    monkeypatch.setattr(simmod.Simulation, "_step", step)
+    out = tmp_path / "val"
+    try:
+        first = cli_runner.invoke(cli, ["--quiet", "validate", "hydrostatic", "--resolution", "coarse", "--out",
+                                        str(out)])  # fmt: skip
+    finally:
+        simmod.clear_stop_request()
+    assert first.exit_code == 130, first.output
+    assert f"erosim validate --resume {out}" in first.output
+    assert not (out / "validation.json").exists() and (out / "checkpoint").is_dir()
+    monkeypatch.setattr(simmod.Simulation, "_step", real_step)
+    second = cli_runner.invoke(cli, ["--quiet", *how, str(out)])
+    assert second.exit_code == 0, second.output
+    rec = json.loads((out / "validation.json").read_text())
+    # resumed, not restarted: the 8 steps in all, the resolution kept from the interrupted command
+    assert rec == {"case": "hydrostatic", "resolution": "coarse", "iterations": 8, "resumed": True, "passed": True}
+    assert "passed" in second.output and "True" in second.output
+
+
+def test_summaries_print_nested_values_as_tables(capsys):
+    """hazard_share, gauges and validation criteria as tables (no JSON braces, no \\u2265 escapes);
+    --json stays one JSON object, with ≥ as it is."""
+    from erosim.cli import _print_result
+
+    result = {
+        "hazard_share": {"H1": 0.12, "H5": 0.3},
+        "gauges_summary": [{"name": "g1", "max_depth_m": 1.25}, {"name": "g2", "max_depth_m": 0.5}],
+        "criteria": [{"line": "front ≥ 0.9 of the experiment", "passed": True}],
+    }
+    _print_result(result, as_json=False)
+    text = capsys.readouterr().out
+    assert "{" not in text and "\\u2265" not in text and '"' not in text
+    for word in ("hazard_share", "H1", "0.12", "max_depth_m", "g2", "1.25", "front ≥ 0.9"):
+        assert word in text
+    _print_result(result, as_json=True)
+    text = capsys.readouterr().out
+    assert json.loads(text) == result and "≥" in text
+
+
+def test_list_is_one_line_per_scenario_at_80_columns(cli_runner):
+    from erosim.scenarios import loader
+
+    result = cli_runner.invoke(cli, ["list"], env={"COLUMNS": "80"})
+    assert result.exit_code == 0, result.output
+    lines = result.output.rstrip("\n").splitlines()
+    names = loader.library_names()
+    assert len(lines) == len(names) + 1 and all(len(ln) <= 80 for ln in lines)
+    assert [ln.split()[0] for ln in lines[1:]] == list(names)  # names whole, never cut
+
+
+def test_convert_says_true_things_of_the_crs(cli_runner, tmp_path):
+    """A source with no CRS: "crs: none in the source", not "georeferenced False" beside a world file."""
+    src = tmp_path / "dem.npy"
+    np.save(src, np.linspace(0.0, 50.0, 16 * 16).reshape(16, 16))
+    result = cli_runner.invoke(cli, ["convert", str(src), str(tmp_path / "dem.png"), "--cell-size", "2"])
+    assert result.exit_code == 0, result.output
+    assert "georeferenced" not in result.output and "none in the source" in result.output
+
+
+def test_a_picture_that_fails_is_a_warning_not_a_lost_run(cli_runner, tmp_path, monkeypatch):
+    """A figure that raises at the end of a run: the maps and report.json are written, the failure is
+    one warning in the report."""
+    from erosim.viz import plots
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(plots, "hillshade_figure", broken)
+    out = tmp_path / "o"
+    args = ["--quiet", "run", "hydrology", "--set", "terrain.size=32", "--set", "run.cycles=2", "--set", "run.frames=0"]
+    result = cli_runner.invoke(cli, [*args, "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["status"] == "completed" and (out / "maps" / "height.tif").is_file()
+    assert any("figures" in w and "ZeroDivisionError" in w for w in rep["warnings"])
+
+
+def test_a_final_output_that_fails_is_a_warning_in_the_report(cli_runner, tmp_path, monkeypatch):
+    """Any final output (here the hydrology kind's whole maps-and-pictures step) that raises a non-input
+    error: report.json is still written, status completed, the failure one warning."""
+    from erosim.scenarios import builders_hydrology
+
+    def broken(*args, **kwargs):
+        raise ValueError("cannot draw")
+
+    monkeypatch.setattr(builders_hydrology, "write_outputs", broken)
+    out = tmp_path / "o"
+    args = ["--quiet", "run", "hydrology", "--set", "terrain.size=32", "--set", "run.cycles=2", "--set", "run.frames=0"]
+    result = cli_runner.invoke(cli, [*args, "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["status"] == "completed"
+    assert any("final output 'outputs' failed (ValueError: cannot draw)" in w for w in rep["warnings"])

@@ -80,3 +80,50 @@ def test_bad_input_leaves_no_run_folder(tmp_path):
     code, _ = _run(["run", "hydrostatic", "--set", "run.t_end=-1", "--out", str(tmp_path / "o")])
     assert code != 0
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    "scenario, override, key",
+    [
+        ("dam-break-2d", "run.t_end=inf", "run.t_end"),  # was accepted ("inf h"): the progress bar crashed
+        ("dam-break-2d", "sph.spacing=inf", "sph.spacing"),
+        ("dam-break-2d", "run.t_end=nan", "run.t_end"),
+        ("rain-erosion", "sph.spacing=-inf", "sph.spacing"),
+        ("flood", "flood.manning=nan", "flood.manning"),
+    ],
+)
+def test_non_finite_settings_are_one_sentence_before_the_run(tmp_path, scenario, override, key):
+    """Every float setting refuses NaN and ±inf (the common schema), exit 2, no folder."""
+    code, out = _run(["run", scenario, "--set", override, "--out", str(tmp_path / "o")])
+    line = _one_sentence(out)
+    assert code == 2 and key in line and "finite" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_dem_heights_beyond_any_terrain_are_refused_before_the_run(tmp_path):
+    """An undeclared nodata value (1e30) broke height.png after the whole run: now one sentence naming
+    the file and the fix, before anything runs."""
+    import numpy as np
+
+    z = np.full((24, 24), 100.0)
+    z[3:6, 3:6] = 1e30
+    dem = tmp_path / "dem.npy"
+    np.save(dem, z)
+    code, out = _run(["run", "hydrology", "--set", f"terrain.file={dem}", "--out", str(tmp_path / "o")])
+    line = _one_sentence(out)
+    assert code == 2 and "dem.npy" in line and "1e+30" in line and "nodata" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_truncated_checkpoint_on_resume_is_one_sentence(tmp_path):
+    """--resume of a folder whose checkpoint was cut short: damaged, and what to do (was BadZipFile)."""
+    out = tmp_path / "o"
+    code, text = _run(["run", "hydrology", "--set", "terrain.size=32", "--set", "run.cycles=2", "--set",
+                       "run.frames=0", "--out", str(out)])  # fmt: skip
+    assert code == 0, text
+    ck = next((out / "checkpoint").glob("*.npz"))
+    ck.write_bytes(ck.read_bytes()[: ck.stat().st_size // 2])
+    (out / "report.json").write_text('{"status": "interrupted"}')  # so that --resume reads the checkpoint
+    code, text = _run(["run", "--resume", str(out)])
+    line = _one_sentence(text)
+    assert code == 2 and "is damaged" in line and "start it again" in line

@@ -75,9 +75,10 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"cannot write {type(obj).__name__} to JSON")
 
 
-def to_json(obj: Any) -> str:
-    """JSON text of ``obj``; NumPy scalars and arrays become plain numbers and lists."""
-    return json.dumps(obj, indent=2, default=_json_default, allow_nan=True)
+def to_json(obj: Any, ensure_ascii: bool = True) -> str:
+    """JSON text of ``obj``; NumPy scalars and arrays become plain numbers and lists (``ensure_ascii=False``:
+    characters such as ≥ as they are, for a terminal, not ``\\u2265``)."""
+    return json.dumps(obj, indent=2, default=_json_default, allow_nan=True, ensure_ascii=ensure_ascii)
 
 
 def write_json(path: str | os.PathLike, obj: Any) -> Path:

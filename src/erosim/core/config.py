@@ -25,7 +25,8 @@ from erosim.core.errors import ConfigError
 class Section(BaseModel):
     """Base of every parameter table: unknown keys are errors, values are immutable."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    # allow_inf_nan=False: a float setting of inf or nan (`--set run.t_end=inf`) is refused in one sentence
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False)
 
 
 def param(default: Any = ..., *, unit: str = "", doc: str = "", **limits: Any) -> Any:

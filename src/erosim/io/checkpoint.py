@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +37,9 @@ def load(folder: str | os.PathLike) -> tuple[dict[str, np.ndarray], dict[str, An
         with np.load(path, allow_pickle=False) as data:
             state = {k: data[k] for k in data.files if k != "__meta__"}
             meta = json.loads(bytes(data["__meta__"]).decode()) if "__meta__" in data.files else {}
-    except (OSError, ValueError) as exc:
-        raise InputError(f"Checkpoint '{path}' cannot be read ({exc}); delete it and start the run again.") from None
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:  # truncated or corrupt
+        raise InputError(
+            f"Checkpoint '{path}' is damaged ({type(exc).__name__}: {exc}), so the run cannot be resumed; "
+            "start it again into a new folder (erosim run SCENARIO --out NEW), or delete this one."
+        ) from None
     return state, meta

@@ -248,22 +248,50 @@ def read(
         raise InputError(f"Heightmap file '{p}' does not exist; check the path.")
     try:
         if fmt == "geotiff":
-            return _read_geotiff(p, cs)
-        if fmt == "png16":
-            return _read_png(p, cs, rng)
-        if fmt == "raw16":
-            return _read_raw(p, cs, rng, raw_shape)
-        if fmt == "asc":
-            return _read_asc(p, cs)
-        if fmt == "npy":
-            return _georeferenced(p, np.load(p, allow_pickle=False), cs)
-        return _read_npz(p, cs)
+            hm = _read_geotiff(p, cs)
+        elif fmt == "png16":
+            hm = _read_png(p, cs, rng)
+        elif fmt == "raw16":
+            hm = _read_raw(p, cs, rng, raw_shape)
+        elif fmt == "asc":
+            hm = _read_asc(p, cs)
+        elif fmt == "npy":
+            hm = _georeferenced(p, np.load(p, allow_pickle=False), cs)
+        else:
+            hm = _read_npz(p, cs)
     except InputError:
         raise
     except Exception as exc:  # library errors on a corrupt file: one sentence, not a traceback
         raise InputError(
             f"Cannot read heightmap '{p}' ({type(exc).__name__}: {exc}); is it a valid {fmt} file?"
         ) from exc
+    _check_heights(hm, p)
+    return hm
+
+
+#: heights beyond this (m) are no terrain: Earth's surface spans about −11 km … +9 km
+MAX_HEIGHT = 1.0e5
+
+
+def _check_heights(hm: Heightmap, p: Path) -> None:
+    """Refuse, in one sentence and before any run, heights no terrain has (an undeclared nodata value
+    such as 1e30 or −3.4e38, or heights in another unit), which would otherwise break the physics and
+    the pictures only after the run."""
+    z = np.asarray(hm.z, dtype=np.float64)
+    valid = np.isfinite(z)
+    if hm.nodata is not None:
+        valid &= ~np.asarray(hm.nodata, dtype=bool)
+    if not valid.any():
+        raise InputError(f"Heightmap '{p}' has no valid height (every cell is nodata or not a number); check the file.")
+    worst = float(np.abs(z[valid]).max())
+    if worst > MAX_HEIGHT:
+        n = int((np.abs(z[valid]) > MAX_HEIGHT).sum())
+        raise InputError(
+            f"Heightmap '{p}' has {n:,} cell{'s' if n > 1 else ''} with heights up to {worst:.3g} m, beyond any "
+            "terrain "
+            f"(|z| <= {MAX_HEIGHT:.0e} m); if they are nodata, declare the file's nodata value (e.g. "
+            f"gdal_edit.py -a_nodata VALUE '{p.name}'), else convert the heights to metres."
+        )
 
 
 def _read_sample(key: str, cs: float | None) -> Heightmap:
@@ -685,8 +713,9 @@ def convert(
 
     ``cell_size`` overrides the source's cell size; ``raw_shape``/``height_range`` help read
     RAW16/PNG16 sources. The result is :func:`write`'s (``georeference``: where the CRS and
-    transform went; ``not_kept``: what ``dst`` cannot hold) plus ``src``, the heights' min/max and
-    the nodata count.
+    transform went; ``not_kept``: what ``dst`` cannot hold) plus ``src``, the heights' min/max,
+    the nodata count and ``crs``, the source's coordinate system by name (or that it names none: a
+    transform alone places the grid in map units of no known system).
     """
     _format(dst, "write")  # fail before reading a large file
     hm = read(src, cell_size=cell_size, raw_shape=raw_shape, height_range=height_range)
@@ -697,6 +726,20 @@ def convert(
         z_min=float(hm.z.min()),
         z_max=float(hm.z.max()),
         nodata_cells=int(hm.nodata.sum()) if hm.nodata is not None else 0,
-        georeferenced=hm.crs is not None,
+        crs=_crs_label(hm),
     )
     return info
+
+
+def _crs_label(hm: Heightmap) -> str:
+    """The source's coordinate system in words: ``EPSG:32633 (WGS 84 / UTM zone 33N)`` or why none."""
+    if not hm.crs:
+        return "none in the source" + (" (the transform is kept, in unnamed map units)" if hm.transform else "")
+    name = hm.crs.split('"')[1] if '"' in hm.crs else ""
+    try:
+        from rasterio.crs import CRS
+
+        code = CRS.from_wkt(hm.crs).to_epsg()
+    except Exception:  # a WKT GDAL cannot parse is still carried over as written
+        code = None
+    return f"EPSG:{code} ({name})" if code else name or "custom (WKT)"

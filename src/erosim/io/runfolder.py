@@ -11,6 +11,7 @@ All writes go through :mod:`erosim.core.atomic`, so no partial file is ever left
 
 from __future__ import annotations
 
+import contextlib
 import os
 import platform
 import time
@@ -20,6 +21,7 @@ from typing import Any
 from erosim import __version__
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
+from erosim.validation import session as validation_session
 
 
 def default_out(name: str, root: str | os.PathLike = "runs") -> Path:
@@ -46,12 +48,18 @@ class RunFolder:
                     f"Cannot resume '{self.path}': it holds no checkpoint/ folder; "
                     "pass the folder of a run that was interrupted or wrote checkpoints."
                 )
-        elif self.path.exists() and any(self.path.iterdir()) and not overwrite:
+        elif (
+            self.path.exists()
+            and any(self.path.iterdir())
+            and not overwrite
+            and not validation_session.reopens(self.path)
+        ):  # (a folder of a validation being resumed is opened as it is)
             raise ConfigError(
                 f"Output folder '{self.path}' already exists and is not empty; "
                 "choose another --out, add --overwrite, or continue it with --resume."
             )
         self.path.mkdir(parents=True, exist_ok=True)
+        validation_session.opened(self.path)
         self.started = time.perf_counter()
         self.warnings: list[str] = []
 
@@ -92,6 +100,17 @@ class RunFolder:
     def warn(self, message: str) -> None:
         """Record a warning for ``report.json``."""
         self.warnings.append(message)
+
+    @contextlib.contextmanager
+    def picture(self, path: str | os.PathLike):
+        """``with out.picture(path): draw…``: a picture that cannot be drawn (e.g. heights of extreme
+        magnitude) becomes a warning in ``report.json`` instead of losing the run's other outputs."""
+        try:
+            yield
+        except Exception as exc:
+            rel = os.path.relpath(path, self.path)
+            self.warn(f"The picture '{rel}' could not be written ({type(exc).__name__}: {exc}); the run's maps "
+                      "and report are complete.")  # fmt: skip
 
     def write_report(self, report: dict[str, Any], *, seed: int | None = None) -> Path:
         """Write ``report.json`` with the common header (version, seed, wall time, warnings) first."""

@@ -90,31 +90,35 @@ def write_outputs(model, terrain, folder) -> dict:
     for name, arr in maps.items():
         hio.write(folder.maps / f"{name}.tif", np.ascontiguousarray(arr), like=terrain)
         info["maps"][name] = {"path": f"maps/{name}.tif", "min": float(arr.min()), "max": float(arr.max())}
-    png = hio.write(folder.maps / "height.png", model.z, like=terrain)
-    raw = hio.write(folder.maps / "height.r16", model.z, like=terrain)
-    info["heightmap_16bit"] = {
-        "png": "maps/height.png",
-        "raw16": "maps/height.r16",
-        "raw16_shape": list(model.z.shape),
-        "height_range": png["height_range"],
-        "raw16_height_range": raw["height_range"],
-        "rescale": "z = lo + q·(hi − lo)/65535",
-    }
-    for name in ("stream", "lake_depth", "erosion", "deposition", "vegetation"):
-        vmax = 1.0 if name in ("stream", "vegetation") else None
-        m = hio.write_mask_png16(folder.maps / f"mask_{name}.png", maps[name], vmax=vmax)
-        info["masks"][name] = {"path": f"maps/mask_{name}.png", "vmax": m["vmax"]}
-    from erosim.viz.maps import DARK_BLUE, FOREST, GROUND, LIGHT_BLUE
-    from erosim.viz.plots import change_figure, extent_of, hillshade_figure, map_figure
+    # the 16-bit exports and pictures: one that fails is a warning, never the loss of the maps above
+    with folder.picture(folder.maps / "height.png"):
+        png = hio.write(folder.maps / "height.png", model.z, like=terrain)
+        raw = hio.write(folder.maps / "height.r16", model.z, like=terrain)
+        info["heightmap_16bit"] = {
+            "png": "maps/height.png",
+            "raw16": "maps/height.r16",
+            "raw16_shape": list(model.z.shape),
+            "height_range": png["height_range"],
+            "raw16_height_range": raw["height_range"],
+            "rescale": "z = lo + q·(hi − lo)/65535",
+        }
+    with folder.picture(folder.maps / "mask_*.png"):
+        for name in ("stream", "lake_depth", "erosion", "deposition", "vegetation"):
+            vmax = 1.0 if name in ("stream", "vegetation") else None
+            m = hio.write_mask_png16(folder.maps / f"mask_{name}.png", maps[name], vmax=vmax)
+            info["masks"][name] = {"path": f"maps/mask_{name}.png", "vmax": m["vmax"]}
+    with folder.picture(folder.figures):
+        from erosim.viz.maps import DARK_BLUE, FOREST, GROUND, LIGHT_BLUE
+        from erosim.viz.plots import change_figure, extent_of, hillshade_figure, map_figure
 
-    cs, box = model.cell_size, extent_of(terrain.transform, model.z.shape, model.cell_size)
-    hillshade_figure(folder.figures / "hillshade_before.png", model.z0, cs, "Terrain before", box)
-    hillshade_figure(folder.figures / "hillshade_after.png", model.z, cs, "Terrain after", box)
-    legend = [("stream", LIGHT_BLUE), ("lake", DARK_BLUE), ("forest", FOREST), ("bare ground", GROUND)]
-    map_figure(folder.figures / "hydrology.png", picture(model), cs, "Rivers, lakes and forest", legend=legend,
-               extent=box)  # fmt: skip
-    change_figure(folder.figures / "erosion_deposition.png", maps["deposition"] - maps["erosion"], cs,
-                  "Erosion and deposition", box)  # fmt: skip
+        cs, box = model.cell_size, extent_of(terrain.transform, model.z.shape, model.cell_size)
+        hillshade_figure(folder.figures / "hillshade_before.png", model.z0, cs, "Terrain before", box)
+        hillshade_figure(folder.figures / "hillshade_after.png", model.z, cs, "Terrain after", box)
+        legend = [("stream", LIGHT_BLUE), ("lake", DARK_BLUE), ("forest", FOREST), ("bare ground", GROUND)]
+        map_figure(folder.figures / "hydrology.png", picture(model), cs, "Rivers, lakes and forest", legend=legend,
+                   extent=box)  # fmt: skip
+        change_figure(folder.figures / "erosion_deposition.png", maps["deposition"] - maps["erosion"], cs,
+                      "Erosion and deposition", box)  # fmt: skip
     return info
 
 

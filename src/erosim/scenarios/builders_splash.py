@@ -488,6 +488,10 @@ def setup(scenario, out) -> Setup:
         callbacks.append(EdgeOutflow(IterationInterval(1), solver, r, cfg.edges.outflow))
     grid = FluidGrid(r, 3, ground=geo.terrain, near=2.0 * solver.h)
     warnings = list(geo.dem.notes) if geo.dem is not None and cfg.drop is None else []
+    if cfg.drop is not None:  # by the model's design (seed 003), said so that no one reads a resolved drop
+        warnings.append(f"Each drop is one SPH particle of the drop's volume ({dx:.3g} m spacing for drop.radius = "
+                        f"{cfg.drop.radius:g} m): its shape and spreading on impact are not resolved, and the crater "
+                        "follows the projectile law for a drop of that size.")  # fmt: skip
     assumed: list[str] = []
     facts = None
     if cfg.drop is None:

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from erosim.core.errors import ConfigError, InputError, InstabilityError, Interrupted
+from erosim.core.errors import ConfigError, ErosimError, InputError, InstabilityError, Interrupted
 from erosim.io import checkpoint as ckpt
 from erosim.simulation.callbacks import Callback, Checkpointer
 from erosim.simulation.progress import ProgressBar
@@ -253,9 +253,9 @@ class Simulation:
                 self.status = "completed"
                 self.checkpoint()
                 for c in self.callbacks:
-                    extra.update(c.finalize(self))
+                    extra.update(self._final_output(c.finalize, getattr(c, "name", type(c).__name__)))
                 if finish is not None:
-                    extra.update(finish(self))
+                    extra.update(self._final_output(finish, "finish"))
             except KeyboardInterrupt:
                 self._stopped("interrupted")
                 self.checkpoint()
@@ -280,6 +280,21 @@ class Simulation:
                 rep = self._report(steps0, extra, report)
                 self.out.write_report(rep, seed=seed)
         return rep
+
+    def _final_output(self, write: Callable, name: str) -> dict[str, Any]:
+        """One final output of a completed run; one that fails (a picture of extreme values, a full
+        figure library) becomes a warning in the report and on the console, so that it never loses the
+        run's other maps and its report."""
+        try:
+            return write(self) or {}
+        except (OSError, MemoryError, ErosimError):  # a full disk, bad input: the run's own outcome, as before
+            raise
+        except Exception as exc:
+            note = (f"The final output '{name}' failed ({type(exc).__name__}: {exc}); the run completed and its "
+                    "other outputs and this report are written.")  # fmt: skip
+            self.out.warn(note)
+            print(f"{self.label}: warning: {note}", file=sys.stderr, flush=True)
+            return {}
 
     def _pressed(self) -> None:
         """The first Ctrl-C: during the steps it stops after the current one (said then); once the run
