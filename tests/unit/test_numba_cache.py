@@ -33,3 +33,19 @@ def test_the_cache_folder_is_used_by_numba(tmp_path):
     code = "import numba; import erosim; print(numba.config.CACHE_DIR)"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == str(expected)
+
+
+def test_a_user_cache_dir_is_a_root_under_which_the_hashed_folder_is_used(tmp_path):
+    """NUMBA_CACHE_DIR set by the user names the root; the folder below it still carries the hash, so
+    an edit is never served from a stale cache there either (and a child process, which inherits the
+    resolved folder, does not nest it again)."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "mine")
+    expected = tmp_path / "mine" / f"{erosim.__version__}-{erosim.source_hash(PKG)}"
+    code = (
+        "import os, subprocess, sys, numba, erosim; print(numba.config.CACHE_DIR); "
+        "print(subprocess.run([sys.executable, '-c', 'import numba, erosim; print(numba.config.CACHE_DIR)'],"
+        " capture_output=True, text=True, check=True).stdout.strip())"
+    )
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == [str(expected), str(expected)] and expected.is_dir()
