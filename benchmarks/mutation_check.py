@@ -386,6 +386,32 @@ MUTATIONS = (
         ("tests/unit/test_priority_flood.py",),
         "the fill's rise over a diagonal step is Δx·s instead of √2·Δx·s",
     ),
+    Mutation(
+        "mei-deposition-off",
+        "erosion/transport_capacity_mei2007.py",
+        (("                e = -fd * (s - c)\n", "                e = 0.0 * fd * (s - c)\n"),),
+        ("tests/unit/test_sph_terrain_parts.py",),
+        "suspended sediment never settles (ER-2's deposition term zeroed)",
+    ),
+    Mutation(
+        "darcy-drainage-reversed",
+        "hydrology/seepage_darcy.py",
+        (
+            (
+                "    theta[upper] -= flow / pore[upper]\n    theta[lower] += flow / pore[lower]",
+                "    theta[upper] += flow / pore[upper]\n    theta[lower] -= flow / pore[lower]",
+            ),
+        ),
+        ("tests/verification/test_seepage_darcy.py",),
+        "water climbs from the lower layer into the upper one (Darcy drainage between layers reversed)",
+    ),
+    Mutation(
+        "heightfield-density-ignores-distance",
+        "sph/boundaries/heightfield.py",
+        (("rho[i] += wall_density(table, dl, (pos[i, d - 1] - hgt) * nz)", "rho[i] += wall_density(table, dl, 0.0)"),),
+        ("tests/unit/test_wall_weights.py",),
+        "the heightfield's share of the summation density is the same at any distance from the ground",
+    ),
 )
 
 
