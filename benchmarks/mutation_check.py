@@ -412,6 +412,83 @@ MUTATIONS = (
         ("tests/unit/test_wall_weights.py",),
         "the heightfield's share of the summation density is the same at any distance from the ground",
     ),
+    Mutation(
+        "swe-manning-n-not-squared",
+        "kernels/swe_sph.py",
+        (("den = 1.0 + dt * g * nn * nn * speed / d ** (4.0 / 3.0)",
+          "den = 1.0 + dt * g * nn * speed / d ** (4.0 / 3.0)"),),  # fmt: skip
+        ("tests/unit/test_swe_sph.py",),
+        "the flood's Manning friction grows with n, not n² (g n u|u| / d^{4/3})",
+    ),
+    Mutation(
+        "hazard-highest-class-wins",
+        "analysis/hazard.py",
+        (
+            (
+                "for k in range(len(HAZARD_LIMITS), 0, -1):  # highest first, so the lowest class that holds wins",
+                "for k in range(1, len(HAZARD_LIMITS) + 1):",
+            ),
+        ),
+        ("tests/unit/test_hazard.py",),
+        "a cell gets the highest hazard class whose limits hold, not the lowest",
+    ),
+    Mutation(
+        "kristof-tau-c-not-subtracted",
+        "erosion/shear_stress_kristof2009.py",
+        (("    return tau - tau_c if tau > tau_c else 0.0\n", "    return tau if tau > tau_c else 0.0\n"),),
+        ("tests/unit/test_voxel_erosion.py",),
+        "the shear-stress law erodes at K θⁿ above τ_c instead of K θⁿ − τ_c",
+    ),
+    Mutation(
+        "voxel-wall-distance-halved",
+        "kernels/voxel.py",
+        (("    return (iso - d) / g, -gx / g, -gy / g, -gz / g, d\n",
+          "    return (iso - d) / (2.0 * g), -gx / g, -gy / g, -gz / g, d\n"),),  # fmt: skip
+        ("tests/unit/test_voxel_distance.py",),
+        "the voxel wall reads half the distance to the iso-surface",
+    ),
+    Mutation(
+        "splash-crater-depth-factor",
+        "erosion/splash.py",
+        (("np.sqrt(2.0 * rho_fluid / (9.0 * np.asarray(sigma)))", "np.sqrt(rho_fluid / np.asarray(sigma))"),),
+        ("tests/unit/test_splash_physics.py",),
+        "the crater depth law loses its factor √(2/9)",
+    ),
+    Mutation(
+        "wet-strength-ignores-moisture",
+        "erosion/wet_strength.py",
+        (("    return sigma_wet + (sigma_dry - sigma_wet) * weakening(theta)",
+          "    return sigma_wet + (sigma_dry - sigma_wet) * weakening(0.0 * theta)"),),  # fmt: skip
+        ("tests/unit/test_splash_physics.py",),
+        "wet ground is as strong as dry ground",
+    ),
+    Mutation(
+        "mud-density-of-water",
+        "sph/mud.py",
+        (("    return c * rho_solid + (1.0 - c) * rho_fluid\n", "    return 0.0 * c * rho_solid + rho_fluid\n"),),
+        ("tests/verification/test_mud_mixture.py",),
+        "mud weighs as much as clear water (the solid fraction's density lost)",
+    ),
+    Mutation(
+        "settling-ignores-height",
+        "erosion/settling_voxel.py",
+        (("want = s * (1.0 - math.exp(-rate_dt / max(lj, l_min)))", "want = s * (1.0 - math.exp(-rate_dt / l_min))"),),
+        ("tests/unit/test_settling_voxel.py",),
+        "sediment settles at the same rate whatever the particle's height above the ground",
+    ),
+    Mutation(
+        "checkpoint-rounds-to-float32",
+        "io/checkpoint.py",
+        (
+            (
+                "    arrays = {k: np.asarray(v) for k, v in state.items()}\n",
+                "    arrays = {k: np.asarray(v, dtype=np.float32) if np.asarray(v).dtype == np.float64\n"
+                "              else np.asarray(v) for k, v in state.items()}\n",
+            ),
+        ),
+        ("tests/unit/test_atomic_loop.py", "tests/unit/test_simulation.py"),
+        "a checkpoint keeps the state arrays in single precision (a resume is no longer exact)",
+    ),
 )
 
 
