@@ -6,7 +6,9 @@ applied there, and pytest runs those test modules against the copy (``PYTHONPATH
 failure is enough). Numba compiles the copy afresh (its cache folder is named by a hash of the
 sources, see ``erosim/__init__.py``), so no compiled kernel of the unbroken code can hide a mutation.
 
-A mutation is *caught* when a test fails, *survives* when every test passes. Every mutation must be
+A mutation is *caught* when a test fails, *survives* when every test passes, and is *stale* when its
+text no longer occurs exactly once in today's sources (reported in the table; the rest still run;
+``tests/unit/test_mutation_table.py`` keeps the table in step with the code). Every mutation must be
 caught; the list grows with the physics (erosion laws, boundaries, budgets).
 
     .venv/bin/python benchmarks/mutation_check.py                 # all, a table on stdout
@@ -78,12 +80,14 @@ MUTATIONS = (
         "sph/forces.py",
         (
             (
-                "    acc[i, 2] = m * az + gz\n    drho[i] = m * (dr + kdiff * dd)\n",
-                "    acc[i, 2] = m * az + gz\n    drho[i] = m * dr\n",
+                'drho[i] = m * (dr + kdiff * dd)\n    return m * kdiff * kd\n\n\n'
+                '@njit(inline="always")\ndef fluid_particle_2d',
+                'drho[i] = m * dr\n    return m * kdiff * kd\n\n\n@njit(inline="always")\ndef fluid_particle_2d',
             ),
             (
-                "    acc[i, 1] = m * ay + gy\n    drho[i] = m * (dr + kdiff * dd)\n",
-                "    acc[i, 1] = m * ay + gy\n    drho[i] = m * dr\n",
+                '    drho[i] = m * (dr + kdiff * dd)\n    return m * kdiff * kd\n\n\n'
+                '@njit(inline="always")\ndef kernel_sum',
+                '    drho[i] = m * dr\n    return m * kdiff * kd\n\n\n@njit(inline="always")\ndef kernel_sum',
             ),
         ),
         SPH_CORE,
@@ -127,7 +131,7 @@ MUTATIONS = (
     Mutation(
         "wall-hydrostatic-term-off",
         "sph/boundaries/wall_weight_harada2007.py",
-        (("an = arep + m * chyd * gn * ch", "an = arep"),),
+        (("an = arep + m * chyd * gn * ch", "an = arep + 0.0 * m * chyd * gn * ch"),),
         ("tests/unit/test_wall_weights.py", "tests/validation/test_basin_at_rest.py"),
         "particle-free walls without the hydrostatic pressure of their wall particles",
     ),
@@ -391,6 +395,109 @@ MUTATIONS = (
         "the fill's rise over a diagonal step is Δx·s instead of √2·Δx·s",
     ),
     Mutation(
+        "mei-deposition-off",
+        "erosion/transport_capacity_mei2007.py",
+        (("                e = -fd * (s - c)\n", "                e = 0.0 * fd * (s - c)\n"),),
+        ("tests/unit/test_sph_terrain_parts.py",),
+        "suspended sediment never settles (ER-2's deposition term zeroed)",
+    ),
+    Mutation(
+        "darcy-drainage-reversed",
+        "hydrology/seepage_darcy.py",
+        (
+            (
+                "    theta[upper] -= flow / pore[upper]\n    theta[lower] += flow / pore[lower]",
+                "    theta[upper] += flow / pore[upper]\n    theta[lower] -= flow / pore[lower]",
+            ),
+        ),
+        ("tests/verification/test_seepage_darcy.py",),
+        "water climbs from the lower layer into the upper one (Darcy drainage between layers reversed)",
+    ),
+    Mutation(
+        "heightfield-density-ignores-distance",
+        "sph/boundaries/heightfield.py",
+        (("rho[i] += wall_density(table, dl, (pos[i, d - 1] - hgt) * nz)", "rho[i] += wall_density(table, dl, 0.0)"),),
+        ("tests/unit/test_wall_weights.py",),
+        "the heightfield's share of the summation density is the same at any distance from the ground",
+    ),
+    Mutation(
+        "swe-manning-n-not-squared",
+        "kernels/swe_sph.py",
+        (("den = 1.0 + dt * g * nn * nn * speed / d ** (4.0 / 3.0)",
+          "den = 1.0 + dt * g * nn * speed / d ** (4.0 / 3.0)"),),  # fmt: skip
+        ("tests/unit/test_swe_sph.py",),
+        "the flood's Manning friction grows with n, not n² (g n u|u| / d^{4/3})",
+    ),
+    Mutation(
+        "hazard-highest-class-wins",
+        "analysis/hazard.py",
+        (
+            (
+                "for k in range(len(HAZARD_LIMITS), 0, -1):  # highest first, so the lowest class that holds wins",
+                "for k in range(1, len(HAZARD_LIMITS) + 1):",
+            ),
+        ),
+        ("tests/unit/test_hazard.py",),
+        "a cell gets the highest hazard class whose limits hold, not the lowest",
+    ),
+    Mutation(
+        "kristof-tau-c-not-subtracted",
+        "erosion/shear_stress_kristof2009.py",
+        (("    return tau - tau_c if tau > tau_c else 0.0\n", "    return tau if tau > tau_c else 0.0\n"),),
+        ("tests/unit/test_voxel_erosion.py",),
+        "the shear-stress law erodes at K θⁿ above τ_c instead of K θⁿ − τ_c",
+    ),
+    Mutation(
+        "voxel-wall-distance-halved",
+        "kernels/voxel.py",
+        (("    return (iso - d) / g, -gx / g, -gy / g, -gz / g, d\n",
+          "    return (iso - d) / (2.0 * g), -gx / g, -gy / g, -gz / g, d\n"),),  # fmt: skip
+        ("tests/unit/test_voxel_distance.py",),
+        "the voxel wall reads half the distance to the iso-surface",
+    ),
+    Mutation(
+        "splash-crater-depth-factor",
+        "erosion/splash.py",
+        (("np.sqrt(2.0 * rho_fluid / (9.0 * np.asarray(sigma)))", "np.sqrt(rho_fluid / np.asarray(sigma))"),),
+        ("tests/unit/test_splash_physics.py",),
+        "the crater depth law loses its factor √(2/9)",
+    ),
+    Mutation(
+        "wet-strength-ignores-moisture",
+        "erosion/wet_strength.py",
+        (("    return sigma_wet + (sigma_dry - sigma_wet) * weakening(theta)",
+          "    return sigma_wet + (sigma_dry - sigma_wet) * weakening(0.0 * theta)"),),  # fmt: skip
+        ("tests/unit/test_splash_physics.py",),
+        "wet ground is as strong as dry ground",
+    ),
+    Mutation(
+        "mud-density-of-water",
+        "sph/mud.py",
+        (("    return c * rho_solid + (1.0 - c) * rho_fluid\n", "    return 0.0 * c * rho_solid + rho_fluid\n"),),
+        ("tests/verification/test_mud_mixture.py",),
+        "mud weighs as much as clear water (the solid fraction's density lost)",
+    ),
+    Mutation(
+        "settling-ignores-height",
+        "erosion/settling_voxel.py",
+        (("want = s * (1.0 - math.exp(-rate_dt / max(lj, l_min)))", "want = s * (1.0 - math.exp(-rate_dt / l_min))"),),
+        ("tests/unit/test_settling_voxel.py",),
+        "sediment settles at the same rate whatever the particle's height above the ground",
+    ),
+    Mutation(
+        "checkpoint-rounds-to-float32",
+        "io/checkpoint.py",
+        (
+            (
+                "    arrays = {k: np.asarray(v) for k, v in state.items()}\n",
+                "    arrays = {k: np.asarray(v, dtype=np.float32) if np.asarray(v).dtype == np.float64\n"
+                "              else np.asarray(v) for k, v in state.items()}\n",
+            ),
+        ),
+        ("tests/unit/test_atomic_loop.py", "tests/unit/test_simulation.py"),
+        "a checkpoint keeps the state arrays in single precision (a resume is no longer exact)",
+    ),
+    Mutation(
         "flood-arrival-is-the-step",
         "sph/shallow_water_vacondio2012.py",
         (("self.inv_cell, self.t, wet,", "self.inv_cell, self.last_dt, wet,"),),
@@ -423,17 +530,12 @@ MUTATIONS = (
 
 
 def stale_edits(m: Mutation, src_root: Path = REPO / "src") -> list[str]:
-    """Why ``m`` no longer applies to the sources under ``src_root`` (empty when each edit's text occurs
-    exactly once in its file)."""
+    """The edits of ``m`` whose text does not occur exactly once in the sources (empty: it applies)."""
     path = src_root / "erosim" / m.file
     if not path.is_file():
         return [f"{m.file} does not exist"]
     text = path.read_text(encoding="utf-8")
-    return [
-        f"the text {old[:60]!r}… occurs {text.count(old)} times in {m.file}"
-        for old, _ in m.edits
-        if text.count(old) != 1
-    ]
+    return [f"{old[:60]!r}… occurs {text.count(old)} times in {m.file}" for old, _ in m.edits if text.count(old) != 1]
 
 
 def _apply(src_root: Path, m: Mutation) -> None:
@@ -457,7 +559,7 @@ def _tests_folder(rev: str | None, work: Path) -> Path:
 
 def run_one(m: Mutation, tests_root: Path, work: Path) -> dict:
     stale = stale_edits(m)
-    if stale:  # the source moved on: reported as its own status, and the run goes on to the next one
+    if stale:  # the source moved on: reported in the table, the other mutations still run
         return {"name": m.name, "status": "stale", "seconds": 0.0, "first_failure": "; ".join(stale), "what": m.what}
     src = work / f"src-{m.name}"
     shutil.copytree(REPO / "src", src, ignore=shutil.ignore_patterns("__pycache__"))

@@ -30,35 +30,38 @@ def source_hash(pkg: Path) -> str:
 
 def _numba_cache_dir() -> None:
     """Put Numba's on-disk cache of compiled kernels in a folder named by a hash of this package's
-    sources, ``<root>/<version>-<hash>``, under ``$NUMBA_CACHE_DIR`` when the user sets it, else under
-    ``~/.cache/erosim/numba`` (``$XDG_CACHE_HOME`` honoured).
+    sources, ``<root>/<version>-<hash>``; the root is ``$NUMBA_CACHE_DIR`` when the user sets it,
+    else ``~/.cache/erosim/numba`` (``$XDG_CACHE_HOME`` honoured).
 
     Numba keys a cached function by its own file only: a jitted caller that inlines a callee from
     another file (a kernel, a boundary pass) stays cached when only the callee's file changes, so a
     run after an edit could execute the old physics. A folder per source hash makes that impossible,
-    wherever the cache lives; the newest few such folders are kept (nothing else under a user's root
-    is touched). A ``NUMBA_CACHE_DIR`` that already names this hash's folder (as erosim passes it on to
-    the processes it starts) is used as it is.
+    wherever the cache lives; the newest few such folders are kept under the root.
     """
-    key = f"{__version__}-{source_hash(Path(__file__).resolve().parent)}"
+    name = f"{__version__}-{source_hash(Path(__file__).resolve().parent)}"
     user = os.environ.get("NUMBA_CACHE_DIR")
-    if user and Path(user).name == key:
-        return
-    root = Path(user) if user else Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "erosim" / "numba"
-    folder = root / key
+    if user:
+        root = Path(user)
+        if root.name == name:  # already resolved (a child process inherits the folder, not the root)
+            root = root.parent
+    else:
+        root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "erosim" / "numba"
+    folder = root / name
     try:
         folder.mkdir(parents=True, exist_ok=True)
         os.utime(folder)
-        ours = re.compile(r"\d+\.\d+\.\d+\S*-[0-9a-f]{16}$")
-        old = sorted(
-            (p for p in root.iterdir() if p.is_dir() and p != folder and ours.match(p.name)),
-            key=lambda p: p.stat().st_mtime,
-        )
+        ours = re.compile(r"^.+-[0-9a-f]{16}$")  # only this package's folders are pruned, never others'
+        old = sorted((p for p in root.iterdir() if p.is_dir() and p != folder and ours.match(p.name)),
+                     key=lambda p: p.stat().st_mtime)  # fmt: skip
         for stale in old[: max(0, len(old) - (_CACHES_KEPT - 1))]:
             import shutil
 
             shutil.rmtree(stale, ignore_errors=True)
     except OSError:  # no writable cache root: Numba's default cache beside the sources
+        if user:
+            os.environ.pop("NUMBA_CACHE_DIR")
+            if "numba" in sys.modules:
+                sys.modules["numba"].config.CACHE_DIR = ""
         return
     os.environ["NUMBA_CACHE_DIR"] = str(folder)
     if "numba" in sys.modules:  # imported before erosim: its config has read the environment already

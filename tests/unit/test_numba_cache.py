@@ -35,17 +35,17 @@ def test_the_cache_folder_is_used_by_numba(tmp_path):
     assert out.stdout.strip() == str(expected)
 
 
-def test_a_users_cache_dir_is_a_root_keyed_by_the_sources_too(tmp_path):
-    """NUMBA_CACHE_DIR set by the user holds the same <version>-<hash> folder, so an edit of the
-    sources never meets a stale cache there either; a folder of the user's own is left alone."""
-    key = f"{erosim.__version__}-{erosim.source_hash(PKG)}"
-    mine = tmp_path / "notes"
-    mine.mkdir()
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
-    code = "import numba, os, erosim; print(numba.config.CACHE_DIR); print(os.environ['NUMBA_CACHE_DIR'])"
+def test_a_user_cache_dir_is_a_root_under_which_the_hashed_folder_is_used(tmp_path):
+    """NUMBA_CACHE_DIR set by the user names the root; the folder below it still carries the hash, so
+    an edit is never served from a stale cache there either (and a child process, which inherits the
+    resolved folder, does not nest it again)."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "mine")
+    expected = tmp_path / "mine" / f"{erosim.__version__}-{erosim.source_hash(PKG)}"
+    code = (
+        "import os, subprocess, sys, numba, erosim; print(numba.config.CACHE_DIR); "
+        "print(subprocess.run([sys.executable, '-c', 'import numba, erosim; print(numba.config.CACHE_DIR)'],"
+        " capture_output=True, text=True, check=True).stdout.strip())"
+    )
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    assert out.stdout.split() == [str(tmp_path / key)] * 2 and (tmp_path / key).is_dir() and mine.is_dir()
-    # a child process handed the keyed folder keeps it (no folder inside the folder)
-    env["NUMBA_CACHE_DIR"] = str(tmp_path / key)
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    assert out.stdout.split() == [str(tmp_path / key)] * 2
+    assert out.stdout.split() == [str(expected), str(expected)] and expected.is_dir()

@@ -211,3 +211,20 @@ def test_the_ground_constraint_lifts_a_particle_below_it_and_stops_it_going_in()
     terrain += 0.3
     ground.refresh(s, terrain=terrain, changed=np.ones(r.shape, bool))
     assert st.pos[0, 2] >= 0.4 and ground.below(s, tol=0.0) == 0
+
+
+def test_suspended_load_settles_in_still_water_at_the_laws_rate():
+    """ER-2 with C = 0 (water at rest): ds/dt = −K_d s, so after n coupling steps of Δt the load is
+    s₀ e^{−K_d n Δt} and the bed has risen by what left the water (Mei et al. 2007; seed 000 eq. 1.33).
+    The relaxation is exact per step, so the only tolerance is float rounding (1e-12 relative)."""
+    r = Raster(0.0, 0.0, 1.0, 1.0, 6, 5)
+    terrain = np.zeros(r.shape)
+    kd, dt, n, s0 = 0.5, 0.1, 20, 0.01
+    e = _eroder(r, terrain, deposit=kd)
+    e.s_area[...] = s0
+    still = _grid(r, np.full(r.shape, 0.5), np.zeros(r.shape + (3,)))
+    for _ in range(n):
+        terrain += e.increments(terrain, still, dt).dz
+    s = s0 * np.exp(-kd * n * dt)
+    assert np.allclose(e.s_area, s, rtol=1e-12, atol=0.0)
+    assert np.allclose(terrain, s0 - s, rtol=1e-12, atol=0.0)  # settled, not lost

@@ -167,3 +167,27 @@ def test_the_analytic_solutions_hold_their_own_conditions():
     assert s * hm * um == pytest.approx(hm * um**2 + 0.5 * g * (hm**2 - h1**2), rel=1e-9)
     x = np.linspace(-5, 10, 31)
     assert np.allclose(dam.analytic_depth(x, 1.0, h0, 1e-9), dam.analytic_depth(x, 1.0, h0, 0.0), atol=5e-3)
+
+
+def test_manning_kick_decelerates_a_uniform_sheet_at_the_laws_rate():
+    """Manning friction alone (a = 0) on a uniform sheet: du/dt = −g n² u|u| / d^{4/3}, whose solution
+    is 1/u(t) = 1/u₀ + g n² t / d^{4/3}. The semi-implicit kick u ← u / (1 + Δt g n² |u| / d^{4/3})
+    gives exactly 1/u_{k+1} = 1/u_k + Δt g n² / d^{4/3}, so after any number of steps it equals the
+    solution to rounding (1e-12 relative); two halves of the map with their own n and depth check
+    the nearest-cell lookup, n² and d^{4/3}."""
+    from erosim.kernels.swe_sph import kick
+
+    g, dt, steps = 9.81, 0.05, 40
+    manning = np.full((4, 8), 0.05)
+    manning[:, 4:] = 0.1  # x ≥ 3.5 m (1 m cells)
+    pos = np.array([[1.0, 1.0], [2.0, 2.0], [5.0, 1.0], [6.0, 2.0]])
+    depth = np.array([0.3, 0.3, 1.0, 1.0])
+    vel = np.array([[1.5, 0.0], [0.0, -1.5], [3.0, 4.0], [-2.0, 0.0]])
+    u0 = vel.copy()
+    for _ in range(steps):
+        kick(vel, np.zeros_like(vel), depth, manning, 1.0, pos, len(pos), dt, g, 1e-6)
+    n = np.array([0.05, 0.05, 0.1, 0.1])
+    speed0 = np.linalg.norm(u0, axis=1)
+    speed = 1.0 / (1.0 / speed0 + g * n**2 * steps * dt / depth ** (4.0 / 3.0))
+    assert np.allclose(vel, u0 * (speed / speed0)[:, None], rtol=1e-12, atol=0.0)  # slowed, never turned
+    assert np.all(speed < 0.9 * speed0)  # the friction matters here: at least 10 % slower

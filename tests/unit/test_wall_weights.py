@@ -146,3 +146,37 @@ def test_attraction_pulls_a_lone_particle_to_a_wall():
     # 1 %: the acceleration is kept from within the step, where ρ and l have moved slightly (0.25 % measured)
     assert acc["seed"][2] == pytest.approx(expected, rel=0.01)
     assert np.allclose(acc["seed"][:2], 0.0, atol=1e-9)
+
+
+def test_heightfield_density_share_follows_the_distance_to_the_ground():
+    """Water at rest in a lattice on a flat heightfield floor (2-D, Δx = 1 cm, h = 3Δx): each particle's
+    share of the ground, Z(l), is the sum m Σ W over a lattice of wall particles below the floor at its
+    distance l (2 % of ρ₀, the curves' bake tolerance above), zero from l = h on; so the summation
+    density fluid + wall of every layer, the first ones at the wall included, is that of the lattice
+    continued below the floor (2 % of ρ₀): the wall adds no pressure to water at rest."""
+    from types import SimpleNamespace
+
+    dx, rho0, dim, kernel = 0.01, 1000.0, 2, "wendland"
+    h = 3.0 * dx
+    m = rho0 * dx**dim
+    raster = Raster(0.0, 0.0, 0.02, 1.0, 21, 1)
+    ground = HeightfieldGround(raster, np.zeros(raster.shape))
+    ground.curves = bake(kernel, dim, dx, h, rho0, "artificial")
+    xs = (np.arange(40) + 0.5) * dx
+    zs = (np.arange(8) + 0.5) * dx
+    fluid = np.stack([g.ravel() for g in np.meshgrid(xs, zs, indexing="ij")], axis=1)
+    share = ground.share(SimpleNamespace(state=SimpleNamespace(pos=fluid, n_fluid=len(fluid))))
+    wall = np.stack([g.ravel() for g in np.meshgrid(xs, -zs, indexing="ij")], axis=1)
+    mid = np.abs(fluid[:, 0] - 0.2) < 0.5 * dx  # a column far from the map's ends
+    for i in np.flatnonzero(mid):
+        r = np.sqrt(((fluid[i] - wall) ** 2).sum(axis=1))
+        direct = m * kernel_w(r, h, dim, kernel).sum()
+        assert share[i] == pytest.approx(direct, abs=0.02 * rho0), fluid[i]
+    assert np.all(share[fluid[:, 1] >= h] == 0.0) and np.all(share[fluid[:, 1] < h] > 0.0)
+    # summation density at rest: fluid neighbours + the ground's share = the full lattice's sum
+    full = np.stack([g.ravel() for g in np.meshgrid(xs, np.concatenate([-zs, zs]), indexing="ij")], axis=1)
+    for i in np.flatnonzero(mid):
+        r_f = np.sqrt(((fluid[i] - fluid) ** 2).sum(axis=1))
+        r_all = np.sqrt(((fluid[i] - full) ** 2).sum(axis=1))
+        rho = m * kernel_w(r_f, h, dim, kernel).sum() + share[i]
+        assert rho == pytest.approx(m * kernel_w(r_all, h, dim, kernel).sum(), abs=0.02 * rho0)

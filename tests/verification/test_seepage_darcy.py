@@ -154,6 +154,10 @@ def test_two_layer_column_passes_the_harmonic_mean_darcy_rate_and_the_top_soil_f
     moved = drain(g.theta, g.pore, g.upper, g.lower, k_bar, g.area, dt)
     # exact to rounding: θ_u(1 − θ_l) = 1 at the first step, K̄AΔt per column (well under the pore volume)
     assert moved == pytest.approx(g.ncol * k_bar[0] * g.area * dt, rel=1e-12)
+    # and downward: the top loses exactly that, the subsoil gains it (never the reverse)
+    step = k_bar[0] * g.area * dt
+    assert np.allclose(g.theta[g.surface], 1.0 - step / g.pore[g.surface], rtol=0, atol=1e-15)
+    assert np.allclose(g.theta[~g.surface], step / g.pore[~g.surface], rtol=0, atol=1e-15)
 
     g.theta[:] = 0.0
     water = np.full(g.ncol, 1.0)  # an endless puddle on every column
@@ -176,3 +180,32 @@ def test_two_layer_column_passes_the_harmonic_mean_darcy_rate_and_the_top_soil_f
     assert soaked[-1] <= g.ncol * k_bar[0] * g.area * dt * (1 + 1e-9)
     assert soaked[0] == pytest.approx(g.ncol * k_t * g.area * dt, rel=1e-12)  # a dry top takes K_t at first
     assert abs(water.sum() + g.water() - total0) / total0 < 1e-12  # water budget: rounding only
+
+
+def test_wet_over_dry_column_drains_down_and_its_front_moves_down():
+    """Darcy drainage q = K̄ θ_u (1 − θ_l) between the layers of a column whose top layer is saturated
+    and the rest dry: the first step moves exactly K̄AΔt from the top into the layer below (nothing
+    else moves), and afterwards the wetting front (the deepest layer holding water above 1 %) only
+    goes down while the water's mean depth only increases and the total stays constant to rounding."""
+    r = Raster(0.0, 0.0, 0.01, 0.01, 3, 3)
+    g = PorousGround(r, np.zeros(r.shape), 0.01, 6, 0.4, 0.0, 2650.0, permeability=[4e-9] * 6)
+    k_bar = harmonic(conductivity(4e-9) * np.ones(len(g.upper)), conductivity(4e-9) * np.ones(len(g.upper)))
+    g.theta[g.surface] = 1.0
+    dt = 2e-3
+    step = k_bar[0] * g.area * dt / g.pore[0]  # 0.0196 of the pore volume per step
+    drain(g.theta, g.pore, g.upper, g.lower, k_bar, g.area, dt)
+    layer = (g.depth / g.s - 0.5).round().astype(int)
+    assert np.allclose(g.theta[layer == 0], 1.0 - step, rtol=0, atol=1e-15)
+    assert np.allclose(g.theta[layer == 1], step, rtol=0, atol=1e-15)
+    assert np.all(g.theta[layer >= 2] == 0.0)
+    total0 = g.water()
+    fronts, depths = [], []
+    for _ in range(300):
+        drain(g.theta, g.pore, g.upper, g.lower, k_bar, g.area, dt)
+        held = g.theta * g.pore
+        fronts.append(layer[g.theta > 0.01].max())
+        depths.append((held * g.depth).sum() / held.sum())
+    assert np.all(np.diff(fronts) >= 0) and fronts[0] == 1 and fronts[-1] == g.layers - 1
+    assert np.all(np.diff(depths) > 0)
+    assert g.theta[layer == 0].max() < 0.5  # the top has drained more than half of its water
+    assert abs(g.water() - total0) / total0 < 1e-12
