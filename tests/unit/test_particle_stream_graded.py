@@ -57,3 +57,18 @@ def test_nothing_is_cut_below_the_ground_ahead_of_the_last_impact():
     s = _run(h0)
     assert s.h.min() >= 10.0 - TOL
     assert (s.h[:, : NX // 2] < 12.0).any()  # the step was worked on
+
+
+def test_a_lip_at_the_outlet_is_cut_open():
+    # a plane falling east to a 3 m sill along the east edge's last three columns: a closed outlet
+    # before the fix (the fall read from behind the sill is negative there, so it was never cut;
+    # the library canyon ended in an 8 m lip). The sill must be cut down to the floor upstream.
+    jj, ii = np.indices((NY, NX))
+    h0 = 20.0 - 0.05 * ii + np.where(ii >= NX - 3, 3.0, 0.0)
+    s = _run(h0)
+    floor = _floor(h0, s.h)
+    assert np.isfinite(floor[-3:]).all()  # the sill was worked on
+    # the floor at the edge no higher than the floor anywhere upstream, within one impact's lowering
+    assert floor[-1] <= np.nanmin(floor[5:-3]) + TOL
+    rise = floor[1:] - np.fmin.accumulate(floor)[:-1]
+    assert np.nanmax(rise) <= TOL  # descending (or level within TOL) from the emitter to the edge

@@ -70,11 +70,16 @@ ground's fall ahead, and no cell is cut below the ground at the footprint's edge
     F = h(P_k) − h(P_k + λ u_α),   Δh(r) = e m (F / (λ S₀))ⁿ (1 − r²/λ²),
     h ← max(h − Δh (1 − d), h(P_k) − F)
 
-(``u_α`` the heading; where ``P_k + λ u_α`` is off the map or nodata, ``F = h(P_k − λ u_α) −
-h(P_k)``, the fall continued; ``F ≤ 0`` cuts nothing). The point read lies outside the footprint,
-so an impact shrinks the fall it reads: sills are cut from their crests down, pits cannot form, and
-the floor grades to the outlet (monotone on uniform rock; a hard band holds a knickpoint). A stream
-aimed up a slope, or over level ground, has no fall and carves nothing.
+(``u_α`` the heading; ``F ≤ 0`` cuts nothing). Open outlet: where ``P_k + λ u_α`` is off the map or
+nodata, the fall continues from behind, ``F = h(P_k − λ u_α) − h(P_k)`` with the floor bound
+``h(P_k) − F`` as above; but where the impact stands on a lip above the floor behind
+(``h(P_k) > h(B)``, ``B = P_k − λ u_α``), the lip is the fall, ``F = h(P_k) − h(B)``, and it is cut
+down to ``h(B)``. Without that, a lip at the edge (the edge cells are reached by fewer impacts
+than those upstream), once the channel upstream was cut below it, turned the fall negative and was
+never cut: a closed outlet. The point read lies outside the footprint, so an impact shrinks the
+fall it reads: sills are cut from their crests down, pits cannot form, and the floor grades to the
+outlet (monotone on uniform rock; a hard band holds a knickpoint). A stream aimed up a slope, or
+over level ground, has no fall and carves nothing.
 
 Order of one step of a particle (it moves on the heightmap, so every step touches the surface and
 is both a collision and an impact): impact point ``P_k`` (off the map → back to the pool),
@@ -317,20 +322,28 @@ def _off(d, x, y):
 @njit(cache=True, inline="always")
 def _graded_depth(h, d, px, py, alpha, lam, depth, s0, n):
     """Graded bed: the gradation ``e m (S / S₀)ⁿ`` at the impact, with ``F`` the ground's fall
-    from the impact point to the edge of its footprint straight ahead (distance λ; from λ behind to
-    the impact point where ahead is off the map or nodata) and ``S = F / λ``; 0 where the ground
-    ahead is not lower. The point λ ahead lies outside the cut, so each impact shrinks the fall it
-    reads and the bed grades towards its outlet. Returns (gradation e m (S/S₀)ⁿ, the lowest height
-    a cell may be cut to, h(P) − F)."""
+    from the impact point to the edge of its footprint straight ahead (distance λ; where that is off
+    the map or nodata, the open outlet, see the module's docstring) and ``S = F / λ``;
+    0 where the ground ahead is not lower. The point λ ahead lies outside the cut, so each impact
+    shrinks the fall it reads and the bed grades towards its outlet. Returns (gradation e m (S/S₀)ⁿ,
+    the lowest height a cell may be cut to, h(P) − F, or h(P − λu) on a lip at the outlet)."""
     ux = lam * math.cos(alpha)
     uy = lam * math.sin(alpha)
     qx, qy = px + ux, py + uy
     if _off(d, qx, qy):
+        # open outlet: the fall continues from λ behind, F = h(B) − h(P), the floor running on
+        # at that slope through the edge; but where the impact stands on a lip above the floor
+        # behind (h(P) > h(B)), the lip is the fall and is cut down to h(B). Reading only
+        # h(B) − h(P) let a lip at the edge, once the channel upstream was cut below it, turn the
+        # fall negative and never be cut: a closed outlet.
         bx, by = px - ux, py - uy
         if _off(d, bx, by):
             return 0.0, 0.0
         hp = bilinear(h, px, py)
-        fall = bilinear(h, bx, by) - hp
+        hb = bilinear(h, bx, by)
+        if hp > hb:
+            return depth * ((hp - hb) / (lam * s0)) ** n, hb
+        fall = hb - hp
     else:
         hp = bilinear(h, px, py)
         fall = hp - bilinear(h, qx, qy)
