@@ -70,12 +70,15 @@ def test_sheet_flow_leaving_a_tilted_plane_does_not_dig_the_outflow_edge():
     inner = dz[:, 1:-1]  # the columns along the side walls have their own half cells; compare the middle
     rows = inner.mean(axis=1)
     upstream = rows[NY // 2 : -2]  # the rows the sheet crosses loaded, in the second half of the plane
-    # The water arrives clean at the south edge, loads up over K_s⁻¹·U = 8 m and then carries about its
-    # capacity: rows downstream of that change little and alike. The last two rows may erode at most 10 %
-    # more than the mean of those upstream: the spread of the upstream rows themselves (sampling of the
-    # particle lattice, 4 particles per cell row per coupling) is a few per cent.
-    assert rows[-1] >= upstream.mean() * 1.1 - 1e-12, (rows[-1], upstream)
-    assert rows[-2] >= upstream.mean() * 1.1 - 1e-12, (rows[-2], upstream)
+    # The water arrives clean at the south edge and loads up over U/K_s = 8 m; downstream of that it carries
+    # about its capacity and the rows' change varies slowly and smoothly along the plane (0.01 to 0.03 m per
+    # row here). A free outflow continues that trend: the last two rows may erode at most 10 % more than
+    # the mean of the rows upstream, a margin above the row-to-row sampling of the particle lattice (4
+    # particles per cell row per coupling). The digging edge eroded its last row 7 times that mean
+    # (−0.88 m against −0.12 m), its neighbour 5 times.
+    assert upstream.mean() < 0.0  # the sheet erodes the plane: "no more than upstream" has a scale
+    assert rows[-1] >= upstream.mean() * 1.1, (rows[-1], upstream)
+    assert rows[-2] >= upstream.mean() * 1.1, (rows[-2], upstream)
     assert budget["closure_rel"] < 1e-9
 
 
