@@ -526,6 +526,15 @@ MUTATIONS = (
         ("tests/unit/test_splash_isotropy.py",),
         "moisture diffuses only between axis neighbours (a 5-point stencil in plan) instead of the kernel's support",
     ),
+    Mutation(
+        "outflow-edge-digs",
+        "erosion/transport_capacity_mei2007.py",
+        (("sx, sy = node_gradient(terrain, r.dx, r.dy, self.ghost)", "sx, sy = node_gradient(terrain, r.dx, r.dy, {})"),
+         ("wet_area = area * self.wet", "wet_area = area * np.ones_like(self.wet)"),
+         ("self.dz *= self.wet  #", "self.dz *= 1.0  #")),  # fmt: skip
+        ("tests/unit/test_outflow_edge_erosion.py", "tests/unit/test_sph_terrain_parts.py"),
+        "the open edge's slope one-sided and its sediment over the whole (half dry) cell: the edge row digs",
+    ),
 )
 
 

@@ -20,6 +20,18 @@ thesis's table 6 (K_c = 0.16, K_s = 0.025, K_d = 0.05 per step) with its Δt = 0
 K_s = 0.25 s⁻¹, K_d = 0.5 s⁻¹. Flat terrain would never erode without the clamp (seed 000 §1.4);
 water at rest (⟨u⟩ = 0) never erodes whatever the clamp.
 
+Map edges. The water stands only on the inner half of an edge node's cell (a quarter at a corner):
+walls lie on the edge nodes, and water that crosses an open edge's nodes is removed. The sediment per
+m² there is s = held / (f A), f the wet fraction (½ on an edge, ¼ at a corner), and the node's cell,
+half of it dry beyond the map, changes by f·(the wet half's change): Δz = −f E, so Σ Δz A + ΔS = 0
+still holds with the raster's cell area A. Slopes are central differences on the map padded by one
+ghost row: beyond a wall the bed is extrapolated linearly from the two edge rows (the one-sided
+difference), beyond an open (outflow) edge it is the initial bed extrapolated linearly and held, the
+land the water runs off to. The outflow edge is then an interior node for the law: its own height
+does not enter its slope, so lowering it cannot raise its capacity (with the one-sided difference it
+did: a self-feeding cut of rate ≈ K_s K_c |u| / Δx that dug the edge row metres deep), and
+particles leaving carry their sediment out.
+
 Transport of the sediment (ER-3), two options:
 
 * ``"particles"`` (default, mass-conserving): the sediment rides on the fluid particles (a
@@ -44,7 +56,7 @@ from numba import njit
 from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.core.increments import Increment
-from erosim.kernels.raster import bilinear, slope
+from erosim.kernels.raster import bilinear
 
 
 class TransportCapacityParams(Section):
@@ -132,12 +144,50 @@ def advect_semi_lagrangian(s, vel, dt, inv_dx, inv_dy, out):
             out[iy, ix] = bilinear(s, x, y)
 
 
-def _along_ground(vel: np.ndarray, terrain: np.ndarray, dx: float, dy: float) -> np.ndarray:
-    """|u − (u·n)n| per node, n the ground's unit normal from central differences."""
+EDGE_SIDES = {"west": (1, 0), "east": (1, -1), "south": (0, 0), "north": (0, -1)}  # (axis, end) of (ny, nx)
+
+
+def wet_fraction(shape: tuple[int, int]) -> np.ndarray:
+    """Fraction of each node's cell inside the map (½ on an edge, ¼ at a corner; a one-node axis counts whole)."""
+    f = np.ones(shape)
+    for axis, n in enumerate(shape):
+        if n > 1:
+            idx = [slice(None), slice(None)]
+            for end in (0, -1):
+                idx[axis] = end
+                f[tuple(idx)] *= 0.5
+    return f
+
+
+def ghost_padded(terrain: np.ndarray, fixed: dict[str, np.ndarray]) -> np.ndarray:
+    """The terrain with one ghost row/column on each side of an axis of more than one node: the linear
+    extrapolation 2 z_edge − z_inner, or the held row ``fixed[side]`` for an open edge."""
     ny, nx = terrain.shape
-    sx = np.gradient(terrain, dx, axis=1) if nx > 1 else np.zeros_like(terrain)
+    py, px = int(ny > 1), int(nx > 1)
+    p = np.empty((ny + 2 * py, nx + 2 * px))
+    p[py : py + ny, px : px + nx] = terrain
+    if px:
+        p[py : py + ny, 0] = fixed.get("west", 2.0 * terrain[:, 0] - terrain[:, 1])
+        p[py : py + ny, -1] = fixed.get("east", 2.0 * terrain[:, -1] - terrain[:, -2])
+    if py:
+        p[0, px : px + nx] = fixed.get("south", 2.0 * terrain[0] - terrain[1])
+        p[-1, px : px + nx] = fixed.get("north", 2.0 * terrain[-1] - terrain[-2])
+    return p
+
+
+def node_gradient(terrain: np.ndarray, dx: float, dy: float, fixed: dict[str, np.ndarray]) -> tuple:
+    """(∂z/∂x, ∂z/∂y) at the nodes (m/m): central differences on :func:`ghost_padded` (0 on a one-node axis)."""
+    ny, nx = terrain.shape
+    p = ghost_padded(terrain, fixed)
+    py, px = int(ny > 1), int(nx > 1)
+    sx = (p[py : py + ny, 2:] - p[py : py + ny, :-2]) / (2.0 * dx) if px else np.zeros_like(terrain)
+    sy = (p[2:, px : px + nx] - p[:-2, px : px + nx]) / (2.0 * dy) if py else np.zeros_like(terrain)
+    return sx, sy
+
+
+def _along_ground(vel: np.ndarray, sx: np.ndarray, sy: np.ndarray) -> np.ndarray:
+    """|u − (u·n)n| per node, n the ground's unit normal (−s_x, −s_y, 1)/‖·‖ from the nodes' slopes."""
     if vel.shape[-1] == 3:
-        sy = np.gradient(terrain, dy, axis=0) if ny > 1 else np.zeros_like(terrain)
         n = np.stack([-sx, -sy, np.ones_like(sx)], axis=-1)
     else:
         n = np.stack([-sx, np.ones_like(sx)], axis=-1)
@@ -152,7 +202,10 @@ class TransportCapacity:
     name = "transport-capacity"
     needs = ("count", "depth", "bed_velocity")
 
-    def __init__(self, params: TransportCapacityParams, raster, solver, bedrock: np.ndarray | None = None):
+    def __init__(self, params: TransportCapacityParams, raster, solver, bedrock: np.ndarray | None = None, *,
+                 outflow=(), terrain: np.ndarray | None = None):  # fmt: skip
+        """``outflow``: the open edges (west, east, south, north); beyond them the bed is ``terrain`` (the
+        initial one) extrapolated linearly and held."""
         if params.transport not in ("particles", "semi-lagrangian"):
             raise ConfigError(
                 f"erosion.transport = '{params.transport}' is not known; use 'particles' or 'semi-lagrangian'."
@@ -163,6 +216,20 @@ class TransportCapacity:
         shape = raster.shape
         self.floor = np.full(shape, -np.inf) if bedrock is None else np.ascontiguousarray(bedrock, np.float64)
         self.sin_min = math.sin(math.radians(params.min_slope_deg))
+        self.wet = wet_fraction(shape)
+        unknown = set(outflow) - set(EDGE_SIDES)
+        if unknown:
+            raise ConfigError(f"Unknown edge(s) {sorted(unknown)} in the outflow edges; use {', '.join(EDGE_SIDES)}.")
+        if outflow and terrain is None:
+            raise ValueError("open edges need the initial terrain (terrain=...) to extrapolate the bed beyond them")
+        self.ghost: dict[str, np.ndarray] = {}
+        for side in outflow:
+            axis, end = EDGE_SIDES[side]
+            if shape[axis] < 2:
+                continue  # a one-node axis (2-D fluid's y) has no such edge
+            z0 = np.asarray(terrain, np.float64)
+            edge, inner = (z0.take(end, axis), z0.take(1 if end == 0 else -2, axis))
+            self.ghost[side] = 2.0 * edge - inner
         self.dz = np.zeros(shape)
         self.e_area = np.zeros(shape)
         self.s_area = np.zeros(shape)  # sediment per m² of bed held by the water (grid transport's state)
@@ -176,19 +243,22 @@ class TransportCapacity:
     def increments(self, terrain: np.ndarray, grid, dt: float) -> Increment:
         p, r = self.p, self.raster
         area = r.cell_area
-        # in 2-D the one-row raster has no y slope; slope() handles one-node axes
-        sin_alpha = np.maximum(np.sin(slope(terrain, r.dx)), self.sin_min)
+        # in 2-D the one-row raster has no y slope; ghost rows beyond walls and open edges (module docstring)
+        sx, sy = node_gradient(terrain, r.dx, r.dy, self.ghost)
+        sin_alpha = np.maximum(np.sin(np.arctan(np.hypot(sx, sy))), self.sin_min)
+        wet_area = area * self.wet
         fs = 1.0 - math.exp(-p.dissolve * dt)
         fd = 1.0 - math.exp(-p.deposit * dt)
         if p.transport == "particles":
             st = self.solver.state
             held_per_node(st.pos, st.sediment, st.n_fluid, r.x0, r.y0, 1.0 / r.dx, 1.0 / r.dy, r.nx, r.ny,
                           self.held.reshape(-1))  # fmt: skip
-            np.divide(self.held, area, out=self.s_area)
-        speed = _along_ground(grid.bed_velocity, terrain, r.dx, r.dy)
+            np.divide(self.held, wet_area, out=self.s_area)
+        speed = _along_ground(grid.bed_velocity, sx, sy)
         capacity_exchange(terrain, self.s_area, grid.depth, speed, sin_alpha, self.floor, p.capacity, fs, fd,
                           p.min_depth, self.dz, self.e_area)  # fmt: skip
-        exchange = self.e_area * area  # m³ per node
+        exchange = self.e_area * wet_area  # m³ per node: the wet part of the cell
+        self.dz *= self.wet  # the cell's mean change (its dry part beyond the map keeps its height)
         if p.transport == "particles":
             exchange_with_particles(st.pos, st.sediment, st.n_fluid, r.x0, r.y0, 1.0 / r.dx, 1.0 / r.dy, r.nx, r.ny,
                                     exchange.reshape(-1), grid.count.reshape(-1), self.held.reshape(-1))  # fmt: skip
@@ -196,7 +266,7 @@ class TransportCapacity:
             s1 = self.s_area + self.e_area
             out = np.empty_like(s1)
             advect_semi_lagrangian(s1, grid.velocity, dt, 1.0 / r.dx, 1.0 / r.dy, out)
-            self.transport_error += float((out.sum() - s1.sum()) * area)
+            self.transport_error += float(((out - s1) * self.wet).sum() * area)
             self.s_area[...] = out
         return Increment(self.dz.copy(), suspended=float(exchange.sum()))
 
@@ -206,19 +276,19 @@ class TransportCapacity:
         if self.p.transport == "particles":
             st = self.solver.state
             return float(st.sediment[: st.n_fluid].sum())
-        return float(self.s_area.sum() * self.raster.cell_area)
+        return float((self.s_area * self.wet).sum() * self.raster.cell_area)
 
     def carried_off(self) -> float:
         """Sediment that left with water through open edges (m³; particle transport)."""
         return float(self.solver.state.removed_sums.get("sediment", 0.0))
 
     def held_map(self) -> np.ndarray:
-        """Sediment held in the water over each node, m³ per m² of bed."""
+        """Sediment held in the water over each node, m³ per m² of wet bed."""
         if self.p.transport == "particles":
             st, r = self.solver.state, self.raster
             held_per_node(st.pos, st.sediment, st.n_fluid, r.x0, r.y0, 1.0 / r.dx, 1.0 / r.dy, r.nx, r.ny,
                           self.held.reshape(-1))  # fmt: skip
-            return self.held / r.cell_area
+            return self.held / (r.cell_area * self.wet)
         return self.s_area.copy()
 
     def state_dict(self) -> dict[str, Any]:

@@ -366,7 +366,9 @@ def setup(scenario, out) -> Setup:
     solver, ground, derived = build_solver(cfg, geo, fluid)
     r, e = geo.raster, cfg.erosion
     bedrock = _bedrock(cfg, geo)
-    eroder = TransportCapacity(e, r, solver, bedrock) if e.enabled else None
+    eroder = None
+    if e.enabled:  # the bed beyond an open edge: the initial terrain extrapolated (a free outflow, not a sink)
+        eroder = TransportCapacity(e, r, solver, bedrock, outflow=cfg.edges.outflow, terrain=geo.terrain)
     coupler = Coupler(IterationInterval(e.every), solver, eroder, r, geo.terrain, bedrock=bedrock,
                       near_bed=2.0 * solver.h)  # fmt: skip
     callbacks: list = []
