@@ -166,7 +166,7 @@ MUTATIONS = (
     Mutation(
         "capacity-slope-clamp-off",
         "erosion/transport_capacity_mei2007.py",
-        (("np.maximum(np.sin(slope(terrain, r.dx)), self.sin_min)", "np.sin(slope(terrain, r.dx))"),),
+        (("np.maximum(np.sin(np.arctan(np.hypot(sx, sy))), self.sin_min)", "np.sin(np.arctan(np.hypot(sx, sy)))"),),
         ("tests/unit/test_sph_terrain_parts.py",),
         "flat ground never erodes (ER-1's clamp lost)",
     ),
