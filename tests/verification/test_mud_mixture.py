@@ -115,3 +115,10 @@ def test_a_viscous_mixture_limits_the_step():
     limit = 0.125 * s.hs**2 * float(mixture_density(0.5, 1000.0, RHO_S) / mixture_viscosity(0.5, 1e-3, 1.0e3))
     assert limit < free
     assert s.dt_limit() == pytest.approx(limit, rel=1e-12)
+
+
+def test_mixture_density_is_the_volume_weighted_mean():
+    """ρ_mix = c ρ_s + (1 − c) ρ_f of a mud of solid volume fraction c: water 1000, quartz 2650 kg/m³
+    at c = 0.3 give 1495 kg/m³ (exact to rounding); clear water and pure solid at the ends."""
+    c = np.array([0.0, 0.3, 1.0])
+    assert np.allclose(mixture_density(c, 1000.0, 2650.0), [1000.0, 1495.0, 2650.0], rtol=1e-14, atol=0.0)
