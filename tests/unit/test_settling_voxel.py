@@ -92,3 +92,24 @@ def test_a_suspended_run_that_moved_no_ground_says_why(flume):
     assert sus.removed_total == 0 and sus.pending_volume() == 0
     note = no_erosion_warning(sus)
     assert "faster than 0.008 m/s" in note and "erosion.tau_c" in note
+
+
+def test_settling_slows_with_height_as_ws_dt_over_l():
+    """The settling law itself (settle): a load s at height l above the ground keeps s e^{−w_s Δt / max(l, l_min)};
+    particles at 0.5, 2 and 3 l_min (the first clamped to l_min) keep different shares, the rest bound under them."""
+    from erosim.erosion.settling_voxel import settle
+
+    nz, ny, nx = 8, 4, 6
+    dens = np.zeros((nz, ny, nx))  # air everywhere: room for what settles
+    bound = np.zeros_like(dens)
+    l_min, rate_dt, inv = 0.1, 0.05, 10.0  # w_s Δt = 0.05 m, 0.1 m cells
+    heights = np.array([0.05, 0.2, 0.3])
+    feet = np.array([[0.15, 0.15, 0.1], [0.35, 0.15, 0.1], [0.55, 0.25, 0.1]])  # over three different nodes
+    pos = feet + np.outer(heights, [0.0, 0.0, 1.0])
+    wall_n = np.tile([0.0, 0.0, 1.0], (3, 1))
+    sed = np.full(3, 1e-3)
+    put = settle(dens, 0.0, 0.0, 0.0, inv, 1.0, 1e-3, pos, heights.copy(), wall_n, 3, 1.0, l_min, rate_dt, sed, bound)
+    kept = 1e-3 * np.exp(-rate_dt / np.maximum(heights, l_min))
+    np.testing.assert_allclose(sed, kept, rtol=1e-12)
+    assert put == pytest.approx(float(np.sum(1e-3 - kept)), rel=1e-12)
+    assert bound.sum() * 1e-3 == pytest.approx(put, rel=1e-12)
