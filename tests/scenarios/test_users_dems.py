@@ -143,7 +143,11 @@ def test_scaled_copies_of_a_terrain_erode_alike_at_1_20_and_83_m():
 
 def test_the_stream_cuts_the_same_canyon_in_cells_on_any_scale(tmp_path):
     """In cells throughout (stream.length_unit), a scaled copy of a terrain on uniform rock is cut
-    exactly alike: erosion / cell size agrees to the float32 rounding of the GeoTIFFs."""
+    alike: erosion / cell size agrees to 1e-4 of the deepest cut. The graded bed bounds each cut at
+    h(P) − F, a difference of two interpolated heights, so float64 rounding that differs between the
+    scales moves clamped cells by an ulp of the relief per impact and the offsets add up over ~3·10⁵
+    impacts (measured: 1.8e-5 cells, 1.3e-5 relative); a canyon that scaled wrongly would differ in
+    whole cells."""
     from erosim.core.heightmap import Heightmap
 
     base = generate("hills", 96, 10.0, seed=3, relief=115.0)
@@ -156,7 +160,7 @@ def test_the_stream_cuts_the_same_canyon_in_cells_on_any_scale(tmp_path):
         out[cell] = hio.read(result.path / "maps" / "erosion.tif").z / cell
     assert out[10.0].max() > 0.5  # a canyon was cut
     for cell in (1.0, 83.0):
-        np.testing.assert_allclose(out[cell], out[10.0], atol=1e-6 * out[10.0].max())
+        np.testing.assert_allclose(out[cell], out[10.0], rtol=0, atol=1e-4 * out[10.0].max())
 
 
 def test_the_stream_leaves_at_nodata_and_never_cuts_it(tmp_path):

@@ -126,10 +126,15 @@ def test_puddles_are_the_water_standing_in_closed_hollows():
     pos = np.array([[0.6, 0.4, 0.0], [0.6, 0.4, 0.01], [0.1, 0.4, 0.05]])  # two in the hollow, one on the slope
     water = np.array([1.0, 0.25, 1.0])  # the second has given three quarters of its water to the ground
     state = SimpleNamespace(n_fluid=3, pos=pos, water=water)
-    wet = SimpleNamespace(solver=SimpleNamespace(state=state), vp=1e-6)
+    solver = SimpleNamespace(state=state, params=SimpleNamespace(spacing=0.05))  # footprints inside one cell
+    wet = SimpleNamespace(solver=solver, vp=1e-6, terrain=z)
     puddles = standing_water(wet, r, hollows)
-    assert puddles[4, 6] == pytest.approx(1.25e-6 / r.cell_area, rel=1e-12)  # the water held, over the cell
-    assert puddles.sum() * r.cell_area == pytest.approx(1.25e-6, rel=1e-12)  # the slope's water is not a puddle
+    # the water held in the hollow (1.25e-6 m³), none of the slope's, stands level in it
+    assert puddles.sum() * r.cell_area == pytest.approx(1.25e-6, rel=1e-12)
+    assert (puddles[hollows <= 0] == 0).all()
+    wetted = puddles > 0
+    level = (z + puddles)[wetted]
+    assert wetted.any() and np.ptp(level) < 1e-12
 
 
 def _ground_on(z, outside=None, spacing=0.5, layers=3):

@@ -15,13 +15,13 @@ import contextlib
 import os
 import platform
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from erosim import __version__
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
-from erosim.validation import session as validation_session
 
 
 def default_out(name: str, root: str | os.PathLike = "runs") -> Path:
@@ -36,7 +36,16 @@ def default_out(name: str, root: str | os.PathLike = "runs") -> Path:
 
 
 class RunFolder:
-    """A run's output folder; ``resume=True`` opens an existing one to continue it."""
+    """A run's output folder; ``resume=True`` opens an existing one to continue it.
+
+    An enclosing session (:func:`erosim.validation.session.validating`) may set ``reopens`` (whether a
+    non-empty folder is opened as it is), ``on_open`` (called with each folder opened) and ``continues``
+    (whether the runner continues a folder from its checkpoint); the hooks keep this layer free of what
+    sits above it."""
+
+    reopens: Callable[[Path], bool] | None = None
+    on_open: Callable[[Path], None] | None = None
+    continues: Callable[[Path], bool] | None = None
 
     def __init__(self, path: str | os.PathLike, *, resume: bool = False, overwrite: bool = False):
         self.path = Path(path)
@@ -52,14 +61,15 @@ class RunFolder:
             self.path.exists()
             and any(self.path.iterdir())
             and not overwrite
-            and not validation_session.reopens(self.path)
+            and not (RunFolder.reopens is not None and RunFolder.reopens(self.path))
         ):  # (a folder of a validation being resumed is opened as it is)
             raise ConfigError(
                 f"Output folder '{self.path}' already exists and is not empty; "
                 "choose another --out, add --overwrite, or continue it with --resume."
             )
         self.path.mkdir(parents=True, exist_ok=True)
-        validation_session.opened(self.path)
+        if RunFolder.on_open is not None:
+            RunFolder.on_open(self.path)
         self.started = time.perf_counter()
         self.warnings: list[str] = []
 

@@ -147,7 +147,7 @@ def canyon_figure(
     from matplotlib.figure import Figure
 
     from erosim.core.atomic import atomic_path
-    from erosim.viz.plots import _scale_bar
+    from erosim.viz.plots import scale_bar
 
     erosion = h0 - h
     ny, nx = h.shape
@@ -188,7 +188,7 @@ def canyon_figure(
     ax0.plot([(col + 0.5) * cell * f] * 2, [to_y(r0), to_y(r1 - 1)], color="cyan", lw=1.5)
     if emitter is not None:
         ax0.plot((emitter[0] + 0.5) * cell * f, to_y(emitter[1]), "o", mec="white", mfc="none", ms=8, mew=1.5)
-    _scale_bar(ax0, extent, km)
+    scale_bar(ax0, extent, km)
     ax0.set_xlabel(f"x ({unit})")
     ax0.set_ylabel(f"y ({unit})")
     ax0.set_title("after: relief tinted by hardness (o: emitter)", fontsize=10)

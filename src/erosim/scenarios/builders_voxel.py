@@ -43,36 +43,10 @@ from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.coupling.sources import EDGES, EdgeOutflow, PointInflow
 from erosim.coupling.voxel_coupler import VoxelCoupler
-from erosim.scenarios.schema_voxel import VoxelScenario
+from erosim.scenarios.schema_voxel import VoxelScenario, at_dem_scale, band_for, overflow_head
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
 from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
-
-#: the wall-weight distance must be right out to h; the ramp gets this margin over h + √3Δ
-BAND_MARGIN = 1.05
-
-
-def band_for(cfg: VoxelScenario) -> float:
-    """The density ramp's half-width: ``voxels.band``, or the least the wall allows (h + √3Δ) plus 5 %."""
-    if cfg.voxels.band > 0:
-        return cfg.voxels.band
-    return BAND_MARGIN * (cfg.sph.support() + math.sqrt(3.0) * cfg.voxels.cell_size)
-
-
-def at_dem_scale(cfg: VoxelScenario) -> VoxelScenario:
-    """``cfg`` with ``voxels.scale = "dem"`` resolved: voxels and particles at the heightmap's own cell size
-    (``voxels.cell_size`` = ``sph.spacing`` = the DEM's cells; h = 2 cells, so the voxels fit the kernel
-    support). A library scene's sizes describe its generated terrain; on a user's DEM they would give
-    millions of nodes per cell of a 30 m map or a handful on a 0.5 m one. Unchanged for ``"set"``."""
-    if cfg.voxels.scale != "dem" or cfg.terrain.voxels_file:
-        return cfg
-    from erosim.scenarios.schema_common import build_terrain as heightmap
-
-    cell = float(heightmap(cfg.terrain, cfg.seed).cell_size)
-    return cfg.model_copy(update={
-        "voxels": cfg.voxels.model_copy(update={"cell_size": cell, "scale": "set"}),
-        "sph": cfg.sph.model_copy(update={"spacing": cell}),
-    })  # fmt: skip
 
 
 def build_terrain(cfg: VoxelScenario):
@@ -486,13 +460,6 @@ def rain_height(cfg: VoxelScenario, terrain) -> float:
     solid = (terrain.density > terrain.iso).any(axis=(1, 2))
     z_top = terrain.axes()[2][np.nonzero(solid)[0].max()] if solid.any() else terrain.lo[2]
     return float(min(z_top + cfg.rain.height, terrain.hi[2]))
-
-
-def overflow_head(discharge: float, width: float, g: float = 9.81) -> float:
-    """The water's height over a broad crest passing ``discharge`` across ``width``: 3/2 of the critical
-    depth, H = 1.5 (q²/g)^(1/3), q = Q/width (m)."""
-    q = discharge / width
-    return 1.5 * (q * q / g) ** (1.0 / 3.0)
 
 
 def build_solver(cfg: VoxelScenario, terrain):

@@ -288,7 +288,7 @@ def voxel(cfg) -> Estimate:
     """The field (nodes of ``voxels.cell_size`` over the terrain, as ``builders_voxel.build_terrain`` lays
     them), the water (below ``water.level``, the rain and inflows over the run) and steps from the sound
     speed ``build_solver`` takes (10·√(2gH), H from the highest water to the field's bottom)."""
-    from erosim.scenarios.builders_voxel import at_dem_scale, band_for, overflow_head
+    from erosim.scenarios.schema_voxel import at_dem_scale, band_for, overflow_head
     from erosim.terrain.voxel import memory_bytes
 
     cfg = at_dem_scale(cfg)

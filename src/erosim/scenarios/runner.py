@@ -44,9 +44,9 @@ def _completed_report(out: RunFolder) -> dict | None:
 def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: bool = True):
     """Build and run ``scenario`` into ``out``; returns (summary for the command line, simulation)."""
     from erosim.scenarios import estimate
-    from erosim.validation import session
 
-    resume = resume or session.continues(out.path)  # a resumed validation's interrupted run
+    # a resumed validation's interrupted run (the hook its session sets on RunFolder)
+    resume = resume or (RunFolder.continues is not None and RunFolder.continues(out.path))
     done = _completed_report(out) if resume else None
     if done is not None:  # the same scenario (no --set moved its end): nothing to build
         try:

@@ -29,6 +29,7 @@ from the floor.
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 from pydantic import Field, model_validator
@@ -206,3 +207,38 @@ class VoxelScenario(Section):
                 "flume; use a smaller spacing or a wider flume."
             )
         return self
+
+
+# ------------------------------------------------------------------ quantities derived from the settings
+#: the wall-weight distance must be right out to h; the ramp gets this margin over h + √3Δ
+BAND_MARGIN = 1.05
+
+
+def band_for(cfg: VoxelScenario) -> float:
+    """The density ramp's half-width: ``voxels.band``, or the least the wall allows (h + √3Δ) plus 5 %."""
+    if cfg.voxels.band > 0:
+        return cfg.voxels.band
+    return BAND_MARGIN * (cfg.sph.support() + math.sqrt(3.0) * cfg.voxels.cell_size)
+
+
+def at_dem_scale(cfg: VoxelScenario) -> VoxelScenario:
+    """``cfg`` with ``voxels.scale = "dem"`` resolved: voxels and particles at the heightmap's own cell size
+    (``voxels.cell_size`` = ``sph.spacing`` = the DEM's cells; h = 2 cells, so the voxels fit the kernel
+    support). A library scene's sizes describe its generated terrain; on a user's DEM they would give
+    millions of nodes per cell of a 30 m map or a handful on a 0.5 m one. Unchanged for ``"set"``."""
+    if cfg.voxels.scale != "dem" or cfg.terrain.voxels_file:
+        return cfg
+    from erosim.scenarios.schema_common import build_terrain as heightmap
+
+    cell = float(heightmap(cfg.terrain, cfg.seed).cell_size)
+    return cfg.model_copy(update={
+        "voxels": cfg.voxels.model_copy(update={"cell_size": cell, "scale": "set"}),
+        "sph": cfg.sph.model_copy(update={"spacing": cell}),
+    })  # fmt: skip
+
+
+def overflow_head(discharge: float, width: float, g: float = 9.81) -> float:
+    """The water's height over a broad crest passing ``discharge`` across ``width``: 3/2 of the critical
+    depth, H = 1.5 (q²/g)^(1/3), q = Q/width (m)."""
+    q = discharge / width
+    return 1.5 * (q * q / g) ** (1.0 / 3.0)

@@ -6,8 +6,8 @@ root, where ``validation_run.json`` records the case, its resolution and options
 calls the case again inside :func:`validating` with ``resume=ROOT``: the case's folders under ROOT are
 opened as they are, the run that was interrupted continues from its checkpoint (the others run
 again), and the case then evaluates its criteria and writes ``validation.json`` as a fresh one does.
-The cases themselves are unchanged: the hooks are in :class:`~erosim.io.runfolder.RunFolder` and
-:func:`erosim.scenarios.runner.execute`.
+The cases themselves are unchanged: the hooks are :class:`~erosim.io.runfolder.RunFolder`'s ``reopens``
+and ``on_open`` (set here) and :func:`erosim.scenarios.runner.execute`.
 """
 
 from __future__ import annotations
@@ -34,12 +34,16 @@ _S = _Session()
 @contextlib.contextmanager
 def validating(case: str, resolution: str, options: dict[str, Any], resume: Path | None = None):
     """Run a validation case inside: its root folder is marked, and with ``resume`` its folders reopened."""
+    from erosim.io.runfolder import RunFolder
+
     _S.case, _S.resolution, _S.options = case, resolution, dict(options)
     _S.root, _S.resume = (Path(resume) if resume else None), (Path(resume).resolve() if resume else None)
+    RunFolder.reopens, RunFolder.on_open, RunFolder.continues = reopens, opened, continues
     try:
         yield _S
     finally:
         _S.case, _S.root, _S.resume = None, None, None
+        RunFolder.reopens = RunFolder.on_open = RunFolder.continues = None
 
 
 def root() -> Path | None:

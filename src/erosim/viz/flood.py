@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from erosim.core.heightmap import Heightmap  # noqa: E402
-from erosim.viz.plots import _scale_bar, axis_labels, extent_of, map_units, save_figure  # noqa: E402
+from erosim.viz.plots import axis_labels, extent_of, map_units, save_figure, scale_bar  # noqa: E402
 
 #: (class, colour, meaning) of FL-3, H1 … H6 (the meanings are erosim.analysis.hazard.HAZARD_MEANING's)
 HAZARD_LEGEND: tuple[tuple[str, str, str], ...] = (
@@ -58,7 +58,7 @@ def _axes_labels(ax, shown: tuple, units: tuple, title: str) -> None:
     from matplotlib.ticker import MaxNLocator
 
     km, geographic, per_metre = units
-    _scale_bar(ax, shown, km, per_metre)
+    scale_bar(ax, shown, km, per_metre)
     ax.ticklabel_format(useOffset=False, style="plain")  # whole map coordinates, not an offset
     ax.xaxis.set_major_locator(MaxNLocator(4))
     ax.yaxis.set_major_locator(MaxNLocator(5))

@@ -227,7 +227,7 @@ def _nice_length(span: float) -> float:
     return float(min((1.0, 2.0, 5.0, 10.0), key=lambda f: abs(f * k - target)) * k)
 
 
-def _scale_bar(ax, extent: tuple, km: bool, per_metre: float = 1.0) -> None:
+def scale_bar(ax, extent: tuple, km: bool, per_metre: float = 1.0) -> None:
     """A black-and-white bar of a round length in metres; ``per_metre`` map units per metre (1 for a
     projected map, about 1e-5 for degrees), so a geographic map's bar is still in metres."""
     x0, x1, y0, y1 = extent
@@ -306,7 +306,7 @@ def map_figure(
             norm = matplotlib.colors.Normalize(colorbar.get("vmin", 0.0), colorbar.get("vmax", 1.0))
             sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=colorbar["cmap"])
             fig.colorbar(sm, ax=ax, label=colorbar["label"], shrink=0.85)
-    _scale_bar(ax, shown, km, per_metre)
+    scale_bar(ax, shown, km, per_metre)
     if legend:
         handles = [Patch(facecolor=tuple(np.clip(c, 0, 1)), edgecolor="black", lw=0.5, label=t) for t, c in legend]
         ax.legend(handles=handles, loc="upper right", fontsize=9, framealpha=0.85)
