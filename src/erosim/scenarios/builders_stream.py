@@ -123,12 +123,13 @@ def long_profile(h0: np.ndarray, h: np.ndarray, x0: float, y0: float, heading: f
     along = np.rint((ii - x0) * np.cos(heading) + (jj - y0) * np.sin(heading)).astype(int)
     lo = along.min()
     n = along.max() - lo + 1
-    after = np.full(n, np.inf)
+    k = along - lo
+    order = np.lexsort((h[jj, ii], k))  # by bin, lowest first
+    bins, first = np.unique(k[order], return_index=True)
+    lowest = order[first]
+    after = np.full(n, np.nan)
     before = np.full(n, np.nan)
-    for k, j, i in zip(along - lo, jj, ii, strict=True):
-        if h[j, i] < after[k]:
-            after[k], before[k] = h[j, i], h0[j, i]
-    after[~np.isfinite(after)] = np.nan
+    after[bins], before[bins] = h[jj[lowest], ii[lowest]], h0[jj[lowest], ii[lowest]]
     return np.arange(lo, lo + n, dtype=float), after, before
 
 
