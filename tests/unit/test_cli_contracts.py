@@ -378,3 +378,38 @@ def test_a_final_output_that_fails_is_a_warning_in_the_report(cli_runner, tmp_pa
     rep = json.loads((out / "report.json").read_text())
     assert rep["status"] == "completed"
     assert any("final output 'outputs' failed (ValueError: cannot draw)" in w for w in rep["warnings"])
+
+
+@pytest.mark.parametrize(
+    ("kind", "sets", "module", "function", "kept"),
+    [
+        ("particle-stream", ["terrain.size=48", "emitters.main.particles=40", "emitters.main.steps=30"],
+         "erosim.viz.plots", "hillshade_figure", ["figures/canyon.png", "figures/erosion.png", "maps/erosion.tif"]),
+        ("flood", ["run.t_end=20.0", "run.map_frames=1", "flood.settle_steps=20", "flood.spacing=40.0"],
+         "erosim.viz.flood", "plot_flood_maps", ["figures/hazard.png", "maps/hazard.tif"]),
+    ],
+)  # fmt: skip
+def test_one_picture_that_fails_leaves_the_others(cli_runner, tmp_path, monkeypatch, kind, sets, module, function,
+                                                   kept):  # fmt: skip
+    """Each picture is guarded alone: one that raises is one warning naming it, and the run's other
+    pictures, maps and report entries are all written."""
+    import importlib
+
+    def broken(path, *args, **kwargs):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(importlib.import_module(module), function, broken)
+    out = tmp_path / "o"
+    args = ["--quiet", "run", kind, "--out", str(out)]
+    for s in sets:
+        args += ["--set", s]
+    result = cli_runner.invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["status"] == "completed"
+    failed = [w for w in rep["warnings"] if "could not be written (ZeroDivisionError" in w]
+    assert failed and not any("final output" in w for w in rep["warnings"]), rep["warnings"]
+    for rel in kept:
+        assert (out / rel).is_file(), rel
+    if kind == "flood":
+        assert rep["flooded_area_m2"] > 0 and "hazard_share" in rep

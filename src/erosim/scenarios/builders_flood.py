@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -50,6 +50,9 @@ from erosim.simulation import callbacks as cb
 from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, equal_volumes, felt_bed
 from erosim.terrain.reservoir import barrier_mask, cut_breach, fill_reservoir
+
+if TYPE_CHECKING:
+    from erosim.io.runfolder import RunFolder
 
 #: particles beyond this many would not fit a workstation (about 200 B each, times the splitting)
 MAX_PARTICLES = 20_000_000
@@ -377,18 +380,19 @@ class FloodOutputs(cb.Callback):
 
     def finalize(self, sim) -> dict[str, Any]:
         self.solver.sync_maxima(self.maps)
-        write_flood_maps(sim.out.path, self.site, self.solver, self.maps, self.inside)
+        write_flood_maps(sim.out, self.site, self.solver, self.maps, self.inside)
         return {}
 
 
-def write_flood_maps(out: Path, site: FloodSetUp, solver: ShallowWaterSPH, maps: HazardMaps, inside) -> None:
-    """The hazard maps as GeoTIFFs on the DEM's grid, and their figures."""
+def write_flood_maps(out: RunFolder, site: FloodSetUp, solver: ShallowWaterSPH, maps: HazardMaps, inside) -> None:
+    """The hazard maps as GeoTIFFs on the DEM's grid, and their figures (each picture guarded: one that
+    cannot be drawn is a warning, never the loss of the maps)."""
     from erosim.io.heightmaps import write_raster
 
     hm = site.terrain
     nodata = hm.nodata if hm.nodata is not None else np.zeros(hm.shape, bool)
     wet = maps.max_depth >= maps.wet_depth
-    folder = Path(out) / "maps"
+    folder = out.maps
     for name, arr in (("max_depth", maps.max_depth), ("max_speed", maps.max_speed), ("max_dv", maps.max_dv)):
         write_raster(folder / f"{name}.tif", np.where(nodata, np.nan, arr).astype(np.float32), hm, nodata=np.nan)
     arrival = np.where(wet & ~nodata & np.isfinite(maps.arrival), maps.arrival, np.nan)
@@ -400,9 +404,14 @@ def write_flood_maps(out: Path, site: FloodSetUp, solver: ShallowWaterSPH, maps:
     write_raster(folder / "height.tif", np.where(nodata, np.nan, hm.z).astype(np.float32), hm, nodata=np.nan)
     from erosim.viz.flood import plot_flood_maps, plot_hazard
 
-    figs = Path(out) / "figures"
-    plot_flood_maps(figs / "flood_maps.png", hm, maps)
-    plot_hazard(figs / "hazard.png", hm, maps.classes(), maps.summary(hm.cell_size**2, inside))
+    shares = maps.summary(hm.cell_size**2, inside)
+    draw = {
+        "flood_maps.png": lambda p: plot_flood_maps(p, hm, maps),
+        "hazard.png": lambda p: plot_hazard(p, hm, maps.classes(), shares),
+    }
+    for name, picture in draw.items():
+        with out.picture(out.figures / name):
+            picture(out.figures / name)
 
 
 def _depth_picture(site: FloodSetUp, solver: ShallowWaterSPH):

@@ -289,7 +289,8 @@ class TerrainOutputs(cb.Callback):
         fields = self.fields()
         from erosim.viz.maps import save_png
 
-        save_png(out.figures / "maps_final.png", self.panel())
+        with out.picture(out.figures / "maps_final.png"):
+            save_png(out.figures / "maps_final.png", self.panel())
         if g.dim == 2:
             x = np.arange(g.raster.nx) * g.raster.dx
             cols = ["x"] + list(fields)
@@ -307,11 +308,14 @@ class TerrainOutputs(cb.Callback):
 
         north_up = g.initial[::-1]
         box = extent_of(g.dem.transform if g.dem is not None else None, north_up.shape, g.raster.dx)
-        hillshade_figure(out.figures / "hillshade_before.png", north_up, g.raster.dx, "Terrain before", box)
-        hillshade_figure(out.figures / "hillshade_after.png", self.coupler.terrain[::-1], g.raster.dx, "Terrain after",
-                         box)  # fmt: skip
-        change_figure(out.figures / "erosion_deposition.png", (self.coupler.terrain - g.initial)[::-1], g.raster.dx,
-                      "Erosion and deposition", box)  # fmt: skip
+        after = self.coupler.terrain[::-1]
+        with out.picture(out.figures / "hillshade_before.png"):
+            hillshade_figure(out.figures / "hillshade_before.png", north_up, g.raster.dx, "Terrain before", box)
+        with out.picture(out.figures / "hillshade_after.png"):
+            hillshade_figure(out.figures / "hillshade_after.png", after, g.raster.dx, "Terrain after", box)
+        with out.picture(out.figures / "erosion_deposition.png"):
+            change_figure(out.figures / "erosion_deposition.png", after - north_up, g.raster.dx,
+                          "Erosion and deposition", box)  # fmt: skip
         return {"outputs": {"maps": written, "figure": "figures/maps_final.png"}}
 
 

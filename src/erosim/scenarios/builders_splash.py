@@ -270,7 +270,8 @@ class WetnessFrames(cb.Callback):
         from erosim.viz.splash import wetness_frames_figure
 
         path = sim.out.figures / "wetness_frames.png"
-        wetness_frames_figure(path, self.thumbs, self.times)
+        with sim.out.picture(path):
+            wetness_frames_figure(path, self.thumbs, self.times)
         figure = "figures/wetness_frames.png"
         return {"wetness_frames": {"count": len(self.times), "folder": "maps/frames", "figure": figure}}
 
@@ -411,18 +412,20 @@ class SplashOutputs(cb.Callback):
         from erosim.viz.plots import extent_of
 
         box = None if self.drop else extent_of(g.dem.transform, g.initial.shape, cell)
-        vs.wetness_figure(out.figures / "wetness.png", fields["wetness"][::-1], cell, "Surface wetness θ", box)
         from erosim.viz.plots import change_figure
 
-        change_figure(out.figures / "erosion_deposition.png", (z - g.initial)[::-1], cell, "Erosion and deposition",
-                      box)  # fmt: skip
-        figs = ["figures/wetness.png", "figures/erosion_deposition.png"]
-        if not self.drop:
-            vs.puddles_figure(out.figures / "puddles.png", puddles[::-1], cell, box)
-            figs.append("figures/puddles.png")
-        if self.drop:
-            vs.crater_profile_figure(out.figures / "crater.png", g, z)
-            figs.append("figures/crater.png")
+        draw = {
+            "wetness.png": lambda p: vs.wetness_figure(p, fields["wetness"][::-1], cell, "Surface wetness θ", box),
+            "erosion_deposition.png": lambda p: change_figure(p, (z - g.initial)[::-1], cell,
+                                                              "Erosion and deposition", box),
+            **({"crater.png": lambda p: vs.crater_profile_figure(p, g, z)} if self.drop
+               else {"puddles.png": lambda p: vs.puddles_figure(p, puddles[::-1], cell, box)}),
+        }  # fmt: skip
+        figs = []
+        for name, picture in draw.items():
+            with out.picture(out.figures / name):
+                picture(out.figures / name)
+                figs.append(f"figures/{name}")
         standing = {
             "volume_m3": float(puddles.sum() * g.raster.cell_area),
             "area_m2": float((puddles > 0).sum() * g.raster.cell_area),

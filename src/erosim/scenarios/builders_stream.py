@@ -239,16 +239,21 @@ def write_outputs(out, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) ->
     hio.write(maps / "erosion.tif", erosion, like=hm)
     mask = hio.write_mask_png16(maps / "erosion_mask.png", erosion)
     cs, box = hm.cell_size, extent_of(hm.transform, hm.shape, hm.cell_size)
-    hillshade_figure(figs / "hillshade_before.png", hm.z, cs, "Terrain before", box)
-    hillshade_figure(figs / "hillshade_after.png", stream.h, cs, "Terrain after", box)
     hard = {"cmap": "copper_r", "vmin": 0.0, "vmax": 1.0, "label": "hardness (0 soft … 1 unerodible)"}
-    map_figure(figs / "strata_after.png", _strata_picture(stream.h, stream.d, cs), cs, "Rock at the surface after",
-               colorbar=hard, extent=box)  # fmt: skip
     depth = {"cmap": "magma", "vmin": 0.0, "vmax": max(float(erosion.max()), 1e-9), "label": "erosion depth (m)"}
-    map_figure(figs / "erosion.png", erosion, cs, "Erosion", colorbar=depth, extent=box)
     first = stream.table[0]
-    canyon_figure(figs / "canyon.png", hm.z, stream.h, stream.d, hm.cell_size, stream.strata,
-                  (first[EX], first[EY], first[EDIR]))  # fmt: skip
+    draw = {
+        "hillshade_before.png": lambda p: hillshade_figure(p, hm.z, cs, "Terrain before", box),
+        "hillshade_after.png": lambda p: hillshade_figure(p, stream.h, cs, "Terrain after", box),
+        "strata_after.png": lambda p: map_figure(p, _strata_picture(stream.h, stream.d, cs), cs,
+                                                 "Rock at the surface after", colorbar=hard, extent=box),
+        "erosion.png": lambda p: map_figure(p, erosion, cs, "Erosion", colorbar=depth, extent=box),
+        "canyon.png": lambda p: canyon_figure(p, hm.z, stream.h, stream.d, cs, stream.strata,
+                                              (first[EX], first[EY], first[EDIR])),
+    }  # fmt: skip
+    for name, picture in draw.items():
+        with out.picture(figs / name):
+            picture(figs / name)
     return {
         "height_png_range": png.get("height_range"),
         "height_raw_range": raw.get("height_range"),

@@ -312,10 +312,10 @@ class VoxelOutputs(cb.Callback):
         if self.frames is not None:
             self.frames(sim)
         if run.sections:
-            ref = self.terrain.like(self.initial)
-            self.terrain.cross_section(root / "figures" / f"section_{tag}.png", axis=run.section_axis,
-                                       at=run.section_at, title=f"{self.cfg_name}  t = {t:.3g} s",
-                                       reference=ref)  # fmt: skip
+            ref, path = self.terrain.like(self.initial), root / "figures" / f"section_{tag}.png"
+            with self.out.picture(path):
+                self.terrain.cross_section(path, axis=run.section_axis, at=run.section_at,
+                                           title=f"{self.cfg_name}  t = {t:.3g} s", reference=ref)  # fmt: skip
         self.count += 1
 
     def state_dict(self) -> dict[str, Any]:
@@ -335,9 +335,10 @@ class VoxelOutputs(cb.Callback):
         out = {"outputs": {"times": self.count, "meshes": [f"meshes/surface_NNNN.{k}" for k in self.cfg.run.meshes],
                            "field": f"fields/density_NNNN.{self.cfg.run.field_format}"}}  # fmt: skip
         if self.cfg.run.surface_figure:
-            surface_figure(self.out.path / "figures" / "surface.png", self.terrain.like(self.initial), self.terrain,
-                           self.solver.fluid_positions(), float(self.solver.t), self.cfg_name)  # fmt: skip
-            out["outputs"]["surface_figure"] = "figures/surface.png"
+            with self.out.picture(self.out.figures / "surface.png"):
+                surface_figure(self.out.figures / "surface.png", self.terrain.like(self.initial), self.terrain,
+                               self.solver.fluid_positions(), float(self.solver.t), self.cfg_name)  # fmt: skip
+                out["outputs"]["surface_figure"] = "figures/surface.png"
         return out
 
 
