@@ -3,8 +3,10 @@
 For every mutation below (a file of the package, exact text, its broken replacement, and the test
 modules that own that code) the package's sources are copied to a temporary folder, the mutation is
 applied there, and pytest runs those test modules against the copy (``PYTHONPATH``; ``-x``: the first
-failure is enough). Numba compiles the copy afresh (its cache folder is named by a hash of the
-sources, see ``erosim/__init__.py``), so no compiled kernel of the unbroken code can hide a mutation.
+failure is enough): the tests of the default run first, then, for a mutation they let through, the
+modules' slow tests (``TIERS``; the result names the tier that caught it). Numba compiles the copy
+afresh (its cache folder is named by a hash of the sources, see ``erosim/__init__.py``), so no compiled
+kernel of the unbroken code can hide a mutation.
 
 A mutation is *caught* when a test fails, *survives* when every test passes, and is *stale* when its
 text no longer occurs exactly once in today's sources (reported in the table; the rest still run;
@@ -566,6 +568,10 @@ def _tests_folder(rev: str | None, work: Path) -> Path:
     return out
 
 
+#: pytest's marker selections, run in turn: the default run's tests, then the slow tier's
+TIERS = ("not slow and not cuda and not browser", "slow and not cuda and not browser")
+
+
 def run_one(m: Mutation, tests_root: Path, work: Path) -> dict:
     stale = stale_edits(m)
     if stale:  # the source moved on: reported in the table, the other mutations still run
@@ -580,15 +586,18 @@ def run_one(m: Mutation, tests_root: Path, work: Path) -> dict:
     env["PYTHONPATH"] = str(src)
     env["XDG_CACHE_HOME"] = str(work / "cache")  # a fresh compile of the mutated sources
     t0 = time.perf_counter()
-    res = subprocess.run(
-        [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-m", "not slow", *tests],
-        cwd=tests_root, env=env, capture_output=True, text=True,
-    )  # fmt: skip
+    for tier in TIERS:  # the default tests first; the slow ones only for a mutation they let through
+        res = subprocess.run(
+            [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-m", tier, *tests],
+            cwd=tests_root, env=env, capture_output=True, text=True,
+        )  # fmt: skip
+        if res.returncode != 0 and res.returncode != 5:  # 5: the tier has no test in these modules
+            break
     seconds = time.perf_counter() - t0
     failed = [ln.split(" ")[1] for ln in res.stdout.splitlines() if ln.startswith("FAILED ")]
-    status = {0: "survived", 1: "caught"}.get(res.returncode, f"error (pytest exit {res.returncode})")
+    status = {0: "survived", 5: "survived", 1: "caught"}.get(res.returncode, f"error (pytest exit {res.returncode})")
     shutil.rmtree(src, ignore_errors=True)
-    return {"name": m.name, "status": status, "seconds": round(seconds, 1),
+    return {"name": m.name, "status": status, "seconds": round(seconds, 1), "tier": tier,
             "first_failure": failed[0] if failed else None, "what": m.what, "tests": tests}  # fmt: skip
 
 

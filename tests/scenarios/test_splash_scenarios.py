@@ -92,6 +92,7 @@ def test_rain_splash_on_a_users_dem_writes_wetness_on_its_grid(tmp_path):
     assert any("Froude similarity" in a and "run.t_end 0.3 → 1.342 s" in a for a in rep["assumed"])
 
 
+@pytest.mark.slow  # a Froude-scaled second on a steep DEM, about 50 s
 def test_rain_splash_through_the_cli_on_a_dem_with_nodata_and_a_60_degree_slope(tmp_path):
     """A DEM of 1 m cells whose north half climbs at 60°, with a nodata hole on the slope: the run ends
     (no NaN), nothing is laid or dug there, and wetness.tif has the DEM's grid with the hole as nodata."""

@@ -102,7 +102,11 @@ def _sweep_command(out):
     ]
 
 
-@pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGKILL], ids=["ctrl-c", "killed"])
+@pytest.mark.parametrize(
+    "how",
+    [signal.SIGINT, pytest.param(signal.SIGKILL, marks=pytest.mark.slow)],  # killed: about 40 s more
+    ids=["ctrl-c", "killed"],
+)
 def test_resume_after_stopping_mid_way(tmp_path, how):
     """Stop a sweep while its second member runs; the resumed sweep keeps the first, resumes (Ctrl-C) or
     reruns (killed) the second, and its maps equal an uninterrupted sweep's."""
@@ -147,6 +151,7 @@ def test_a_failing_member_is_recorded_and_the_sweep_goes_on(tmp_path):
         assert list(ds.member.values) == ["m0000"] and ds.attrs["members_failed"] == "m0001 (failed)"
 
 
+@pytest.mark.slow  # a worker killed mid-run and a new one started, about 17 s
 def test_a_worker_that_dies_is_retried_once(tmp_path):
     summary = run_sweep("hydrology", TINY, None, VARY, workers=2, out=str(tmp_path / "once"), progress=False,
                         member_function=dying_member.die_once)  # fmt: skip

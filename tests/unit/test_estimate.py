@@ -79,3 +79,15 @@ def test_the_step_estimate_is_within_a_quarter_of_a_short_runs_steps(tmp_path, n
     steps = json.loads((tmp_path / "r" / "report.json").read_text())["steps"]
     assert 0.75 * guess.steps < steps < 1.25 * guess.steps, (guess.steps, steps)
     assert guess.seconds is not None and guess.memory > estimate.BASE_BYTES
+
+
+def test_shallow_water_validations_estimate_their_steps_within_a_factor_of_two():
+    """The validations that step a shallow-water model themselves (Ritter and Stoker, Thacker's bowl)
+    print an estimate from the built model: Δt from its CFL limit at the start, the wave speed raised by the
+    fastest water expected. The flow's speeds change over the run, so the bound is the issue's factor of two."""
+    from erosim.validation import swe_dam_break, thacker
+
+    runs = [swe_dam_break.run_case(h1, "coarse") for h1 in (0.0, 0.1 * swe_dam_break.H0)]
+    runs.append(thacker.run_case("coarse", periods=0.5))
+    for r in runs:
+        assert 0.5 * r["steps_estimated"] <= r["steps"] <= 2.0 * r["steps_estimated"], r

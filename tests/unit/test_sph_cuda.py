@@ -121,6 +121,7 @@ def simulated():
 TOL = 1e-11  # relative to each field's largest value; see the module docstring
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 def test_device_lists_are_the_cpu_lists(simulated):
     assert simulated["lists_equal_at_start"]
     assert simulated["lists_equal_after_steps"]
@@ -128,6 +129,7 @@ def test_device_lists_are_the_cpu_lists(simulated):
     assert simulated["ids_equal"]  # the fluid re-sorted into the same order
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 def test_device_steps_agree_with_cpu_to_rounding(simulated):
     assert simulated["steps"] == [2, 2]
     assert simulated["dt"][0] == pytest.approx(simulated["dt"][1], rel=TOL)
@@ -136,6 +138,7 @@ def test_device_steps_agree_with_cpu_to_rounding(simulated):
         assert diff <= TOL, field
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 def test_diffusion_bound_agrees_where_it_does_not_bind(simulated):
     """The dam break's particles sit near Δx apart: the density diffusion's bound 0.5/max K_i is far
     above the CFL step (K_iΔt ≈ 0.06 at CFL 0.2, diffusion_limit_molteni2009), and both devices compute
@@ -188,6 +191,7 @@ print(json.dumps(out))
 """
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 @needs_simulator
 def test_diffusion_bound_binds_alike_on_both_devices():
     """A clump of 16 particles within 1 mm starts at K_iΔt = 0.77 at the CFL step, past the density
@@ -208,6 +212,7 @@ def test_diffusion_bound_binds_alike_on_both_devices():
     assert out["dev_resumed"] == [row[0] for row in out["dev"][3:]]
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 def test_checkpoints_resume_across_devices(simulated):
     assert simulated["resumed_steps"] == [3, 3]
     assert simulated["device_resume_bitwise"]
@@ -279,6 +284,7 @@ snapshots = 0
 """
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 @pytest.mark.slow
 @needs_simulator
 def test_cli_run_resumes_a_cpu_run_on_the_device(tmp_path):
@@ -338,6 +344,7 @@ print(json.dumps(out))
 """
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 @pytest.mark.slow
 @needs_simulator
 def test_every_variant_agrees_with_cpu():
@@ -355,6 +362,7 @@ def test_every_variant_agrees_with_cpu():
         assert diff <= (2e-6 if "float32" in case else TOL), case
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 @pytest.mark.slow
 @needs_simulator
 def test_bench_on_the_device_has_the_cpu_keys_plus_device():

@@ -94,6 +94,7 @@ def simulated():
 TOL = 1e-11  # relative to each field's largest value, the 3-D device test's bound (its docstring)
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 @needs_simulator
 def test_device_flood_steps_agree_with_the_cpu(simulated):
     assert simulated["t"][0] == pytest.approx(simulated["t"][1], rel=TOL)
@@ -104,6 +105,7 @@ def test_device_flood_steps_agree_with_the_cpu(simulated):
         assert diff <= TOL, field
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 @needs_simulator
 def test_device_flood_removes_leaving_water_and_keeps_the_budget(simulated):
     assert simulated["n"][0] == simulated["n"][1] < simulated["n0"]  # water left by the east edge
@@ -111,6 +113,7 @@ def test_device_flood_removes_leaving_water_and_keeps_the_budget(simulated):
     assert abs(simulated["closure"]) < 1e-12
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 @needs_simulator
 def test_device_hazard_maxima_are_the_cpus(simulated):
     assert simulated["wetted_cells"] > 20
@@ -118,6 +121,7 @@ def test_device_hazard_maxima_are_the_cpus(simulated):
         assert diff <= TOL, name
 
 
+@pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
 @needs_simulator
 def test_device_flood_checkpoints_resume_on_either_device(simulated):
     for name in ("cpu_from_device", "device_from_cpu", "device_from_device"):

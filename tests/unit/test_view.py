@@ -211,6 +211,7 @@ def _waterish(img):
     return int(((b > r + 40) & (b > g + 10)).sum())
 
 
+@pytest.mark.browser  # a headless Chromium (`make test-browser`)
 def test_page_in_headless_chromium(tmp_path, make_run):
     browser = _browser()
     if browser is None:
@@ -231,6 +232,7 @@ def test_page_in_headless_chromium(tmp_path, make_run):
     assert _waterish(on[plot]) > _waterish(off[plot]) + 500
 
 
+@pytest.mark.browser  # a headless Chromium (`make test-browser`)
 def test_values_under_the_cursor_in_headless_chromium(tmp_path, make_run):
     browser = _browser()
     if browser is None:
@@ -291,6 +293,7 @@ def test_erosim_view_serves_until_ctrl_c(tmp_path, make_run):
     assert p.returncode == 0 and "stopped" in out
 
 
+@pytest.mark.browser  # a headless Chromium (`make test-browser`)
 def test_particles_and_the_time_slider_in_headless_chromium(tmp_path):
     browser = _browser()
     if browser is None:
@@ -333,6 +336,7 @@ def test_map_frames_drive_the_slider(tmp_path, make_run):
     assert set(mf[0]["arrays"]) == {"height", "water"}
 
 
+@pytest.mark.browser  # a headless Chromium (`make test-browser`)
 def test_map_frames_in_headless_chromium(tmp_path, make_run):
     browser = _browser()
     if browser is None:
@@ -355,6 +359,7 @@ def test_map_frames_in_headless_chromium(tmp_path, make_run):
     assert f"height: {float(np.float32(z[5, 3] - 10.0)):.4g} m" in cursor  # the frame's height, not the final
 
 
+@pytest.mark.browser  # a headless Chromium (`make test-browser`)
 @pytest.mark.slow  # two more browser runs (about 25 s on the shared 2-core machine)
 def test_plan_view_while_sliding_in_headless_chromium(tmp_path, make_run):
     """The plan view drawn while the slider moves (#slide=k draws it as an input event does): the lake
@@ -372,6 +377,7 @@ def test_plan_view_while_sliding_in_headless_chromium(tmp_path, make_run):
     assert a[plot].std() > 10 and _waterish(b[plot]) > _waterish(a[plot]) + 500
 
 
+@pytest.mark.browser  # a headless Chromium (`make test-browser`)
 def test_first_picture_is_3d_before_plotly(tmp_path, make_run):
     """first.js draws the terrain in 3-D before plotly.js is read; the page says which picture came first."""
     browser = _browser()

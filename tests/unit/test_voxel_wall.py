@@ -29,6 +29,7 @@ def fill(vt: VoxelTerrain, dx: float, top: float) -> np.ndarray:
     return vt.fluid_points(dx, below=top)
 
 
+@pytest.mark.slow  # a tank settling for a second, about 45 s
 def test_water_at_rest_in_a_voxel_tank():
     """Water 15 cm deep (2 894 particles, Δx = 1 cm) in a tank whose every wall — three vertical, the floor,
     a 45° wall and a spherical bowl 4.5 cm in radius — is the voxel field through the wall weights, after

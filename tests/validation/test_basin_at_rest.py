@@ -3,9 +3,12 @@ surface, nothing below the ground."""
 
 import json
 
+import pytest
+
 from erosim.validation import basin_at_rest as bar
 
 
+@pytest.mark.slow  # two grounds, about 70 s; the mutation check runs it (its slow tier)
 def test_coarse_basin_settles_hydrostatically_with_both_grounds(tmp_path):
     """Δx = 6 cm (3 200 particles), 3 s of settling; held to the issue's bounds: RMS of p − ρ₀g(L_p − z)
     below 3 % of ρ₀gH, the surface flat within one spacing and where the pressure puts it, no particle

@@ -113,6 +113,7 @@ def coarse(tmp_path_factory):
     return sp.run("coarse", out, progress=False), out
 
 
+@pytest.mark.slow  # a coarse run of the experiment, about 70 s
 def test_coarse_case_against_the_experiment(coarse):
     """Δx = 0.05 m (5 500 particles, about 35 s): the validation's outputs, and each gauge's level RMS
     and P1/P3's pressure RMS held at the measured value plus its scatter (regression bounds; the
@@ -136,6 +137,7 @@ def test_coarse_case_against_the_experiment(coarse):
         assert result["wire_level_rms_m"][g] <= result["level_rms_m"][g] + 0.005, result["wire_level_rms_m"]
 
 
+@pytest.mark.slow  # the coarse run and a finer one
 def test_water_level_error_shrinks_with_resolution(tmp_path, coarse):
     """Mean level RMS over H1–H4: Δx = 0.07 m → 0.05 m measured 10.0 % → 7.8 % of H (0.03 m: 5.8 %,
     0.02 m: 5.4 %); the finer run must be better by more than the scatter of the coarser (±1 %)."""

@@ -11,6 +11,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 SCRIPT = textwrap.dedent(
     """
     import numpy as np
@@ -39,6 +41,7 @@ SCRIPT = textwrap.dedent(
 
 # In the default run (about 30 s of compiling with bounds checks): issue 3 asks that nothing is
 # read or written outside the map on any edge, and only a bounds-checked build can show it.
+@pytest.mark.slow  # every kernel on bounds-checked compiles, about 30 s
 def test_kernels_stay_inside_the_map(tmp_path):
     env = dict(os.environ, NUMBA_BOUNDSCHECK="1", NUMBA_CACHE_DIR=str(tmp_path / "nbcache"))
     res = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True, timeout=900)

@@ -94,6 +94,11 @@ class FloodSetUp:
         self.barrier = barrier
         self.level = float(res.level)
         self.closed_hollow = self._closed_hollow(res.seed, cfg)
+        self.gauges = None  # (name, x, y) of each gauge: a bad file is refused here, before anything settles
+        if cfg.gauges.file:
+            from erosim.io.gauge_points import read_gauge_points
+
+            self.gauges = read_gauge_points(cfg.gauges.file, self.terrain)
 
     def _closed_hollow(self, seed, cfg: FloodScenario) -> str | None:
         """The warning sentence when no open edge, barrier or breach lets the reservoir's water out: the
@@ -458,10 +463,8 @@ def setup(scenario, out) -> Setup:
     if site.closed_hollow is None:  # one sentence per problem: a closed hollow releases nothing anyway
         callbacks.append(ReleaseCheck(solver, site, cfg.run.t_end, out))
     gauges = None
-    if cfg.gauges.file:
-        from erosim.io.gauge_points import read_gauge_points
-
-        pts = read_gauge_points(cfg.gauges.file, hm)
+    if site.gauges is not None:
+        pts = site.gauges
         names = [p[0] for p in pts]
         gauges = FloodGauges(
             TimeInterval(cfg.run.sample_interval), solver, names, site.to_frame([p[1:] for p in pts]),

@@ -48,9 +48,10 @@ class Estimate:
     seconds: float | None  # rough wall time; None when the sizes do not tell
     fix: str  # what makes the run smaller
     steps: float | None = None  # SPH steps to the end, where the kind counts them
+    setup_s: float | None = None  # the set-up's share of ``seconds``, where it is long enough to announce
 
     def line(self) -> str:
-        time = f" and {_duration(self.seconds)}" if self.seconds is not None else ""
+        time = f" and {duration(self.seconds)}" if self.seconds is not None else ""
         return f"{self.what}: about {_bytes(self.memory)} of memory{time} (rough estimate)"
 
 
@@ -61,7 +62,7 @@ def _bytes(n: float) -> str:
     return f"{n / 1e3:.3g} kB"
 
 
-def _duration(s: float) -> str:
+def duration(s: float) -> str:
     if s < 60:
         return f"{max(s, 1):.0f} s"
     if s < 3600:
@@ -223,6 +224,7 @@ def sph_terrain(cfg) -> Estimate | None:
 
 
 SWE_PARTICLE_BYTES, SWE_CELL_BYTES, SWE_STEPS_S = 250.0, 80.0, 3.5e5
+SWE_STEP_S = 1.0e-3  # a shallow-water step's fixed cost (neighbour bookkeeping, Python)
 
 
 def flood(cfg) -> Estimate | None:
@@ -257,6 +259,21 @@ def flood(cfg) -> Estimate | None:
     return Estimate(what, memory, seconds, fix)
 
 
+def shallow_water(what: str, model, t_end: float, speed: float = 0.0) -> Estimate:
+    """A shallow-water SPH run from its built model (validations that step a model themselves): Δt from the
+    model's CFL limit C·min H/(√(g d) + |u|) at the start, its wave speed √(g d_max) raised by ``speed``, the
+    fastest water expected (a dam break's front: 2√(g h₀)); particle-steps at SWE_STEPS_S."""
+    from erosim.kernels.swe_sph import step_limit
+
+    p = model.params
+    c = math.sqrt(p.g * max(float(model.depth.max()), 1e-9)) if model.n else 1.0
+    dt = p.courant * step_limit(model.vel, model.depth, model.hsup, model.n, p.g) * c / (c + speed)
+    steps = t_end / dt if math.isfinite(dt) and dt > 0 else 0.0
+    seconds = START_S + steps * (SWE_STEP_S + model.n / SWE_STEPS_S)
+    text = f"{what}, {model.n:,} particles, about {steps:,.0f} steps"
+    return Estimate(text, BASE_BYTES + SWE_PARTICLE_BYTES * model.n, seconds, "", steps)
+
+
 ESTIMATORS = {
     "hydrology": hydrology, "particle-stream": stream, "sph": sph, "sph-terrain": sph_terrain, "flood": flood,
     "voxel": lambda cfg: voxel(cfg),
@@ -282,6 +299,9 @@ def check(kind: str, cfg) -> Estimate | None:
 #: and its fixed cost per step: fitted to ``mountain-lake`` (docs/voxel.md: 89 932 steps in 171 s on one
 #: thread beside other runs, 1 300 particles on average) and ``overtopping --resolution coarse``
 VOXEL_STEPS_PER_CORE_S, VOXEL_STEP_S = 1.0e6, 1.5e-3
+#: the field's set-up per node (distances, wall weights, the DEM's columns): 2.0 s for the 2.1·10⁶ nodes of
+#: ``mountain-lake`` on a 300² DEM of 1 m cells, compiled kernels cached
+VOXEL_NODE_SETUP_S = 1.0e-6
 
 
 def voxel(cfg) -> Estimate:
@@ -327,9 +347,10 @@ def voxel(cfg) -> Estimate:
     speed = p.sound_speed_for(max(fall, dx)) if p.sound_speed <= 0 else p.sound_speed
     steps = run.t_end / p.dt if p.dt > 0 else sph_steps(run.t_end, speed, speed / 10.0, p.cfl, p.support())
     per_step = VOXEL_STEP_S + (n0 + 0.5 * n_add) / (VOXEL_STEPS_PER_CORE_S * _cores())
-    seconds = START_S + nodes * 2e-7 + steps * per_step  # the field's set-up (distances, weights) per node
+    setup = nodes * VOXEL_NODE_SETUP_S
+    seconds = START_S + setup + steps * per_step
     memory = BASE_BYTES + memory_bytes(int(nodes), erosion=cfg.erosion.enabled) * 3 + SPH_PARTICLE_BYTES * (n0 + n_add)
     what = (f"{nodes:,.0f} voxels of {c:g} m, {n0 + n_add:,.0f} particles of {dx:g} m at most, "
             f"about {steps:,.0f} steps")  # fmt: skip
     fix = "raise voxels.cell_size with sph.spacing, or shorten run.t_end"
-    return Estimate(what, memory, seconds, fix, steps)
+    return Estimate(what, memory, seconds, fix, steps, setup_s=setup)

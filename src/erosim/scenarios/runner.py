@@ -60,7 +60,14 @@ def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progres
     if guess is not None and guess.seconds is not None and progress:  # to read while a large terrain is generated
         print(f"{scenario.name}: {guess.line()}", file=sys.stderr, flush=True)
     builder = kinds.resolve(kinds.get(scenario.kind).builder)
+    announce = progress and not resume and guess is not None and guess.setup_s is not None
+    if announce:  # a set-up long enough to wait for (a voxel field): said before it starts and when it ends
+        print(f"{scenario.name}: setting up (about {estimate.duration(guess.setup_s)}; the first run after an "
+              "install or an update also compiles the kernels, a minute or two)…", file=sys.stderr, flush=True)
+    t_setup = time.perf_counter()
     setup = builder(scenario, out)
+    if announce:
+        print(f"{scenario.name}: set up in {time.perf_counter() - t_setup:.1f} s", file=sys.stderr, flush=True)
     if setup.estimate is not None and progress and not resume:  # time known once the models are built
         print(f"{scenario.name}: {setup.estimate.line()}", file=sys.stderr, flush=True)
     for note in setup.warnings:

@@ -21,6 +21,7 @@ shows.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -30,6 +31,7 @@ from scipy.optimize import brentq
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
+from erosim.scenarios import estimate
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, lattice_volume
 
 G = 9.81
@@ -88,12 +90,18 @@ def channel(spacing: float, h1: float, params: ShallowWaterParams | None = None)
     return solver, dam
 
 
-def run_case(h1: float, resolution: str = "default", params: ShallowWaterParams | None = None) -> dict:
+def run_case(h1: float, resolution: str = "default", params: ShallowWaterParams | None = None,
+             progress: bool = False) -> dict:
     """Run one dam break (h1 = 0: Ritter) to T_END; the errors of the module docstring and the profile."""
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")
     spacing = RESOLUTIONS[resolution]
     solver, dam = channel(spacing, h1, params)
+    # the water at √(g h₀) (Ritter's front runs at 2√(g h₀) but is thin: its larger H offsets its speed)
+    guess = estimate.shallow_water(f"{'Ritter' if h1 <= 0 else 'Stoker'}'s dam break", solver, T_END,
+                                   speed=math.sqrt(G * H0))  # fmt: skip
+    if progress:
+        print(f"swe-dam-break: {guess.line()}", file=sys.stderr, flush=True)
     wall0 = time.perf_counter()
     while solver.t < T_END - 1e-12:
         solver.step(min(solver.params.courant * _limit(solver), T_END - solver.t))
@@ -127,6 +135,7 @@ def run_case(h1: float, resolution: str = "default", params: ShallowWaterParams 
         "front_measure": front_name,
         "particles": solver.n,
         "steps": solver.steps,
+        "steps_estimated": round(guess.steps),
         "wall_time_s": round(wall, 2),
         "spacing_m": spacing,
         "budget_closure_rel": solver.budget()["closure_rel"],
@@ -150,7 +159,8 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     from erosim.viz.plots import save_figure
 
     folder = RunFolder(out if out is not None else default_out(f"validate-swe-dam-break-{resolution}"))
-    cases = {"ritter": run_case(0.0, resolution), "stoker": run_case(0.1 * H0, resolution)}
+    cases = {"ritter": run_case(0.0, resolution, progress=progress),
+             "stoker": run_case(0.1 * H0, resolution, progress=progress)}  # fmt: skip
     fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
     for ax, (name, r) in zip(axes, cases.items(), strict=True):
         x, d, e = r.pop("profile")

@@ -16,6 +16,7 @@ an exact harmonic oscillator, so it checks the bed force and the step, not the f
 from __future__ import annotations
 
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -24,6 +25,7 @@ import numpy as np
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
+from erosim.scenarios import estimate
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, equal_volumes
 
 G = 9.81
@@ -63,7 +65,8 @@ def bowl(spacing: float, params: ShallowWaterParams | None = None) -> ShallowWat
     return ShallowWaterSPH(bed, cs, pos, vol, spacing, p, vel=vel, manning=0.0, surface=H0)
 
 
-def run_case(resolution: str = "default", periods: float = 2.0, params: ShallowWaterParams | None = None) -> dict:
+def run_case(resolution: str = "default", periods: float = 2.0, params: ShallowWaterParams | None = None,
+             progress: bool = False) -> dict:
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")
     spacing = RESOLUTIONS[resolution]
@@ -71,6 +74,9 @@ def run_case(resolution: str = "default", periods: float = 2.0, params: ShallowW
     period = 2 * math.pi / omega()
     t_end = periods * period
     samples = np.linspace(0.0, t_end, int(periods * 16) + 1)
+    guess = estimate.shallow_water(f"a bowl of {spacing:g} m particles", m, t_end, speed=SIGMA * omega())  # u ≤ σω
+    if progress:
+        print(f"thacker: {guess.line()}", file=sys.stderr, flush=True)
     n = m.bed.shape[0]
     g = np.arange(n) * m.cell - L / 2
     X, Y = np.meshgrid(g, g)
@@ -102,6 +108,7 @@ def run_case(resolution: str = "default", periods: float = 2.0, params: ShallowW
         "t_end": float(m.t),
         "particles": m.n,
         "steps": m.steps,
+        "steps_estimated": round(guess.steps),
         "spacing_m": spacing,
         "wall_time_s": round(wall, 2),
         "budget_closure_rel": m.budget()["closure_rel"],
@@ -119,7 +126,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     from erosim.viz.plots import save_figure
 
     folder = RunFolder(out if out is not None else default_out(f"validate-thacker-{resolution}"))
-    r = run_case(resolution)
+    r = run_case(resolution, progress=progress)
     t, errors, ious, depth, X, Y = r.pop("track")
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 4.2))
     im = ax0.pcolormesh(X, Y, np.where(depth > WET * H0, depth, np.nan), cmap="Blues", shading="auto")
