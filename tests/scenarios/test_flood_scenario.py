@@ -132,7 +132,12 @@ def test_gauges_record_the_flood(flood_run):
     summary = result.report["gauges_summary"]
     assert summary["dam"]["max_depth"] > 1.0  # inside the reservoir, next to the dam
     assert summary["dam"]["arrival_s"] == 0.0
-    assert summary["town"]["arrival_s"] is None or summary["town"]["arrival_s"] > 0.0
+    # the arrival is the first sample at which the gauge's depth reaches the run's wet depth (from its own series)
+    wet = result.report["wet_depth_m"]
+    town = rows[:, text[0].split(",").index("depth_town")]
+    reached = rows[town >= wet, 0]
+    assert len(reached) and summary["town"]["arrival_s"] == pytest.approx(reached[0])
+    assert 0.0 < summary["town"]["arrival_s"] <= rows[-1, 0]
 
 
 def test_a_settled_lake_on_a_real_dem_stays_at_rest(tmp_path):

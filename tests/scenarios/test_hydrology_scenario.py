@@ -44,6 +44,21 @@ def test_run_folder_holds_every_output(folder):
     for name in ("hillshade_before.png", "hillshade_after.png", "hydrology.png", "evolution.gif"):
         assert (folder / "figures" / name).is_file()
     assert (folder / "scenario.toml").is_file() and (folder / "checkpoint" / "state.npz").is_file()
+    # the 16-bit exports hold the final heights: q → lo + q·(hi − lo)/65535 within half a step of height.tif
+    from PIL import Image
+
+    rep = json.loads((folder / "report.json").read_text())["heightmap_16bit"]
+    z = np.asarray(hio.read(folder / "maps" / "height.tif").z, np.float64)
+    lo, hi = rep["height_range"]
+    q = np.asarray(Image.open(folder / "maps" / "height.png"), np.float64)
+    assert q.shape == z.shape and np.abs(lo + q * (hi - lo) / 65535 - z).max() <= 0.5 * (hi - lo) / 65535 + 1e-4
+    r16 = np.fromfile(folder / "maps" / "height.r16", "<u2").reshape(rep["raw16_shape"]).astype(np.float64)
+    lo, hi = rep["raw16_height_range"]
+    assert np.abs(lo + r16 * (hi - lo) / 65535 - z).max() <= 0.5 * (hi - lo) / 65535 + 1e-4
+    # a stream mask pixel is the stream map's value on 0…1
+    stream = np.asarray(hio.read(folder / "maps" / "stream.tif").z, np.float64)
+    mask = np.asarray(Image.open(folder / "maps" / "mask_stream.png"), np.float64) / 65535
+    assert np.abs(mask - np.clip(stream, 0, 1)).max() <= 0.5 / 65535 + 1e-6
 
 
 def test_map_frames_follow_the_run(folder):
@@ -159,7 +174,11 @@ def test_cli_run_with_set(tmp_path, cli_runner):
         ],
     )
     assert res.exit_code == 0, res.output
-    assert (tmp_path / "cli" / "maps" / "height.tif").is_file()
+    # the command line runs what the Python API runs, bit for bit
+    ref, _ = _run(tmp_path, ["run.cycles=2"], name="api")
+    for name in ("height", "stream", "lake_depth"):
+        cli_map, api_map = (hio.read(f / "maps" / f"{name}.tif").z for f in (tmp_path / "cli", ref))
+        assert np.array_equal(cli_map, api_map), name
 
 
 def test_demo_folder_guard(tmp_path):

@@ -178,3 +178,8 @@ def test_cross_section_figure(tmp_path):
     assert field.shape == (vt.shape[0], vt.shape[2]) and labels == ("x (m)", "z (m)")
     with pytest.raises(ConfigError, match="section axis"):
         vt.section("w")
+    # the plane the figure names is the node plane the section cuts: the node nearest y = 0.251 m, and the middle
+    i, y = vt.plane("y", 0.251)
+    assert y == pytest.approx(vt.axes()[1][i]) and abs(y - 0.251) <= 0.5 * vt.cell_size
+    assert np.array_equal(vt.density[:, i, :], vt.section("y", 0.251)[0])
+    assert vt.plane("x")[0] == vt.shape[2] // 2

@@ -718,4 +718,7 @@ def _profile_figure(cfg: VoxelScenario, profiles: Profiles, out) -> None:
     if times[-1] not in keep:
         keep.append(times[-1])
     curves = [(t, tab[tab[:, 0] == t, 1], tab[tab[:, 0] == t, 2]) for t in keep]
-    profiles_figure(out.figures / "profiles.png", curves, title=f"Centre-line profiles, every {every:g} s")
+    flume = cfg.terrain.shape == "flume"
+    along = "x from the upstream toe (m)" if flume else "x in the terrain's frame (m from its south-west node)"
+    where = "Centre-line profiles" if flume else "Profiles along the middle row"
+    profiles_figure(out.figures / "profiles.png", curves, title=f"{where}, every {every:g} s", xlabel=along)

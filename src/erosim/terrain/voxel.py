@@ -532,17 +532,22 @@ class VoxelTerrain:
     def section(self, axis: str = "y", at: float | None = None) -> tuple[np.ndarray, tuple, tuple[str, str]]:
         """The field on the node plane nearest ``at`` (m) across ``axis`` ('x', 'y' or 'z'; default the
         middle): (2-D array with rows along the vertical of the figure, extent (h0, h1, v0, v1), labels)."""
-        k = "xyz".find(axis)
-        if k < 0 or len(axis) != 1:
-            raise ConfigError(f"Unknown section axis {axis!r}; use 'x', 'y' or 'z'.")
         ax = self.axes()
-        c = ax[k]
-        i = len(c) // 2 if at is None else int(np.clip(round((float(at) - c[0]) / self.cell_size), 0, len(c) - 1))
+        i = self.plane(axis, at)[0]
         if axis == "y":
             return self.density[:, i, :], (ax[0][0], ax[0][-1], ax[2][0], ax[2][-1]), ("x (m)", "z (m)")
         if axis == "x":
             return self.density[:, :, i], (ax[1][0], ax[1][-1], ax[2][0], ax[2][-1]), ("y (m)", "z (m)")
         return self.density[i], (ax[0][0], ax[0][-1], ax[1][0], ax[1][-1]), ("x (m)", "y (m)")
+
+    def plane(self, axis: str, at: float | None = None) -> tuple[int, float]:
+        """(index, coordinate in m) of the node plane across ``axis`` nearest ``at`` (default the middle)."""
+        k = "xyz".find(axis)
+        if k < 0 or len(axis) != 1:
+            raise ConfigError(f"Unknown section axis {axis!r}; use 'x', 'y' or 'z'.")
+        c = self.axes()[k]
+        i = len(c) // 2 if at is None else int(np.clip(round((float(at) - c[0]) / self.cell_size), 0, len(c) - 1))
+        return i, float(c[i])
 
     def cross_section(self, path: str | os.PathLike, axis: str = "y", at: float | None = None,
                       title: str = "", reference: VoxelTerrain | None = None) -> Path:  # fmt: skip
@@ -552,8 +557,9 @@ class VoxelTerrain:
 
         field, extent, labels = self.section(axis, at)
         ref = None if reference is None else reference.section(axis, at)[0]
+        plane = self.plane(axis, at)[1]
         return voxel_section(path, field, extent, self.iso, labels=labels, title=title, reference=ref,
-                             value_range=self.value_range)  # fmt: skip
+                             value_range=self.value_range, where=f"{axis} = {plane:.4g} m")  # fmt: skip
 
     # ---------------------------------------------------------------- files
 

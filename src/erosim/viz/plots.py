@@ -334,34 +334,46 @@ def change_figure(path, change: np.ndarray, cell_size: float, title: str, extent
 
 
 def voxel_section(path, field: np.ndarray, extent, iso: float, *, labels=("x (m)", "z (m)"), title: str = "",
-                  reference: np.ndarray | None = None, value_range=(0.0, 1.0)) -> Path:  # fmt: skip
+                  reference: np.ndarray | None = None, value_range=(0.0, 1.0), where: str = "") -> Path:  # fmt: skip
     """A cross-section of a voxel density field: ``field`` (rows along the vertical axis, from ``extent``'s
-    v0 to v1) shaded from air to solid, its iso-line solid, ``reference``'s (an earlier field) dashed."""
+    v0 to v1) shaded from air to solid with its colour bar, its iso-line solid, ``reference``'s (an earlier
+    field) dashed, both in the legend; ``where`` (e.g. "y = 0.06 m") names the plane of the cut."""
+    from matplotlib.lines import Line2D
+
     h0, h1, v0, v1 = (float(e) for e in extent)
-    fig, ax = plt.subplots(figsize=(8.0, max(2.5, 8.0 * (v1 - v0) / max(h1 - h0, 1e-12) + 1.0)))
-    ax.imshow(field, origin="lower", extent=(h0, h1, v0, v1), cmap="copper_r", vmin=value_range[0],
-              vmax=value_range[1], interpolation="bilinear", aspect="equal")  # fmt: skip
+    fig, ax = plt.subplots(figsize=(8.8, max(2.8, 8.0 * (v1 - v0) / max(h1 - h0, 1e-12) + 1.3)))
+    im = ax.imshow(field, origin="lower", extent=(h0, h1, v0, v1), cmap="copper_r", vmin=value_range[0],
+                   vmax=value_range[1], interpolation="bilinear", aspect="equal")  # fmt: skip
+    fig.colorbar(im, ax=ax, shrink=0.8, pad=0.02, label=f"density (air {value_range[0]:g} … solid {value_range[1]:g})")
     hs = np.linspace(h0, h1, field.shape[1])
     vs = np.linspace(v0, v1, field.shape[0])
+    handles = []
     if field.min() < iso < field.max():
         ax.contour(hs, vs, field, levels=[iso], colors="k", linewidths=1.2)
+        handles.append(Line2D([], [], color="k", lw=1.2, label=f"surface now (density {iso:g})"))
     if reference is not None and reference.min() < iso < reference.max():
         ax.contour(hs, vs, reference, levels=[iso], colors="tab:blue", linewidths=1.0, linestyles="--")
+        handles.append(Line2D([], [], color="tab:blue", lw=1.0, ls="--", label="surface at the start"))
+    if handles:
+        ax.legend(handles=handles, fontsize=8, loc="upper right")
     ax.set_xlabel(labels[0])
     ax.set_ylabel(labels[1])
-    ax.set_title(title or "voxel terrain section (solid shaded; surface line, earlier surface dashed)")
+    head = title or "voxel terrain section"
+    ax.set_title(f"{head} — section at {where}" if where else head, fontsize=10)
     fig.tight_layout()
     return save_figure(fig, path)
 
 
-def profiles_figure(path, curves: list[tuple[float, np.ndarray, np.ndarray]], title: str = "") -> Path:
-    """Surface profiles along a flume: ``curves`` of (t, x, z), one line per time, lighter for earlier."""
+def profiles_figure(path, curves: list[tuple[float, np.ndarray, np.ndarray]], title: str = "",
+                    xlabel: str = "x from the upstream toe (m)") -> Path:  # fmt: skip
+    """Surface profiles along a flume or a terrain's middle row: ``curves`` of (t, x, z), one line per time,
+    lighter for earlier; ``xlabel`` says where x is measured from."""
     fig, ax = plt.subplots(figsize=(9, 3.6))
     cmap = plt.get_cmap("viridis")
     n = max(len(curves) - 1, 1)
     for i, (t, x, z) in enumerate(curves):
         ax.plot(x, z, color=cmap(i / n), lw=1.8 if i in (0, len(curves) - 1) else 1.2, label=f"t = {t:.4g} s")
-    ax.set_xlabel("x from the upstream toe (m)")
+    ax.set_xlabel(xlabel)
     ax.set_ylabel("surface height z (m)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper right")
