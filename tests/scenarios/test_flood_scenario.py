@@ -50,7 +50,7 @@ def flood_run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("flood")
     dem = _valley_tif(tmp / "valley.tif", nodata_hole=True)
     gauges = tmp / "gauges.csv"
-    gauges.write_text("name,x,y\ndam,501280,4000700\ntown,501280,4002000\n")
+    gauges.write_text("name,x,y\ndam,501280,4000700\nbelow,501280,4001400\ntown,501280,4002000\n")
     return run("flood", tmp / "run", set=_utm_sets(dem, **{"gauges.file": str(gauges)})), dem
 
 
@@ -126,18 +126,21 @@ def test_the_water_budget_closes_and_water_leaves_by_the_open_edge(flood_run):
 def test_gauges_record_the_flood(flood_run):
     result, _ = flood_run
     text = (result.path / "gauges.csv").read_text().splitlines()
-    assert text[0] == "t,eta_dam,eta_town,depth_dam,depth_town,speed_dam,speed_town"
+    assert text[0] == ("t,eta_dam,eta_below,eta_town,depth_dam,depth_below,depth_town,speed_dam,speed_below,"
+                       "speed_town")
     rows = np.array([[float(v) for v in line.split(",")] for line in text[1:]])
     assert rows[0, 0] == 0.0 and rows[-1, 0] >= 110.0
     summary = result.report["gauges_summary"]
     assert summary["dam"]["max_depth"] > 1.0  # inside the reservoir, next to the dam
     assert summary["dam"]["arrival_s"] == 0.0
-    # the arrival is the first sample at which the gauge's depth reaches the run's wet depth (from its own series)
+    # the arrival is the first sample at which the gauge's depth reaches the run's wet depth (its own series):
+    # 500 m below the dam's line the flood arrives during the run, 1 100 m below it does not within 120 s
     wet = result.report["wet_depth_m"]
-    town = rows[:, text[0].split(",").index("depth_town")]
-    reached = rows[town >= wet, 0]
-    assert len(reached) and summary["town"]["arrival_s"] == pytest.approx(reached[0])
-    assert 0.0 < summary["town"]["arrival_s"] <= rows[-1, 0]
+    depth = {name: rows[:, text[0].split(",").index(f"depth_{name}")] for name in ("below", "town")}
+    reached = rows[depth["below"] >= wet, 0]
+    assert len(reached) and summary["below"]["arrival_s"] == pytest.approx(reached[0])
+    assert 0.0 < summary["below"]["arrival_s"] < rows[-1, 0]
+    assert summary["town"]["arrival_s"] is None and depth["town"].max() < wet
 
 
 def test_a_settled_lake_on_a_real_dem_stays_at_rest(tmp_path):

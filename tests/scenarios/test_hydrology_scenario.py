@@ -47,7 +47,7 @@ def test_run_folder_holds_every_output(folder):
     # the 16-bit exports hold the final heights: q → lo + q·(hi − lo)/65535 within half a step of height.tif
     from PIL import Image
 
-    rep = json.loads((folder / "report.json").read_text())["heightmap_16bit"]
+    rep = json.loads((folder / "report.json").read_text())["outputs"]["heightmap_16bit"]
     z = np.asarray(hio.read(folder / "maps" / "height.tif").z, np.float64)
     lo, hi = rep["height_range"]
     q = np.asarray(Image.open(folder / "maps" / "height.png"), np.float64)
