@@ -319,9 +319,23 @@ class TerrainOutputs(cb.Callback):
         return {"outputs": {"maps": written, "figure": "figures/maps_final.png"}}
 
 
+#: the change panel's fixed scale, ± this share of the terrain's relief
+CHANGE_RANGE_OF_RELIEF = 0.1
+#: the water panel leaves out films thinner than this (m)
+WATER_SHOWN_M = 1e-3
+
+
 def _panel_function(geo: Geometry, coupler: Coupler, title: str):
     """The picture of the terrain and water now (three panels; 2-D: the bed profile) as an RGB array."""
     from erosim.viz.plots import profile_panel, terrain_panels
+
+    # one scale for every frame's change panel: a tenth of the terrain's relief (at least a centimetre)
+    relief = float(np.nanmax(geo.initial) - np.nanmin(geo.initial))
+    change_range = max(CHANGE_RANGE_OF_RELIEF * relief, 0.01)
+    # the water as the particles spread it: each particle's volume binned to its cell, then smoothed over a
+    # particle's size (σ = Δx/2, at least a cell), so that scattered particles show as the sheet they are a part
+    # of, not a cell-by-cell speckle (the picture only; maps/water_depth.tif keeps the binned depth)
+    sigma = max(0.5 * coupler.solver.params.spacing / geo.raster.dx, 1.0)
 
     def panel() -> np.ndarray:
         c = coupler
@@ -330,8 +344,12 @@ def _panel_function(geo: Geometry, coupler: Coupler, title: str):
         if geo.dim == 2:
             x = np.arange(geo.raster.nx) * geo.raster.dx
             return profile_panel(x, geo.initial[0], c.terrain[0], c.grid.depth[0], title=t)
-        return terrain_panels(c.terrain[::-1], c.grid.depth[::-1], (c.terrain - geo.initial)[::-1], geo.raster.dx,
-                              title=t)  # fmt: skip
+        from scipy.ndimage import gaussian_filter
+
+        water = gaussian_filter(c.grid.depth, sigma, mode="constant")
+        return terrain_panels(c.terrain[::-1], np.where(water >= WATER_SHOWN_M, water, 0.0)[::-1],
+                              (c.terrain - geo.initial)[::-1], geo.raster.dx, title=t,
+                              change_range=change_range)  # fmt: skip
 
     return panel
 

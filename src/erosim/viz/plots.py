@@ -154,10 +154,12 @@ def _canvas_rgb(fig) -> np.ndarray:
 
 
 def terrain_panels(height: np.ndarray, water: np.ndarray, change: np.ndarray, cell_size: float,
-                   title: str = "") -> np.ndarray:  # fmt: skip
+                   title: str = "", change_range: float | None = None) -> np.ndarray:  # fmt: skip
     """Seed 000's three panels (figs. 21–24): height map, water depth over the surface, change of height
     since the start (erosion blue-white-red: lowered red, raised blue), each with its colour bar in
-    metres; arrays in map order (row 0 = north). Returns the picture as an RGB array."""
+    metres; arrays in map order (row 0 = north). ``change_range`` fixes the change panel's scale at
+    ±that (m; beyond it the colours saturate, the bar's ends say so), so that the frames of a run compare;
+    by default the frame's own largest change. Returns the picture as an RGB array."""
     from erosim.viz.maps import hillshade
 
     ny, nx = height.shape
@@ -176,9 +178,10 @@ def terrain_panels(height: np.ndarray, water: np.ndarray, change: np.ndarray, ce
     fig.colorbar(im, ax=ax, fraction=0.046, label="water depth (m)")
     ax.set_title("water over the surface")
     ax = axes[2]
-    lim = max(float(np.abs(change).max()), 1e-9)
+    lim = change_range if change_range is not None else max(float(np.abs(change).max()), 1e-9)
     im = ax.imshow(change, cmap="RdBu", vmin=-lim, vmax=lim, extent=extent)
-    fig.colorbar(im, ax=ax, fraction=0.046, label="height change (m)")
+    ends = "neither" if change_range is None else "both"
+    fig.colorbar(im, ax=ax, fraction=0.046, label="height change (m)", extend=ends)
     ax.set_title("difference from the initial terrain")
     for ax in axes:
         ax.set_xlabel("x (m)")
