@@ -60,6 +60,14 @@ def test_library_scenario_runs_and_reports(tmp_path, name):
     if rep["dim"] == 3:
         for m in ("height", "height_initial", "water_depth", "max_water_depth", "erosion", "deposition", "sediment"):
             assert (out / "maps" / f"{m}.tif").is_file()
+        scenario = loader.load(name, CASES[name]).config
+        if scenario.rain.rate > 0:  # the rain map: the intensity where the map is 1 at most, nothing below zero
+            import rasterio
+
+            with rasterio.open(out / "maps" / "rain.tif") as ds:
+                rain = ds.read(1)
+            assert rain.shape == tuple(rep["terrain"]["shape"]) and (out / "figures" / "rain.png").is_file()
+            assert 0.0 <= rain.min() and rain.max() <= scenario.rain.rate * (1 + 1e-6) and rain.max() > 0
     else:
         assert (out / "profile.csv").read_text().startswith("x,height_initial,height,")
 

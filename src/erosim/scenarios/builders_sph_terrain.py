@@ -11,11 +11,11 @@ onto the terrain's nodes and applying transport-capacity erosion. It leaves
 
 * ``maps/`` (3-D, the DEM's grid, CRS and transform): height.tif, height_initial.tif,
   water_depth.tif (last binning), max_water_depth.tif, erosion.tif, deposition.tif (m, ≥ 0),
-  sediment.tif (sediment held in the water, m³ per m² of bed); 2-D: ``profile.csv`` with the same
-  columns along x;
+  sediment.tif (sediment held in the water, m³ per m² of bed), rain.tif (the rain's intensity, mm/h,
+  when it rains); 2-D: ``profile.csv`` with the same columns along x;
 * ``figures/maps_NNN.png`` (the thesis's three panels: height, water over the surface, difference
   from the initial terrain; 2-D: the bed profile), ``figures/evolution.gif``, hillshades before and
-  after (3-D);
+  after (3-D), rain.png (the rain map, the thesis's fig. 20);
 * ``particles/`` frames when ``run.output_interval`` > 0; ``front.csv`` with ``measure.front``;
 * ``report.json``: ``water_budget`` (m³ of water at rest: initial, rained, inflow, left_edges,
   in_fluid, closure_rel), ``sediment_budget`` (m³: eroded, deposited, suspended, carried_off,
@@ -265,9 +265,10 @@ class BelowGround(cb.Callback):
 class TerrainOutputs(cb.Callback):
     """The final maps (DEM grid), profile and pictures of a completed run."""
 
-    def __init__(self, geo: Geometry, coupler: Coupler, eroder, panel):
+    def __init__(self, geo: Geometry, coupler: Coupler, eroder, panel, rain: np.ndarray | None = None):
         super().__init__(Schedule(), name="outputs")
         self.geo, self.coupler, self.eroder, self.panel = geo, coupler, eroder, panel
+        self.rain = rain  # the rain's intensity per cell (mm/h, SPH frame), or None without rain
 
     def fields(self) -> dict[str, np.ndarray]:
         """Output fields in the SPH frame (rows northward)."""
@@ -304,7 +305,12 @@ class TerrainOutputs(cb.Callback):
             mapped = np.ascontiguousarray(arr[::-1])
             hio.write(out.maps / f"{name}.tif", mapped, like=g.dem)
             written[name] = {"path": f"maps/{name}.tif", "min": float(mapped.min()), "max": float(mapped.max())}
-        from erosim.viz.plots import change_figure, extent_of, hillshade_figure
+        if self.rain is not None:  # the rain map (seed 000's fig. 20): where the drops fall, and how hard
+            rain = np.ascontiguousarray(self.rain[::-1])
+            hio.write_raster(out.maps / "rain.tif", rain.astype(np.float32), g.dem)
+            written["rain"] = {"path": "maps/rain.tif", "min": float(rain.min()), "max": float(rain.max()),
+                               "unit": "mm/h"}  # fmt: skip
+        from erosim.viz.plots import change_figure, extent_of, hillshade_figure, map_figure
 
         north_up = g.initial[::-1]
         box = extent_of(g.dem.transform if g.dem is not None else None, north_up.shape, g.raster.dx)
@@ -316,6 +322,11 @@ class TerrainOutputs(cb.Callback):
         with out.picture(out.figures / "erosion_deposition.png"):
             change_figure(out.figures / "erosion_deposition.png", after - north_up, g.raster.dx,
                           "Erosion and deposition", box)  # fmt: skip
+        if self.rain is not None:
+            bar = {"cmap": "Blues", "vmin": 0.0, "vmax": max(float(self.rain.max()), 1e-9), "label": "rain (mm/h)"}
+            with out.picture(out.figures / "rain.png"):
+                map_figure(out.figures / "rain.png", self.rain[::-1], g.raster.dx, "Rain map", colorbar=bar,
+                           extent=box)  # fmt: skip
         return {"outputs": {"maps": written, "figure": "figures/maps_final.png"}}
 
 
@@ -396,6 +407,7 @@ def setup(scenario, out) -> Setup:
     callbacks: list = []
     if cfg.edges.outflow:
         callbacks.append(EdgeOutflow(IterationInterval(1), solver, r, cfg.edges.outflow))
+    chance = None
     if cfg.rain.rate > 0:
         chance = _rain_map(cfg, geo)
         callbacks.append(Rain(IterationInterval(cfg.rain.every), solver, r, geo.terrain, chance, cfg.rain.rate,
@@ -419,7 +431,8 @@ def setup(scenario, out) -> Setup:
     if run.map_frames > 0:
         callbacks.append(MapFrames(TimeInterval(run.t_end / run.map_frames), panel, out.path / "figures"))
     below = BelowGround(IterationInterval(e.every), solver, ground)
-    callbacks += [below, TerrainOutputs(geo, coupler, eroder, panel)]
+    rain = None if chance is None or geo.dim == 2 else chance * cfg.rain.rate
+    callbacks += [below, TerrainOutputs(geo, coupler, eroder, panel, rain)]
     warnings = list(geo.dem.notes) if geo.dem is not None else []
     if geo.nodata is not None:
         warnings.append(f"{int(geo.nodata.sum())} nodata cells of the terrain stand as walls.")
