@@ -500,7 +500,7 @@ MUTATIONS = (
     Mutation(
         "flood-arrival-is-the-step",
         "sph/shallow_water_vacondio2012.py",
-        (("self.inv_cell, self.t, wet,", "self.inv_cell, self.last_dt, wet,"),),
+        (("c_lo + nc - 1, self.t, wet,", "c_lo + nc - 1, self.last_dt, wet,"),),
         ("tests/validation/test_flood_solvers.py",),
         "the flood's arrival map records the step length instead of the time",
     ),

@@ -191,3 +191,77 @@ def test_manning_kick_decelerates_a_uniform_sheet_at_the_laws_rate():
     speed = 1.0 / (1.0 / speed0 + g * n**2 * steps * dt / depth ** (4.0 / 3.0))
     assert np.allclose(vel, u0 * (speed / speed0)[:, None], rtol=1e-12, atol=0.0)  # slowed, never turned
     assert np.all(speed < 0.9 * speed0)  # the friction matters here: at least 10 % slower
+
+
+def _lattice(bed, spacing, depth, cell=1.0, wall=None, x_max=None):
+    """Water of lattice depth ``depth`` on a square lattice over the cells of ``bed`` up to ``x_max``."""
+    ny, nx = bed.shape
+    x_max = (nx - 1.5) * cell if x_max is None else x_max
+    x, y = (
+        a.ravel() for a in np.meshgrid(np.arange(cell, x_max, spacing), np.arange(cell, (ny - 1.5) * cell, spacing))
+    )
+    p = ShallowWaterParams()
+    vol = lattice_volume(np.full(x.size, depth), spacing, p.support, p.max_support)
+    return ShallowWaterSPH(
+        bed, cell, np.column_stack([x, y]), vol, spacing, p, wall=wall, surface=float(bed.max()) + depth
+    )
+
+
+def test_the_maps_hold_the_sph_interpolant_where_the_ground_is_level():
+    """On a flat bed the mapped depth at a cell centre is the SPH interpolant d(x) = Σ_j V_j W(|x − x_j|,
+    H_j) (the gather of ``grid_maxima`` against the scatter of ``splat_depth``) or, where that is the
+    lesser, the Shepard mean depth η̄ − b = d(x)/S(x), S = Σ_j V_j W/d_j: never more than d(x) (S
+    exceeds 1 by the lattice's interpolation error inside, 2 %, and by up to 15 % just inside the
+    edges, where the particles' own depths are low). Beyond the last particles S < 1, so the map is
+    d(x) itself to round-off: it thins over the supports to the wet depth, below any particle's own
+    depth (each is at least about V·7/(π H_max²))."""
+    from erosim.analysis.hazard import HazardMaps
+
+    m = _lattice(np.zeros((14, 40)), 2.0, 0.5, x_max=20.0)
+    maps = HazardMaps(m.bed.shape, 0.01)
+    m.update_maxima(maps, maps.wet_depth)
+    inner = (slice(1, -1), slice(1, -1))  # the closed map edges are raised above the water: dry
+    splat = m.depth_grid()[inner]
+    mapped = maps.max_depth[inner]
+    wet = splat >= 0.01
+    assert (mapped[~wet] == 0).all() and (mapped[wet] <= splat[wet] * (1 + 1e-12)).all()
+    tail = maps.max_depth[7, 20:]  # x ≥ 20 m, past the last particle column at x = 19 m
+    thin = tail[(tail > 0) & (tail < m.depth.min())]
+    assert len(thin) >= 3 and np.all(np.diff(tail) <= 0)
+    assert np.allclose(tail, np.where(m.depth_grid()[7, 20:] >= 0.01, m.depth_grid()[7, 20:], 0.0), rtol=1e-12)
+    assert maps.max_depth[7, 10] == pytest.approx(0.5, rel=0.03)  # inside: the lattice's depth
+
+
+def test_the_maps_are_dry_where_the_ground_stands_above_the_water():
+    """Water resting against a bank (bed rising 0.5 m a cell east of x = 12 m): the mapped depth is
+    min(d(x), η̄(x) − b(x)), so no cell whose bed is above the water's highest surface is wet, though
+    the kernel reaches cells up the bank; below it the bank's cell holds less than the 0.5 m of water
+    above its bed (the interpolant, thinning at the edge)."""
+    from erosim.analysis.hazard import HazardMaps
+
+    bed = np.tile(np.maximum(np.arange(40.0) - 12.0, 0.0) * 0.5, (14, 1))
+    m = _lattice(bed, 2.0, 1.0, x_max=13.0)
+    maps = HazardMaps(bed.shape, 0.01)
+    m.update_maxima(maps, maps.wet_depth)
+    top = float(m.surface().max())
+    assert (m.depth_grid()[:, bed[0] > top] >= 0.01).any()  # the kernel reaches above the water...
+    assert (maps.max_depth[:, bed[0] > top] == 0).all()  # ...the map does not
+    bank = maps.max_depth[7, 13:20]  # bed 0.5, 1.0, … m
+    assert 0.0 < bank[0] < 0.5 and (bank[1:] == 0).all()
+
+
+def test_the_maps_do_not_see_water_through_a_wall():
+    """Particles two cells apart (supports of about six cells) behind a one-cell wall: the cells beyond
+    it are never marked though the interpolant reaches them (a dam's downstream side stays dry until
+    the water gets there), while the cells before it are."""
+    from erosim.analysis.hazard import HazardMaps
+
+    bed = np.zeros((14, 40))
+    wall = np.zeros(bed.shape, bool)
+    wall[:, 20] = True
+    m = _lattice(bed, 2.0, 1.0, wall=wall, x_max=20.0)
+    maps = HazardMaps(bed.shape, 0.01)
+    m.update_maxima(maps, maps.wet_depth)
+    assert (m.depth_grid()[:, 21:] >= 0.01).any()  # the kernel reaches past the wall
+    assert (maps.max_depth[:, 20:] == 0).all() and np.isinf(maps.arrival[:, 20:]).all()
+    assert (maps.max_depth[1:-1, 19] > 0.1).all()
