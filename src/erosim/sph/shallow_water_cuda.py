@@ -8,7 +8,8 @@ limit → half kick → drift → [particles that left by an open edge removed] 
 particle moved or grew past its skin → depth and H (Newton) → accelerations → half kick → contacts
 held. Three numbers come back per step (the CFL scale, the count of particles that left, the count of
 non-finite speeds) and one per list test; the hazard maxima are raised on the device every step
-(the CPU's gather of the SPH depth at the cell centres, one thread per cell).
+(the SPH depth at the cell centres gathered by one thread per cell, ``grid_maxima``: the CPU's sums
+in another order, equal to rounding).
 Fields come back only when an output, a gauge, a map or a checkpoint reads them; removing the
 particles that left (a few steps of a run) is done on the host, which then sends the state back.
 

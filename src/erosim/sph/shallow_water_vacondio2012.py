@@ -434,9 +434,10 @@ class ShallowWaterSPH:
 
     def update_maxima(self, maps, wet: float) -> None:
         """Raise the hazard maxima and arrival times of ``maps`` (arrays on the DEM grid) at time t from
-        the SPH depth at the cell centres, d(x) = Σ_j V_j W(|x − x_j|, H_j), and the Shepard mean speed
-        with the same weights (:func:`erosim.kernels.swe_sph.grid_maxima`); the wall cells are never
-        marked.
+        the SPH depth at the cell centres, d(x) = Σ_j V_j W(|x − x_j|, H_j), cut where the ground stands
+        above the water, and the Shepard mean speed with the same weights (the formulas:
+        :func:`erosim.kernels.swe_sph.grid_maxima`; here summed particle by particle,
+        :func:`~erosim.kernels.swe_sph.scatter_sums`); the wall cells are never marked.
 
         The interpolant, not each particle's own depth d_i: d_i cannot fall below about
         V_i·7/(π H_max²) (one particle alone in its support), so cells under the particles' squares
@@ -447,16 +448,19 @@ class ShallowWaterSPH:
         if n == 0:
             return
         (xmin, ymin), (xmax, ymax) = self.pos.min(axis=0), self.pos.max(axis=0)
-        x0, y0, reach, ncx, ncy, r_lo, c_lo, nr, nc = self._maxima_window(xmin, ymin, xmax, ymax, self.hsup.max())
-        cell_start = np.empty(ncx * ncy + 1, np.int64)
-        order = np.empty(n, np.int64)
-        K.bin_particles(self.pos, n, x0, y0, reach, ncx, ncy, cell_start, order)
+        _, _, _, _, _, r_lo, c_lo, nr, nc = self._maxima_window(xmin, ymin, xmax, ymax, self.hsup.max())
         eta = np.empty(n)
         K.surfaces(self.pos, self.depth, self.bed, n, self.inv_cell, eta)
-        K.grid_maxima(
-            self.pos, self.vel, self.vol, self.hsup, self.depth, eta, self.bed, self.cell, x0, y0, reach,
-            ncx, ncy, cell_start, order, r_lo, r_lo + nr - 1, c_lo, c_lo + nc - 1, self.t, wet, maps.max_depth,
-            maps.max_speed, maps.max_dv, maps.arrival, self.wall, self.wall_dist,
+        # the sums particle by particle (each pair once), then the cells in parallel; the device gathers
+        # per cell (grid_maxima), the same sums in another order
+        sums = np.zeros((4, nr, nc))
+        K.scatter_sums(
+            self.pos, self.vel, self.vol, self.hsup, self.depth, eta, n, self.cell, r_lo, c_lo, self.wall,
+            self.wall_dist, sums,
+        )  # fmt: skip
+        K.raise_maxima(
+            sums, r_lo, c_lo, self.bed, self.t, wet, maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
+            self.wall,
         )  # fmt: skip
 
     def _maxima_window(self, xmin, ymin, xmax, ymax, hmax) -> tuple:
