@@ -29,12 +29,12 @@ def test_the_arrival_map_follows_ritters_front():
     x_f = 2 √(g h₀) t (Ritter 1892): the cells along the channel first get wet at x / (2 √(g h₀)).
 
     h₀ = 10 m, particles of 1 m (h₀/10) on 1 m cells, splitting on (without it the thin tip is
-    under-resolved and the map is about 50 % late: docs/flood.md), 5 s (the front travels 99 m); under a
+    under-resolved and the map is about 46 % late: docs/flood.md), 5 s (the front travels 99 m); under a
     second. Checked between 0.4 and 0.9 of the reach: nearer the dam the start-up delay (the front
     leaves the lattice over its first steps) is a larger share of a short time, beyond 0.9 the tip is
     thinner than the wet depth. The 10 % tolerance: the map records when the depth first passes
     flood.wet_depth w = 0.01 m, which Ritter's fan reaches at x / (2c₀ − 3√(g w)), 4.7 % after the
-    front at h₀ = 10 m, plus the start-up delay (measured −2.0 % … +5.3 % in this window).
+    front at h₀ = 10 m, plus the start-up delay (measured −3.4 % … +2.5 % in this window).
     """
     import math
 

@@ -48,9 +48,11 @@ _kick = _dev(K.kick_particle)
 _drift = _dev(K.drift_particle)
 _cfl = _dev(K.cfl_scale)
 _surface = _dev(K.surface_particle)
-if SIMULATOR:  # the Python source, calling its wall test's Python source (the simulator's arrays)
+if SIMULATOR:  # the Python source, calling its helpers' Python sources (they take the simulator's arrays)
     _cell_maxima = types.FunctionType(
-        K.cell_maxima.py_func.__code__, {**vars(K), "wall_between": K.wall_between.py_func}, "cell_maxima"
+        K.cell_maxima.py_func.__code__,
+        {**vars(K), "wall_between": K.wall_between.py_func, "raise_cell": K.raise_cell.py_func},
+        "cell_maxima",
     )
 else:
     _cell_maxima = K.cell_maxima
