@@ -66,9 +66,9 @@ def picture(before: Path, after: Path, png: Path) -> None:
     colours = ["#ffffff", "#1a9641", "#a6d96a", "#ffffbf", "#fdae61", "#d7191c", "#7b3294"]
     cmap = ListedColormap(colours)
     norm = BoundaryNorm(np.arange(-0.5, 7.5), cmap.N)
-    fig, axes = plt.subplots(1, 2, figsize=(7.5, 5.2), sharey=True)
-    for ax, m, title in zip(axes, maps, ("before: each cell the depth of the particles over it",
-                                         "after: the SPH depth at the cell centre"), strict=True):  # fmt: skip
+    fig, axes = plt.subplots(1, 2, figsize=(5.4, 6.4), sharey=True)
+    for ax, m, title in zip(axes, maps, ("before: each cell the depth\nof the particles over it",
+                                         "after: the SPH depth\nat the cell centre"), strict=True):  # fmt: skip
         shown = np.where(m == 255, 0, m)[r0:r1, c0:c1]
         ax.imshow(shown, cmap=cmap, norm=norm, interpolation="nearest")
         flooded = (shown >= 1).sum()
@@ -77,8 +77,8 @@ def picture(before: Path, after: Path, png: Path) -> None:
         ax.set_xticks([])
         ax.set_yticks([])
     handles = [Patch(color=colours[k], label=name) for k, name in enumerate(CLASSES, start=1)]
-    fig.legend(handles=handles, loc="lower center", ncol=6, fontsize=8, frameon=False)
-    fig.suptitle("erosim run flood --set flood.spacing=5: maps/hazard.tif, cropped to the flood", fontsize=9)
+    fig.legend(handles=handles, loc="lower center", ncol=6, fontsize=7, frameon=False)
+    fig.suptitle("erosim run flood --set flood.spacing=5:\nmaps/hazard.tif, cropped to the flood", fontsize=9)
     fig.tight_layout(rect=(0, 0.06, 1, 0.95))
     png.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(png, dpi=110)
