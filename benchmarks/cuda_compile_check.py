@@ -104,7 +104,12 @@ def swe_signatures():
         ("swe.drift", ks.drift, (A2, A2, i, f, f, boolean[:, :]) + (boolean,) * 4 + (boolean[:], I1, I1)),
         ("swe.hold_contacts", ks.hold_contacts, (A2, i, I1, I1)),
         ("swe.cfl_limit", ks.cfl_limit, (A2, D1, D1, i, f, D1)),
-        ("swe.footprint_maxima", ks.footprint_maxima, (A2, A2, D1, D1, i, f, f, f, G, G, G, G, boolean[:, :])),
+        ("swe.surfaces", ks.surfaces, (A2, D1, G, i, f, D1)),
+        (
+            "swe.grid_maxima",
+            ks.grid_maxima,
+            (A2, A2, D1, D1, D1, D1, G, f, f, f, f, i, i, I1, I1, i, i, i, i, f, f, G, G, G, G, boolean[:, :], G),
+        ),
     ]
 
 

@@ -502,9 +502,35 @@ MUTATIONS = (
     Mutation(
         "flood-arrival-is-the-step",
         "sph/shallow_water_vacondio2012.py",
-        (("self.inv_cell, self.t, wet,", "self.inv_cell, self.last_dt, wet,"),),
+        (("sums, r_lo, c_lo, self.bed, self.t, wet,", "sums, r_lo, c_lo, self.bed, self.last_dt, wet,"),),
         ("tests/validation/test_flood_solvers.py",),
         "the flood's arrival map records the step length instead of the time",
+    ),
+    Mutation(
+        "flood-map-particle-depth",
+        "kernels/swe_sph.py",
+        (
+            (
+                "                    sums[0, r - r_lo, c - c_lo] += w\n",
+                "                    sums[0, r - r_lo, c - c_lo] = max(sums[0, r - r_lo, c - c_lo], depth[j])\n",
+            ),
+        ),
+        ("tests/unit/test_swe_sph.py",),
+        "the flood's maps take the deepest particle's own depth in reach, not the SPH depth at the cell centre",
+    ),
+    Mutation(
+        "flood-map-no-surface-cut",
+        "kernels/swe_sph.py",
+        (("    d = min(d, se / s - bed[r, c])\n", "    d = min(d, se / s - bed[r, c] + 1e9)\n"),),
+        ("tests/unit/test_swe_sph.py",),
+        "the flood's maps are wet up banks above the water surface, wherever the kernel reaches",
+    ),
+    Mutation(
+        "flood-map-through-walls",
+        "kernels/swe_sph.py",
+        (("if wall_dist[r, c] <= h + cell_size and wall_between(", "if False and wall_between("),),
+        ("tests/unit/test_swe_sph.py",),
+        "the flood's maps see water through walls (a dam's downstream cells wet at t = 0)",
     ),
     Mutation(
         "stream-bed-not-graded",

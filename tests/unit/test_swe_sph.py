@@ -191,3 +191,112 @@ def test_manning_kick_decelerates_a_uniform_sheet_at_the_laws_rate():
     speed = 1.0 / (1.0 / speed0 + g * n**2 * steps * dt / depth ** (4.0 / 3.0))
     assert np.allclose(vel, u0 * (speed / speed0)[:, None], rtol=1e-12, atol=0.0)  # slowed, never turned
     assert np.all(speed < 0.9 * speed0)  # the friction matters here: at least 10 % slower
+
+
+def _lattice(bed, spacing, depth, cell=1.0, wall=None, x_max=None):
+    """Water of lattice depth ``depth`` on a square lattice over the cells of ``bed`` up to ``x_max``."""
+    ny, nx = bed.shape
+    x_max = (nx - 1.5) * cell if x_max is None else x_max
+    x, y = (
+        a.ravel() for a in np.meshgrid(np.arange(cell, x_max, spacing), np.arange(cell, (ny - 1.5) * cell, spacing))
+    )
+    p = ShallowWaterParams()
+    vol = lattice_volume(np.full(x.size, depth), spacing, p.support, p.max_support)
+    return ShallowWaterSPH(
+        bed, cell, np.column_stack([x, y]), vol, spacing, p, wall=wall, surface=float(bed.max()) + depth
+    )
+
+
+def test_the_maps_hold_the_sph_interpolant_where_the_ground_is_level():
+    """On a flat bed the mapped depth at a cell centre is the SPH interpolant d(x) = Σ_j V_j W(|x − x_j|,
+    H_j) (the gather of ``grid_maxima`` against the scatter of ``splat_depth``) or, where that is the
+    lesser, the Shepard mean depth η̄ − b = d(x)/S(x), S = Σ_j V_j W/d_j: never more than d(x) (S
+    exceeds 1 by the lattice's interpolation error inside, 2 %, and by up to 15 % just inside the
+    edges, where the particles' own depths are low). Beyond the last particles S < 1, so the map is
+    d(x) itself to round-off: it thins over the supports to the wet depth, below any particle's own
+    depth (each is at least about V·7/(π H_max²))."""
+    from erosim.analysis.hazard import HazardMaps
+
+    m = _lattice(np.zeros((14, 40)), 2.0, 0.5, x_max=20.0)
+    maps = HazardMaps(m.bed.shape, 0.01)
+    m.update_maxima(maps, maps.wet_depth)
+    inner = (slice(1, -1), slice(1, -1))  # the closed map edges are raised above the water: dry
+    splat = m.depth_grid()[inner]
+    mapped = maps.max_depth[inner]
+    wet = splat >= 0.01
+    assert (mapped[~wet] == 0).all() and (mapped[wet] <= splat[wet] * (1 + 1e-12)).all()
+    tail = maps.max_depth[7, 20:]  # x ≥ 20 m, past the last particle column at x = 19 m
+    thin = tail[(tail > 0) & (tail < m.depth.min())]
+    assert len(thin) >= 3 and np.all(np.diff(tail) <= 0)
+    assert np.allclose(tail, np.where(m.depth_grid()[7, 20:] >= 0.01, m.depth_grid()[7, 20:], 0.0), rtol=1e-12)
+    assert maps.max_depth[7, 10] == pytest.approx(0.5, rel=0.03)  # inside: the lattice's depth
+
+
+def test_the_maps_are_dry_where_the_ground_stands_above_the_water():
+    """Water resting against a bank (bed rising 0.5 m a cell east of x = 12 m): the mapped depth is
+    min(d(x), η̄(x) − b(x)), so no cell whose bed is above the water's highest surface is wet, though
+    the kernel reaches cells up the bank; below it the bank's cell holds less than the 0.5 m of water
+    above its bed (the interpolant, thinning at the edge)."""
+    from erosim.analysis.hazard import HazardMaps
+
+    bed = np.tile(np.maximum(np.arange(40.0) - 12.0, 0.0) * 0.5, (14, 1))
+    m = _lattice(bed, 2.0, 1.0, x_max=13.0)
+    maps = HazardMaps(bed.shape, 0.01)
+    m.update_maxima(maps, maps.wet_depth)
+    top = float(m.surface().max())
+    assert (m.depth_grid()[:, bed[0] > top] >= 0.01).any()  # the kernel reaches above the water...
+    assert (maps.max_depth[:, bed[0] > top] == 0).all()  # ...the map does not
+    bank = maps.max_depth[7, 13:20]  # bed 0.5, 1.0, … m
+    assert 0.0 < bank[0] < 0.5 and (bank[1:] == 0).all()
+
+
+def test_the_maps_do_not_see_water_through_a_wall():
+    """Particles two cells apart (supports of about six cells) behind a one-cell wall: the cells beyond
+    it are never marked though the interpolant reaches them (a dam's downstream side stays dry until
+    the water gets there), while the cells before it are."""
+    from erosim.analysis.hazard import HazardMaps
+
+    bed = np.zeros((14, 40))
+    wall = np.zeros(bed.shape, bool)
+    wall[:, 20] = True
+    m = _lattice(bed, 2.0, 1.0, wall=wall, x_max=20.0)
+    maps = HazardMaps(bed.shape, 0.01)
+    m.update_maxima(maps, maps.wet_depth)
+    assert (m.depth_grid()[:, 21:] >= 0.01).any()  # the kernel reaches past the wall
+    assert (maps.max_depth[:, 20:] == 0).all() and np.isinf(maps.arrival[:, 20:]).all()
+    assert (maps.max_depth[1:-1, 19] > 0.1).all()
+
+
+def test_the_maps_gather_and_scatter_agree():
+    """The device's form of the maps (``grid_maxima``: each cell gathers the particles of its bins) and
+    the CPU's (``scatter_sums``: each particle adds to the cells within its support) give the same
+    maxima to rounding (1e-12 relative) on a random cloud over a wavy bed with a wall."""
+    from erosim.analysis.hazard import HazardMaps
+    from erosim.kernels import swe_sph as K
+
+    rng = np.random.default_rng(5)
+    yy, xx = np.mgrid[0:30, 0:30]
+    bed = 0.05 * np.sin(0.4 * xx) + 0.02 * yy
+    wall = np.zeros(bed.shape, bool)
+    wall[10:20, 15] = True
+    pos = rng.uniform(3.0, 13.5, (200, 2))
+    p = ShallowWaterParams()
+    m = ShallowWaterSPH(bed, 1.0, pos, rng.uniform(0.2, 0.6, 200), 1.0, p, vel=rng.normal(0, 1, (200, 2)), wall=wall,
+                        surface=1.5)  # fmt: skip
+    scatter = HazardMaps(bed.shape, 0.01)
+    m.update_maxima(scatter, 0.01)
+    gather = HazardMaps(bed.shape, 0.01)
+    (xmin, ymin), (xmax, ymax) = m.pos.min(axis=0), m.pos.max(axis=0)
+    x0, y0, reach, ncx, ncy, r_lo, c_lo, nr, nc = m._maxima_window(xmin, ymin, xmax, ymax, m.hsup.max())
+    start, order = np.empty(ncx * ncy + 1, np.int64), np.empty(m.n, np.int64)
+    K.bin_particles(m.pos, m.n, x0, y0, reach, ncx, ncy, start, order)
+    eta = np.empty(m.n)
+    K.surfaces(m.pos, m.depth, m.bed, m.n, m.inv_cell, eta)
+    K.grid_maxima(
+        m.pos, m.vel, m.vol, m.hsup, m.depth, eta, m.bed, m.cell, x0, y0, reach, ncx, ncy, start, order, r_lo,
+        r_lo + nr - 1, c_lo, c_lo + nc - 1, m.t, 0.01, gather.max_depth, gather.max_speed, gather.max_dv,
+        gather.arrival, m.wall, m.wall_dist,
+    )  # fmt: skip
+    assert (scatter.max_depth > 0).sum() > 50
+    for k in ("max_depth", "max_speed", "max_dv", "arrival"):
+        assert np.allclose(getattr(scatter, k), getattr(gather, k), rtol=1e-12, atol=0.0), k

@@ -430,3 +430,219 @@ def splat_depth(pos, vol, hsup, n, inv_cell, cell_size, out):
                 rr = math.sqrt(dx * dx + dy * dy)
                 if rr < h:
                     out[r, c] += vol[j] * wendland_w_2d(rr, h)
+
+
+@njit(cache=True)
+def grid_maxima(
+    pos, vel, vol, hsup, depth, eta, bed, cell_size, x0, y0, bcell, ncx, ncy, cell_start, order,
+    r_lo, r_hi, c_lo, c_hi, t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist,
+):  # fmt: skip
+    """Running maxima of the water's depth, speed and depth·speed at the DEM's cell centres, and first
+    wetting times.
+
+    At each cell centre x (node (row, col) at (col·Δ, row·Δ)) the depth is the SPH interpolant
+    d(x) = Σ_j V_j W(|x − x_j|, H_j) (the scatter form, which integrates to the water's volume), cut
+    where the ground stands above the water: d_map = min(d(x), η̄(x) − b(x)), with η̄ the Shepard
+    mean of the particles' surfaces η_j = b(x_j) + d_j (weights V_j W/d_j; ``eta`` from
+    :func:`surfaces`) and b the bed the water feels, at the node. The interpolant alone reaches a
+    support H beyond the outermost particles uphill too, onto banks above the water; the cut keeps
+    the shoreline where the water surface meets the ground and leaves the interpolant wherever the
+    ground is level with or below the surface (on a flat bed d(x) = S(x)·(η̄ − b), S = Σ V_j W/d_j,
+    and S < 1 past the water's edge). A particle behind a ``wall`` cell (nodata, a dam) is not seen
+    (:func:`wall_between`, looked for only within reach of a wall, ``wall_dist`` in m). The speed is
+    the Shepard mean ū(x) = Σ_j V_j W |u_j| / d(x) (Monaghan 1992, *Annu. Rev. Astron. Astrophys.*
+    30). Cells where d_map < ``wet`` are dry and raise nothing; wall cells are never marked.
+
+    This is the gather form, cell by cell over the rows ``r_lo``…``r_hi`` and columns of the
+    particles' reach, each cell summing the particles of its neighbouring bins (:func:`bin_particles`,
+    bins of edge ``bcell`` ≥ max H_j): the device runs :func:`cell_maxima` one thread per cell. The
+    CPU solver sums the same terms particle by particle (:func:`scatter_sums`, :func:`raise_maxima`),
+    which visits each pair once; this serial loop is its reference in the tests.
+    """
+    for r in range(r_lo, r_hi + 1):
+        for c in range(c_lo, c_hi + 1):
+            cell_maxima(
+                r, c, pos, vel, vol, hsup, depth, eta, bed, cell_size, x0, y0, bcell, ncx, ncy, cell_start, order,
+                t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist,
+            )  # fmt: skip
+
+
+@njit(inline="always")
+def cell_maxima(
+    r, c, pos, vel, vol, hsup, depth, eta, bed, cell_size, x0, y0, bcell, ncx, ncy, cell_start, order,
+    t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist,
+):  # fmt: skip
+    """Cell (r, c)'s update of :func:`grid_maxima`."""
+    if wall[r, c]:
+        return
+    x = c * cell_size
+    y = r * cell_size
+    inv_cell = 1.0 / cell_size
+    near = wall_dist[r, c] <= bcell + cell_size  # a wall within reach: look for walls between
+    bx = min(max(int((x - x0) / bcell), 0), ncx - 1)
+    by = min(max(int((y - y0) / bcell), 0), ncy - 1)
+    d = 0.0
+    du = 0.0
+    s = 0.0
+    se = 0.0
+    for gy in range(max(by - 1, 0), min(by + 2, ncy)):
+        for gx in range(max(bx - 1, 0), min(bx + 2, ncx)):
+            b = gy * ncx + gx
+            for q in range(cell_start[b], cell_start[b + 1]):
+                j = order[q]
+                dx = x - pos[j, 0]
+                dy = y - pos[j, 1]
+                h = hsup[j]
+                rr2 = dx * dx + dy * dy
+                if rr2 < h * h:
+                    if near and wall_between(x, y, pos[j, 0], pos[j, 1], inv_cell, wall):
+                        continue
+                    w = vol[j] * wendland_w_2d(math.sqrt(rr2), h)
+                    d += w
+                    du += w * math.sqrt(vel[j, 0] ** 2 + vel[j, 1] ** 2)
+                    w /= depth[j]
+                    s += w
+                    se += w * eta[j]
+    raise_cell(r, c, d, du, s, se, bed, t, wet, max_d, max_v, max_dv, arrival)
+
+
+@njit(inline="always")
+def raise_cell(r, c, d, du, s, se, bed, t, wet, max_d, max_v, max_dv, arrival):
+    """Cell (r, c)'s maxima from its sums d = Σ V_j W, du = Σ V_j W |u_j|, s = Σ V_j W/d_j and
+    se = Σ V_j W η_j/d_j (:func:`grid_maxima`)."""
+    if d < wet:
+        return
+    u = du / d
+    d = min(d, se / s - bed[r, c])
+    if d < wet:
+        return
+    if d > max_d[r, c]:
+        max_d[r, c] = d
+    if u > max_v[r, c]:
+        max_v[r, c] = u
+    if d * u > max_dv[r, c]:
+        max_dv[r, c] = d * u
+    if t < arrival[r, c]:
+        arrival[r, c] = t
+
+
+@njit(cache=True)
+def scatter_sums(pos, vel, vol, hsup, depth, eta, n, cell_size, r_lo, c_lo, wall, wall_dist, sums):
+    """The sums of :func:`grid_maxima` at the cells of the window from (r_lo, c_lo) (``sums``, shape
+    (4, rows, columns), zero on entry), particle by particle over the cells within its support: each
+    pair once, where the gather visits every particle of the neighbouring bins (bins as wide as the
+    largest support), so about six times fewer pairs where the supports differ. Serial, in particle
+    order: the sums do not depend on the thread count. ``wall_dist`` as in :func:`grid_maxima`."""
+    ny, nx = wall.shape
+    nr, nc = sums.shape[1], sums.shape[2]
+    inv_cell = 1.0 / cell_size
+    for j in range(n):
+        h = hsup[j]
+        px = pos[j, 0]
+        py = pos[j, 1]
+        rad = h * inv_cell
+        r0 = max(int(math.ceil(py * inv_cell - rad)), r_lo, 0)
+        r1 = min(int(math.floor(py * inv_cell + rad)), r_lo + nr - 1, ny - 1)
+        c0 = max(int(math.ceil(px * inv_cell - rad)), c_lo, 0)
+        c1 = min(int(math.floor(px * inv_cell + rad)), c_lo + nc - 1, nx - 1)
+        vj = vol[j]
+        uj = math.sqrt(vel[j, 0] ** 2 + vel[j, 1] ** 2)
+        for r in range(r0, r1 + 1):
+            y = r * cell_size
+            dy = y - py
+            for c in range(c0, c1 + 1):
+                if wall[r, c]:
+                    continue
+                x = c * cell_size
+                dx = x - px
+                rr2 = dx * dx + dy * dy
+                if rr2 < h * h:
+                    if wall_dist[r, c] <= h + cell_size and wall_between(x, y, px, py, inv_cell, wall):
+                        continue
+                    w = vj * wendland_w_2d(math.sqrt(rr2), h)
+                    sums[0, r - r_lo, c - c_lo] += w
+                    sums[1, r - r_lo, c - c_lo] += w * uj
+                    w /= depth[j]
+                    sums[2, r - r_lo, c - c_lo] += w
+                    sums[3, r - r_lo, c - c_lo] += w * eta[j]
+
+
+@njit(parallel=True, cache=True)
+def raise_maxima(sums, r_lo, c_lo, bed, t, wet, max_d, max_v, max_dv, arrival, wall):
+    """The maxima of the window's cells from :func:`scatter_sums` (:func:`raise_cell`); wall cells
+    are never marked."""
+    nr, nc = sums.shape[1], sums.shape[2]
+    for rr in prange(nr):
+        for cc in range(nc):
+            r = r_lo + rr
+            c = c_lo + cc
+            if not wall[r, c]:
+                raise_cell(
+                    r, c, sums[0, rr, cc], sums[1, rr, cc], sums[2, rr, cc], sums[3, rr, cc], bed, t, wet,
+                    max_d, max_v, max_dv, arrival,
+                )  # fmt: skip
+
+
+@njit(inline="always")
+def wall_between(xa, ya, xb, yb, inv_cell, wall):
+    """Does the segment from (xa, ya) to (xb, yb) (cell frame, m) cross a ``wall`` cell? Every cell it
+    passes through is visited in order (Amanatides & Woo 1987, *Eurographics* 87), the first and the
+    last excepted; cells off the map are not walls."""
+    ny, nx = wall.shape
+    ua = xa * inv_cell + 0.5
+    va = ya * inv_cell + 0.5
+    du = xb * inv_cell + 0.5 - ua
+    dv = yb * inv_cell + 0.5 - va
+    c = int(math.floor(ua))
+    r = int(math.floor(va))
+    steps = abs(int(math.floor(ua + du)) - c) + abs(int(math.floor(va + dv)) - r)
+    step_c = 1 if du > 0.0 else -1
+    step_r = 1 if dv > 0.0 else -1
+    if du != 0.0:
+        next_c = ((c + 1.0 if du > 0.0 else c * 1.0) - ua) / du
+        delta_c = abs(1.0 / du)
+    else:
+        next_c = math.inf
+        delta_c = math.inf
+    if dv != 0.0:
+        next_r = ((r + 1.0 if dv > 0.0 else r * 1.0) - va) / dv
+        delta_r = abs(1.0 / dv)
+    else:
+        next_r = math.inf
+        delta_r = math.inf
+    for _ in range(steps - 1):
+        if next_c < next_r:
+            c += step_c
+            next_c += delta_c
+        else:
+            r += step_r
+            next_r += delta_r
+        if 0 <= r < ny and 0 <= c < nx and wall[r, c]:
+            return True
+    return False
+
+
+@njit(inline="always")
+def surface_particle(i, pos, depth, bed, inv_cell):
+    """Particle i's water surface for the hazard maps, η_i = b(x_i) + d_i, with b the bilinear (Q4)
+    interpolant of the bed's nodes: it never overshoots them, where the C¹ surface the water feels
+    (:func:`bed_c1`) dips below a wall's foot by a fraction of the wall's rise (Catmull-Rom's negative
+    weights), which would put a shore under water that stands level beside it."""
+    ny, nx = bed.shape
+    x = min(max(pos[i, 0] * inv_cell, 0.0), nx - 1.0)
+    y = min(max(pos[i, 1] * inv_cell, 0.0), ny - 1.0)
+    c = min(int(x), max(nx - 2, 0))
+    r = min(int(y), max(ny - 2, 0))
+    fx = x - c
+    fy = y - r
+    c1 = min(c + 1, nx - 1)
+    r1 = min(r + 1, ny - 1)
+    b = (1.0 - fy) * ((1.0 - fx) * bed[r, c] + fx * bed[r, c1]) + fy * ((1.0 - fx) * bed[r1, c] + fx * bed[r1, c1])
+    return b + depth[i]
+
+
+@njit(parallel=True, cache=True)
+def surfaces(pos, depth, bed, n, inv_cell, eta):
+    """η_i of every particle (:func:`surface_particle`)."""
+    for i in prange(n):
+        eta[i] = surface_particle(i, pos, depth, bed, inv_cell)

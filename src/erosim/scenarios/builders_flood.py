@@ -9,7 +9,8 @@ open. Water is laid on a square lattice of ``flood.spacing`` over the reservoir,
 the water column it stands on.
 
 The solver is shallow-water SPH (:mod:`erosim.sph.shallow_water_vacondio2012`). Every step raises the
-hazard maxima (:mod:`erosim.analysis.hazard`) on the DEM's grid. A run leaves
+hazard maxima (:mod:`erosim.analysis.hazard`) on the DEM's grid from the SPH depth at the cell centres
+(``update_maxima``; docs/flood.md, "The maps' depth"). A run leaves
 
 * ``maps/``: max_depth.tif, max_speed.tif, max_dv.tif, arrival_time.tif (s; nodata where never
   wet), hazard.tif (uint8: 0 dry, 1–6, 255 on nodata), depth_final.tif, height.tif (the DEM with the breach)

@@ -156,8 +156,9 @@ class SPHFlood:
         """The maxima are raised in ``maps``' own arrays (nothing to bring back)."""
 
     def update_maxima(self, maps, wet: float) -> None:
-        """Each particle marks the DEM cell under it with its column's depth and velocity, by the rule
-        of the shallow-water solver (:func:`erosim.kernels.swe_sph.footprint_maxima`)."""
+        """Each particle marks the DEM cell under it with its column's depth and velocity
+        (:func:`erosim.kernels.swe_sph.footprint_maxima`: the cells under its square √(V/d); the
+        shallow-water solver maps the SPH depth at the cell centres instead, docs/flood.md)."""
         if self.solver.steps % self.every:
             return
         from erosim.kernels.swe_sph import footprint_maxima

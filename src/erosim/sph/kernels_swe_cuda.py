@@ -5,15 +5,15 @@ prefix sum, scatter and per-cell sort these reuse), the only library primitives 
 sort and a scan, and a second GPU stack is not worth them. The physics is not rewritten: each kernel
 calls the CPU path's own per-particle function of :mod:`erosim.kernels.swe_sph` (the pair search,
 the depth and smoothing-length Newton solve, the pair forces, the bed's C¹ surface, the Manning kick,
-the drift with its walls and open edges, the CFL scale and a particle's footprint cells), so both
+the drift with its walls and open edges, the CFL scale and a map cell's hazard maxima), so both
 devices solve the same equations over the same neighbour lists in the same order.
 
 Neighbour lists are the CPU's: the same square grid (edge max_i s_i, origin min − edge), the same
 stable counting sort by cell (atomic counts, prefix sum, scatter, each cell's particles sorted by
 index), and CSR lists filled cell by cell in the CPU's scan order (count pass, prefix sum, fill pass).
 Reductions are maxima and sums of integers (block reduction in shared memory, one atomic per block)
-and the hazard maxima are atomic maxima and minima, so the device path does not depend on the
-launch order.
+and each map cell's hazard maxima are one thread's gather over the particles binned as the CPU bins
+them, so the device path does not depend on the launch order.
 """
 
 from __future__ import annotations
@@ -47,7 +47,15 @@ _bed = _helper(K.bed_c1.py_func)  # inlined here (the CPU calls it: see erosim.k
 _kick = _dev(K.kick_particle)
 _drift = _dev(K.drift_particle)
 _cfl = _dev(K.cfl_scale)
-_footprint = _dev(K.footprint_cells)
+_surface = _dev(K.surface_particle)
+if SIMULATOR:  # the Python source, calling its helpers' Python sources (they take the simulator's arrays)
+    _cell_maxima = types.FunctionType(
+        K.cell_maxima.py_func.__code__,
+        {**vars(K), "wall_between": K.wall_between.py_func, "raise_cell": K.raise_cell.py_func},
+        "cell_maxima",
+    )
+else:
+    _cell_maxima = K.cell_maxima
 
 
 # ---------------------------------------------------------------- neighbour lists
@@ -199,23 +207,23 @@ def cfl_limit(vel, depth, hsup, n, g, out):
 
 
 @cuda.jit
-def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, max_dv, arrival, wall):
-    """The CPU's ``footprint_maxima`` with atomic maxima (and minima for the arrival time); wall cells
-    are never marked."""
+def surfaces(pos, depth, bed, n, inv_cell, eta):
+    """The CPU's ``surfaces``: η_i = b(x_i) + d_i for the hazard maps."""
     i = cuda.grid(1)
-    if i >= n:
-        return
-    d = depth[i]
-    if d < wet:
-        return
-    ny, nx = max_d.shape
-    u = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2)
-    r_lo, r_hi, c_lo, c_hi = _footprint(i, pos, vol, depth, inv_cell, ny, nx)
-    for r in range(r_lo, r_hi + 1):
-        for c in range(c_lo, c_hi + 1):
-            if wall[r, c]:
-                continue
-            cuda.atomic.max(max_d, (r, c), d)
-            cuda.atomic.max(max_v, (r, c), u)
-            cuda.atomic.max(max_dv, (r, c), d * u)
-            cuda.atomic.min(arrival, (r, c), t)
+    if i < n:
+        eta[i] = _surface(i, pos, depth, bed, inv_cell)
+
+
+@cuda.jit
+def grid_maxima(
+    pos, vel, vol, hsup, depth, eta, bed, cell_size, x0, y0, bcell, ncx, ncy, cell_start, order,
+    r_lo, c_lo, nr, nc, t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist,
+):  # fmt: skip
+    """The CPU's ``grid_maxima``: one thread per cell of the nr × nc window from (r_lo, c_lo), each
+    gathering its particles in the CPU's order (no atomics: a cell is one thread's)."""
+    k = cuda.grid(1)
+    if k < nr * nc:
+        _cell_maxima(
+            r_lo + k // nc, c_lo + k % nc, pos, vel, vol, hsup, depth, eta, bed, cell_size, x0, y0, bcell, ncx, ncy,
+            cell_start, order, t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist,
+        )  # fmt: skip

@@ -7,7 +7,9 @@ stay there. A step runs the CPU step's passes in its order (:mod:`erosim.sph.ker
 limit → half kick → drift → [particles that left by an open edge removed] → lists rebuilt when a
 particle moved or grew past its skin → depth and H (Newton) → accelerations → half kick → contacts
 held. Three numbers come back per step (the CFL scale, the count of particles that left, the count of
-non-finite speeds) and one per list test; the hazard maxima are raised on the device every step.
+non-finite speeds) and one per list test; the hazard maxima are raised on the device every step
+(the SPH depth at the cell centres gathered by one thread per cell, ``grid_maxima``: the CPU's sums
+in another order, equal to rounding).
 Fields come back only when an output, a gauge, a map or a checkpoint reads them; removing the
 particles that left (a few steps of a run) is done on the host, which then sends the state back.
 
@@ -100,6 +102,7 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         self._d["bed"] = cuda.to_device(self.bed)
         self._d["manning"] = cuda.to_device(self.manning)
         self._d["wall"] = cuda.to_device(self.wall)
+        self._d["wall_dist"] = cuda.to_device(self.wall_dist)
         self._d["out"] = cuda.device_array(n, np.bool_)
         self._d["blocked"] = cuda.device_array(n, np.int64)
         self._d["prev"] = cuda.device_array(n, np.float64)
@@ -111,6 +114,11 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         self._d["bounds"] = cuda.device_array((2, 2), np.float64)
         self._d["cells"] = cuda.device_array(0, np.int64)  # the grid's counts and starts, grown as needed
         self._d["cell_start"] = cuda.device_array(1, np.int64)
+        self._d["map_pcell"] = cuda.device_array(n, np.int64)  # the hazard maps' bins (update_maxima)
+        self._d["map_order"] = cuda.device_array(n, np.int64)
+        self._d["eta"] = cuda.device_array(n, np.float64)
+        self._d["map_cells"] = cuda.device_array(0, np.int64)
+        self._d["map_cell_start"] = cuda.device_array(1, np.int64)
         if self._built_at is not None and len(self._built_at) == n:
             self._d["at"] = cuda.to_device(self._built_at)
             self._d["search"] = cuda.to_device(self._search)
@@ -281,10 +289,35 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         held = self._maps.get(id(maps))
         if held is None or any(a is not b for a, b in zip(held[0], host, strict=True)):  # new maps, or reloaded
             held = self._maps[id(maps)] = (host, [cuda.to_device(a) for a in host])
-        n, kc, d = self.n, self._kc, self._d
-        if n:
-            self._ks.footprint_maxima[kc.blocks(n), kc.TPB](
-                d["pos"], d["vel"], d["vol"], d["depth"], n, self.inv_cell, self.t, wet, *held[1], d["wall"]
+        n, kc, ks, d = self.n, self._kc, self._ks, self._d
+        if not n:
+            return
+        bl, tpb = kc.blocks(n), kc.TPB
+        d["bounds"].copy_to_device(np.array([[np.inf, np.inf], [-np.inf, -np.inf]]))
+        kc.bounds[kc.red_blocks(n), tpb](d["pos"], n, d["bounds"][0], d["bounds"][1])
+        d["scalar"].copy_to_device(np.zeros(1))
+        ks.max1[kc.red_blocks(n), tpb](d["hsup"], n, d["scalar"])
+        (xmin, ymin), (xmax, ymax) = d["bounds"].copy_to_host()
+        x0, y0, reach, ncx, ncy, r_lo, c_lo, nr, nc = self._maxima_window(
+            xmin, ymin, xmax, ymax, d["scalar"].copy_to_host()[0]
+        )
+        ncell = ncx * ncy
+        if d["map_cells"].size < ncell:  # kept between calls, grown by a quarter when outgrown
+            d["map_cells"] = cuda.device_array(ncell + ncell // 4, np.int64)
+            d["map_cell_start"] = cuda.device_array(ncell + ncell // 4 + 1, np.int64)
+        counts, cell_start = d["map_cells"][:ncell], d["map_cell_start"][: ncell + 1]
+        kc.zero[kc.blocks(ncell), tpb](counts, ncell)
+        ks.cell_ids[bl, tpb](d["pos"], n, x0, y0, reach, ncx, ncy, d["map_pcell"], counts)
+        kc.exclusive_scan(counts, ncell, cell_start)
+        kc.zero[kc.blocks(ncell), tpb](counts, ncell)
+        kc.scatter[bl, tpb](d["map_pcell"], n, cell_start, counts, d["map_order"])
+        kc.sort_ranges[kc.blocks(ncell), tpb](cell_start, ncell, d["map_order"])
+        ks.surfaces[bl, tpb](d["pos"], d["depth"], d["bed"], n, self.inv_cell, d["eta"])
+        if nr * nc:
+            ks.grid_maxima[kc.blocks(nr * nc), tpb](
+                d["pos"], d["vel"], d["vol"], d["hsup"], d["depth"], d["eta"], d["bed"], self.cell, x0, y0, reach,
+                ncx, ncy, cell_start, d["map_order"], r_lo, c_lo, nr, nc, self.t, wet, *held[1], d["wall"],
+                d["wall_dist"],
             )  # fmt: skip
 
     def sync_maxima(self, maps) -> None:

@@ -133,6 +133,7 @@ class ShallowWaterSPH:
         if bad:
             raise InputError(f"Unknown map edge {bad[0]!r} in outflow.edges; use any of {', '.join(_EDGES)}.")
         self.open = tuple(e in open_edges for e in _EDGES)
+        self.wall_dist = wall_distance(self.wall, self.cell)
         self.surface0 = float(surface) if surface is not None else float(bed.max())
         self.spacing = float(spacing)
         self.bed = self._felt_bed(bed)
@@ -259,6 +260,7 @@ class ShallowWaterSPH:
     def set_terrain(self, bed: np.ndarray, wall: np.ndarray) -> None:
         """A new bed and walls (e.g. the breach opening after the reservoir has settled)."""
         self.wall = np.ascontiguousarray(wall, dtype=np.bool_)
+        self.wall_dist = wall_distance(self.wall, self.cell)
         self.bed = self._felt_bed(np.asarray(bed, np.float64))
         self._evaluate()
 
@@ -431,12 +433,48 @@ class ShallowWaterSPH:
         return b + depth, depth, speed
 
     def update_maxima(self, maps, wet: float) -> None:
-        """Raise the hazard maxima and arrival times of ``maps`` (arrays on the DEM grid) at time t; the
-        wall cells are never marked."""
-        K.footprint_maxima(
-            self.pos, self.vel, self.vol, self.depth, self.n, self.inv_cell, self.t, wet,
-            maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival, self.wall,
+        """Raise the hazard maxima and arrival times of ``maps`` (arrays on the DEM grid) at time t from
+        the SPH depth at the cell centres, d(x) = Σ_j V_j W(|x − x_j|, H_j), cut where the ground stands
+        above the water, and the Shepard mean speed with the same weights (the formulas:
+        :func:`erosim.kernels.swe_sph.grid_maxima`; here summed particle by particle,
+        :func:`~erosim.kernels.swe_sph.scatter_sums`); the wall cells are never marked.
+
+        The interpolant, not each particle's own depth d_i: d_i cannot fall below about
+        V_i·7/(π H_max²) (one particle alone in its support), so cells under the particles' squares
+        would never record water shallower than that, and a flood's edge would be a step of about a
+        metre; the interpolant thins to zero over the supports at the water's edge, as the water does.
+        """
+        n = self.n
+        if n == 0:
+            return
+        (xmin, ymin), (xmax, ymax) = self.pos.min(axis=0), self.pos.max(axis=0)
+        _, _, _, _, _, r_lo, c_lo, nr, nc = self._maxima_window(xmin, ymin, xmax, ymax, self.hsup.max())
+        eta = np.empty(n)
+        K.surfaces(self.pos, self.depth, self.bed, n, self.inv_cell, eta)
+        # the sums particle by particle (each pair once), then the cells in parallel; the device gathers
+        # per cell (grid_maxima), the same sums in another order
+        sums = np.zeros((4, nr, nc))
+        K.scatter_sums(
+            self.pos, self.vel, self.vol, self.hsup, self.depth, eta, n, self.cell, r_lo, c_lo, self.wall,
+            self.wall_dist, sums,
         )  # fmt: skip
+        K.raise_maxima(
+            sums, r_lo, c_lo, self.bed, self.t, wet, maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
+            self.wall,
+        )  # fmt: skip
+
+    def _maxima_window(self, xmin, ymin, xmax, ymax, hmax) -> tuple:
+        """The bins of the map's gather (edge ≥ every support H, origin one edge below the particles'
+        least corner, as the neighbour search's) and the window of cells within reach:
+        (x0, y0, edge, ncx, ncy, first row, first column, rows, columns)."""
+        ny, nx = self.bed.shape
+        reach = max(float(hmax), 1e-9)
+        x0, y0 = float(xmin) - reach, float(ymin) - reach
+        ncx = int((float(xmax) - x0) / reach) + 2
+        ncy = int((float(ymax) - y0) / reach) + 2
+        c_lo, c_hi = max(int(x0 * self.inv_cell), 0), min(int((xmax + reach) * self.inv_cell) + 1, nx - 1)
+        r_lo, r_hi = max(int(y0 * self.inv_cell), 0), min(int((ymax + reach) * self.inv_cell) + 1, ny - 1)
+        return x0, y0, reach, ncx, ncy, r_lo, c_lo, max(r_hi - r_lo + 1, 0), max(c_hi - c_lo + 1, 0)
 
     def sync_maxima(self, maps) -> None:
         """Bring the hazard maxima to ``maps``' arrays before they are read (a device solver keeps them
@@ -478,6 +516,14 @@ class ShallowWaterSPH:
             rebuilds = self.rebuilds
             self._build_lists(np.ascontiguousarray(state["lists_at"]), np.ascontiguousarray(state["lists_search"]))
             self.rebuilds = rebuilds
+
+
+def wall_distance(wall: np.ndarray, cell: float) -> np.ndarray:
+    """Distance (m) from each cell's centre to the nearest wall cell's centre (inf without walls): the
+    hazard maps look for walls between a cell and its particles only within reach of one."""
+    if not wall.any():
+        return np.full(wall.shape, np.inf)
+    return np.ascontiguousarray(ndimage.distance_transform_edt(~wall) * cell)
 
 
 def felt_bed(bed: np.ndarray, wall: np.ndarray, open_edges: tuple, surface: float, sigma_cells: float) -> np.ndarray:
