@@ -389,6 +389,12 @@ def batch_floods(
     return count
 
 
+def _index_dtype(count: int):
+    """int32 for indices below ``count`` where they fit (the lake heaps' node pool is 3 map sizes:
+    28 instead of 48 bytes a node, 60 bytes a cell), else int64."""
+    return np.int32 if count < 2**31 - 1 else np.int64
+
+
 def _check_map(name: str, arr, shape) -> np.ndarray:
     a = np.asarray(arr, dtype=np.float64)
     if a.shape != tuple(shape):
@@ -484,13 +490,14 @@ class HydrologyModel:
         self.cycles = 0
         self.timing = bool(timing)
         # work arrays (rebuilt lake structures live only within a cycle)
-        self.area = np.zeros(self.lake_cap, np.int64)
-        self.mroot = np.full(self.lake_cap, -1, np.int64)
-        self.broot = np.full(self.lake_cap, -1, np.int64)
+        idx = _index_dtype(self.lake_cap + n)  # cell, lake and heap-node indices: 4 bytes where they fit
+        self.area = np.zeros(self.lake_cap, idx)
+        self.mroot = np.full(self.lake_cap, -1, idx)
+        self.broot = np.full(self.lake_cap, -1, idx)
         self.stack = np.zeros(256, np.int64)
         self.stamp = np.zeros(n, np.int64)
-        self.order = np.zeros(n, np.int64)
-        self.start = np.zeros(n + 2, np.int64)
+        self.order = np.zeros(n, idx)
+        self.start = np.zeros(n + 2, idx)
         self.hs = np.zeros(4, np.int64)
         self.margin = max(n, 65536)
         self._alloc_pool(3 * self.margin)
@@ -501,11 +508,12 @@ class HydrologyModel:
     # ----------------------------------------------------------------------------- internals
     def _alloc_pool(self, size: int) -> None:
         self.hkey = np.zeros(size)
-        self.hcell = np.zeros(size, np.int64)
-        self.hleft = np.zeros(size, np.int64)
-        self.hright = np.zeros(size, np.int64)
-        self.hrank = np.zeros(size, np.int64)
-        self.walk = np.zeros(size, np.int64)
+        idx = _index_dtype(size)
+        self.hcell = np.zeros(size, idx)
+        self.hleft = np.zeros(size, idx)
+        self.hright = np.zeros(size, idx)
+        self.hrank = np.zeros(size, idx)
+        self.walk = np.zeros(size, idx)
 
     def _rebuild(self) -> None:
         ny, nx = self.z.shape
