@@ -2,22 +2,24 @@
 
 A cycle: ``droplets_per_cycle`` droplets, each spawned uniformly (or by the rain map), then
 descend (HY-1) and flood (HY-2) alternately — at most ``spill`` floods — until its volume is
-spent; then the stream map update (HY-4) and one vegetation step (HY-5). Droplets run one after
-another in a single-threaded Numba loop: each droplet sees the terrain and lakes the previous one
-left, which is the seed's semantics and makes the result independent of the thread count. The
-opt-in ``hydrology.batch = N`` runs the first descents of N droplets at a time in parallel against
-the batch-start state instead (:mod:`erosim.hydrology.batch`; also independent of the thread
-count, not of N).
+spent; then the hillslope creep, the stream map update (HY-4) and one vegetation step (HY-5).
+By default the droplets run in parallel batches (an eighth of a cycle's droplets, ``hydrology.batch``
+unset; :mod:`erosim.hydrology.batch`, :func:`batch_floods`): each round they descend at once
+against the round-start state plus their own changes, then serially in droplet order their logs
+are applied and their lakes filled — independent of the thread count, not of the batch size.
+``hydrology.batch = 0`` (the ``simplehydrology-2020`` preset) runs them one after another in a
+single-threaded Numba loop (:func:`run_droplets`): each droplet sees the terrain and lakes the
+previous one left, the seed's semantics.
 
 Random numbers: droplet i's spawn point comes from SplitMix64 hashing of (seed, i), vegetation's
 from NumPy's PCG64 seeded with (seed, cycle) (the seedling count and the key of the vegetation
 kernel's SplitMix64 stream): a run resumed from a checkpoint taken between cycles repeats the
 uninterrupted run bit for bit.
 
-HY-1 runs in one of two kernels chosen once from the parameters
+In the serial order HY-1 runs in one of two kernels chosen once from the parameters
 (:func:`erosim.hydrology.droplets.descend_variant`): the seed's case (footprint one cell, whole
 time steps — the ``simplehydrology-2020`` preset) has its own short loop, everything else the
-general one.
+general one; batches use :func:`erosim.hydrology.batch.descend_logged` for every case.
 
 Budgets (float64 accumulators, m³):
 
