@@ -69,6 +69,7 @@ NEW = 4  # spawns and descends in the next round
 NEXT = 5  # drained a lake: descends again in the next round
 DONE = 6  # ended, left, or settled: nothing more to do
 LOG = 2048  # logged steps per droplet and round
+SERIAL_BELOW = 8  # a round with fewer droplets to descend runs on the calling thread
 
 # columns of the per-droplet rows
 R_STATUS, R_X, R_Y, R_VX, R_VY, R_V, R_S, R_NLOG, R_ROUNDS, R_USED = range(10)
@@ -300,45 +301,66 @@ def descend_logged(x, y, vx, vy, V, S, used, z2, zf, ov, stream, roots, erod, la
     return status, x, y, vx, vy, V, S, steps
 
 
+@njit(cache=True, inline="always")
+def _descend_one(i, t, first, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res, lc, ldz, bd, ov):
+    """Droplet ``i``'s descent of this round (if its row says it has one) on overlay row ``t``."""
+    ny, nx = z2.shape
+    for k in range(B_SIZE):
+        bd[i, k] = 0.0
+    st0 = int(res[i, R_STATUS])
+    res[i, R_NLOG] = 0.0
+    if st0 != NEW and st0 != PAUSED and st0 != NEXT:
+        return
+    if st0 == NEW:
+        x, y = spawn_point(base, first + i, rain_cdf, nx, ny)
+        vx, vy, V, S, used = 0.0, 0.0, P[P_V0], 0.0, 0
+    else:
+        x, y, vx, vy = res[i, R_X], res[i, R_Y], res[i, R_VX], res[i, R_VY]
+        V, S, used = res[i, R_V], res[i, R_S], int(res[i, R_USED]) if st0 == PAUSED else 0
+    st, x, y, vx, vy, V, S, n = descend_logged(
+        x, y, vx, vy, V, S, used, z2, zf, ov[t], sf, rf, ef, lake_of, level, lc[i], ldz[i], bd[i], P
+    )
+    res[i, R_STATUS] = st
+    res[i, R_X] = x
+    res[i, R_Y] = y
+    res[i, R_VX] = vx
+    res[i, R_VY] = vy
+    res[i, R_V] = V
+    res[i, R_S] = S
+    res[i, R_NLOG] = n
+    res[i, R_USED] = used + n
+
+
 @njit(cache=True, parallel=True)
 def descend_batch(first, count, seed, z2, stream, roots, erod, lake_of, level, rain_cdf, P, res,
                   lc, ldz, bd, ov):  # fmt: skip
     """Phase 1 of a round: droplets ``first`` … ``first + count − 1`` whose row says NEW (spawn
     first), PAUSED or NEXT descend in parallel (:func:`descend_logged`); results back in
-    ``res[i]``, logs in ``lc[i]``, ``ldz[i]``, budget terms in ``bd[i]`` (cleared here).
+    ``res[i]``, logs in ``lc[i]``, ``ldz[i]``, budget terms in ``bd[i]`` (all rows cleared here).
     ``ov``: one zeroed overlay row (map size) per Numba thread."""
-    ny, nx = z2.shape
     zf = z2.reshape(-1)
     sf = stream.reshape(-1)
     rf = roots.reshape(-1)
     ef = erod.reshape(-1)
     base = spawn_base(seed)
     for i in prange(count):
-        for k in range(B_SIZE):
-            bd[i, k] = 0.0
-        st0 = int(res[i, R_STATUS])
-        res[i, R_NLOG] = 0.0
-        if st0 != NEW and st0 != PAUSED and st0 != NEXT:
-            continue
-        if st0 == NEW:
-            x, y = spawn_point(base, first + i, rain_cdf, nx, ny)
-            vx, vy, V, S, used = 0.0, 0.0, P[P_V0], 0.0, 0
-        else:
-            x, y, vx, vy = res[i, R_X], res[i, R_Y], res[i, R_VX], res[i, R_VY]
-            V, S, used = res[i, R_V], res[i, R_S], int(res[i, R_USED]) if st0 == PAUSED else 0
-        t = numba.get_thread_id()
-        st, x, y, vx, vy, V, S, n = descend_logged(
-            x, y, vx, vy, V, S, used, z2, zf, ov[t], sf, rf, ef, lake_of, level, lc[i], ldz[i], bd[i], P
-        )
-        res[i, R_STATUS] = st
-        res[i, R_X] = x
-        res[i, R_Y] = y
-        res[i, R_VX] = vx
-        res[i, R_VY] = vy
-        res[i, R_V] = V
-        res[i, R_S] = S
-        res[i, R_NLOG] = n
-        res[i, R_USED] = used + n
+        _descend_one(i, numba.get_thread_id(), first, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res,
+                     lc, ldz, bd, ov)  # fmt: skip
+
+
+@njit(cache=True)
+def descend_batch_serial(first, count, seed, z2, stream, roots, erod, lake_of, level, rain_cdf, P, res,
+                         lc, ldz, bd, ov):  # fmt: skip
+    """:func:`descend_batch` on the calling thread (overlay row 0), for a round with only a few
+    droplets left to descend: the same results, without waking the other threads and waiting for
+    the slowest at the round's end (on a loaded machine that wait cost more than the work)."""
+    zf = z2.reshape(-1)
+    sf = stream.reshape(-1)
+    rf = roots.reshape(-1)
+    ef = erod.reshape(-1)
+    base = spawn_base(seed)
+    for i in range(count):
+        _descend_one(i, 0, first, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res, lc, ldz, bd, ov)
 
 
 @njit(cache=True)
@@ -371,4 +393,7 @@ def work_arrays(batch: int, cells: int, log: int = LOG) -> tuple[np.ndarray, ...
     )
 
 
-__all__ = ["DONE", "LOG", "NEW", "NEXT", "PAUSED", "apply_logs", "check", "descend_batch", "work_arrays"]
+__all__ = [
+    "DONE", "LOG", "NEW", "NEXT", "PAUSED", "SERIAL_BELOW", "apply_logs", "check", "descend_batch",
+    "descend_batch_serial", "work_arrays",
+]  # fmt: skip

@@ -59,8 +59,10 @@ from erosim.hydrology.batch import (
     R_VY,
     R_X,
     R_Y,
+    SERIAL_BELOW,
     apply_logs,
     descend_batch,
+    descend_batch_serial,
     work_arrays,
 )
 from erosim.hydrology.counter_rng import spawn_base, spawn_point, splitmix64
@@ -588,9 +590,10 @@ class HydrologyModel:
         foot = int(self.P[P_FOOT])
         old = numba.set_parallel_chunksize(4)  # dynamic scheduling: droplets differ in length
         try:
+            descend = descend_batch
             while True:
-                descend_batch(first, nb, self.seed, self.z, self.stream, self.cover, self.erod, self.lake_of,
-                              self.level, self.rain_cdf, self.P, res, lc, ldz, bd, ov)  # fmt: skip
+                descend(first, nb, self.seed, self.z, self.stream, self.cover, self.erod, self.lake_of,
+                        self.level, self.rain_cdf, self.P, res, lc, ldz, bd, ov)  # fmt: skip
                 apply_logs(nb, nx, ny, foot, zf, self.lake_of, self.track, res, lc, ldz, bd, self.budget)
                 k = 0
                 while True:
@@ -603,8 +606,10 @@ class HydrologyModel:
                         break
                     self._rebuild()  # heap pool or lake table full: compact, then go on
                 status = res[:nb, R_STATUS]
-                if not ((status == NEXT) | (status == PAUSED)).any():
+                left = np.count_nonzero((status == NEXT) | (status == PAUSED))
+                if left == 0:
                     return
+                descend = descend_batch_serial if left < SERIAL_BELOW else descend_batch
         finally:
             numba.set_parallel_chunksize(old)
 
