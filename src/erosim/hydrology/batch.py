@@ -1,8 +1,9 @@
 """Batch-synchronous parallel descent (HY-1 on all cores): the droplets of a batch run at once.
 
-In the seed every droplet sees the terrain the previous one left. With ``hydrology.batch = N``
-(the library scenario's default; 0 = the seed's order, the ``simplehydrology-2020`` preset) the
-droplets of a cycle run in batches of N, in **rounds**:
+In the seed every droplet sees the terrain the previous one left. With ``hydrology.batch`` > 0 (unset:
+an eighth of a cycle's droplets, :func:`erosim.hydrology.params.batch_size`, the library scenario's
+default; 0 = the seed's order, which the ``simplehydrology-2020`` preset keeps) the droplets of a cycle
+run in batches, in **rounds**:
 
 1. in parallel (Numba ``prange``), every droplet of the batch that has a descent to do descends
    against the terrain, streams and lakes **as they were at the round's start**, plus its own
@@ -25,7 +26,8 @@ so the result is the same for any thread count (for a given seed, input and batc
 close as in the serial loop: every logged change is applied exactly once, to the cells it was
 computed for (the lakes do not change between a round's two phases), and counted in the same
 droplet's budget row. A droplet whose log fills up (``LOG`` steps) pauses and goes on descending
-in the next round.
+in the next round. A round with fewer than ``SERIAL_BELOW`` droplets to descend runs them on the
+calling thread (:func:`descend_batch_serial`): the same results without the threads' round trip.
 
 The kernel is :func:`erosim.hydrology.droplets.descend`'s model (any footprint, sub-steps); with a
 one-cell footprint and whole steps it agrees with :func:`~erosim.hydrology.droplets.descend_cell`
@@ -69,16 +71,11 @@ NEW = 4  # spawns and descends in the next round
 NEXT = 5  # drained a lake: descends again in the next round
 DONE = 6  # ended, left, or settled: nothing more to do
 LOG = 2048  # logged steps per droplet and round
-SERIAL_BELOW = 8  # a round with fewer droplets to descend runs on the calling thread
+SERIAL_BELOW = 4  # a round with fewer droplets to descend runs on the calling thread
 
 # columns of the per-droplet rows
 R_STATUS, R_X, R_Y, R_VX, R_VY, R_V, R_S, R_NLOG, R_ROUNDS, R_USED = range(10)
 R_SIZE = 10
-
-
-def check(params, foot: int) -> None:
-    """Every setting has a logged kernel (kept for callers that validate before building)."""
-    return None
 
 
 @njit(cache=True, inline="always")
@@ -394,6 +391,6 @@ def work_arrays(batch: int, cells: int, log: int = LOG) -> tuple[np.ndarray, ...
 
 
 __all__ = [
-    "DONE", "LOG", "NEW", "NEXT", "PAUSED", "SERIAL_BELOW", "apply_logs", "check", "descend_batch",
+    "DONE", "LOG", "NEW", "NEXT", "PAUSED", "SERIAL_BELOW", "apply_logs", "descend_batch",
     "descend_batch_serial", "work_arrays",
 ]  # fmt: skip
