@@ -48,10 +48,7 @@ VARIANTS = {
     # ℓ = 2 cells, sub-steps of at most one cell: the general kernel, footprint transfer
     "general": (lambda: dict(length_scale=2 * CELL, cycle_droplets=4000, batch=0), droplets.descend),
     # ℓ = one cell with sub-steps: still the general kernel (its one-cell branch)
-    "general-one-cell": (
-        lambda: dict(length_scale=0.0, max_step=1.0, cycle_droplets=4000, batch=0),
-        droplets.descend,
-    ),
+    "general-one-cell": (lambda: dict(length_scale=0.0, max_step=1.0, cycle_droplets=4000, batch=0), droplets.descend),
     # the seed preset: the seed-case kernel
     "seed-case": (lambda: {**_seed_preset(), "cycle_droplets": 8000}, droplets.descend_cell),
     # the seed preset in batch mode: descents logged in parallel (the logged kernel's one-cell case)
