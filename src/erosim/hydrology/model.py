@@ -733,6 +733,7 @@ class HydrologyModel:
             "droplets": int(self.droplets),
             "cycles": int(self.cycles),
             "droplets_per_cycle": int(self.per_cycle),
+            "batch": int(self.batch),
             "descend_steps": int(B[B_STEPS]),
             "floods": int(B[B_FLOODS]),
             "lake_cells": int((depth > 0).sum()),

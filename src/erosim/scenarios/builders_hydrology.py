@@ -162,8 +162,9 @@ def setup(scenario, out) -> Setup:
     how = "hydrology.length_scale" if cfg.hydrology.length_scale else "one cell"  # set in m, or 0
     if cfg.hydrology.length_scale is None:
         how = "two cells, hydrology.length_scale unset"
+    order = f"in parallel batches of {model.batch}" if model.batch else "one after another (the seed's order)"
     assumed.append(f"scaled: ℓ = {model.ell:g} m ({how}), {model.per_cycle} droplets per cycle "
-                   f"({cfg.hydrology.cycle_droplets} per (256 ℓ)² of map)")  # fmt: skip
+                   f"({cfg.hydrology.cycle_droplets} per (256 ℓ)² of map), {order}")  # fmt: skip
     ratio = model.ell / model.cell_size
     if ratio > 8:
         warnings.append(
