@@ -250,13 +250,11 @@ MUTATIONS = (
         "batch-ignores-erodibility-and-roots",
         "hydrology/batch.py",
         (
-            (
-                "kh = kd * max(1.0 - root * roots[c], 0.0)\n        khe = kh * erod[c]",
-                "kh = kd * max(1.0 - 0.0 * root * roots[c], 0.0)\n        khe = kh",
-            ),
+            ("hold = 1.0 - root * roots[c]", "hold = 1.0 - 0.0 * root * roots[c]"),
+            ("            amt *= erod[c]", "            amt *= 1.0"),
         ),
         ("tests/unit/test_hydrology_bite.py", "tests/unit/test_hydrology_batch.py"),
-        "the batch mode's first descents ignore erodibility and roots",
+        "the batch mode's parallel descents ignore erodibility and roots",
     ),  # fmt: skip
     Mutation(
         "fixed-hardness-ignored",
@@ -352,8 +350,11 @@ MUTATIONS = (
         "hillslope-creep-off",
         "hydrology/hillslope_creep_culling1960.py",
         (
-            ("        qx = wx * (z[:, 1:] - z[:, :-1])", "        qx = 0.0 * wx * (z[:, 1:] - z[:, :-1])"),
-            ("        qy = wy * (z[1:, :] - z[:-1, :])", "        qy = 0.0 * wy * (z[1:, :] - z[:-1, :])"),
+            (
+                "                q = c * min(ml, mr) * (old[a, i + 1] - old[a, i])",
+                "                q = 0.0 * c * min(ml, mr) * (old[a, i + 1] - old[a, i])",
+            ),
+            ("                    q = c * w * (old[1 - a, i] - old[a, i])", "                    q = 0.0"),
         ),
         ("tests/unit/test_hillslope_creep.py",),
         "hillslope creep (Culling 1960) moves no soil",
@@ -363,12 +364,12 @@ MUTATIONS = (
         "hydrology/hillslope_creep_culling1960.py",
         (
             (
-                "    wx = ci * np.minimum(mobility[:, 1:], mobility[:, :-1])",
-                "    wx = ci * np.maximum(mobility[:, 1:], mobility[:, :-1])",
+                "                q = c * min(ml, mr) * (old[a, i + 1] - old[a, i])",
+                "                q = c * max(ml, mr) * (old[a, i + 1] - old[a, i])",
             ),
             (
-                "    wy = ci * np.minimum(mobility[1:, :], mobility[:-1, :])",
-                "    wy = ci * np.maximum(mobility[1:, :], mobility[:-1, :])",
+                "                    w = min(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
+                "                    w = max(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
             ),
         ),
         ("tests/unit/test_hillslope_creep.py",),

@@ -583,18 +583,26 @@ def bench_flood(t_end, spacing, split, device, as_json):
 )
 @click.option(
     "--batch",
-    type=click.IntRange(min=0, max=4096),
-    default=0,
+    type=click.IntRange(min=0, max=65536),
+    default=None,
+    help="Droplets per parallel batch (hydrology.batch); 0 = the seed's one-after-another order "
+    "(default: the preset's: 0 for simplehydrology-2020, an eighth of a cycle for library).",
+)
+@click.option(
+    "--preset",
+    type=click.Choice(["simplehydrology-2020", "library"]),
+    default="simplehydrology-2020",
     show_default=True,
-    help="Droplets per parallel batch (hydrology.batch); 0 = the seed's one-after-another order.",
+    help="The seed's constants on the seed's 10.24 km world, or the library scenario as "
+    "`erosim run hydrology` runs it.",
 )
 @click.option("--json", "as_json", is_flag=True)
-def bench_hydrology(size, droplets, batch, as_json):
-    """Hydrology (simplehydrology-2020 preset, lakes on): droplets/s and the share spent filling lakes."""
+def bench_hydrology(size, droplets, batch, preset, as_json):
+    """Hydrology (lakes on): droplets/s, device, threads and the share spent filling lakes."""
     from erosim.scenarios.kinds import resolve
 
     fn = _guard(resolve, "erosim.bench.hydrology:run")
-    _print_result(_guard(fn, size, droplets, batch=batch), as_json)
+    _print_result(_guard(fn, size, droplets, batch=batch, preset=preset), as_json)
 
 
 @bench.command(name="sweep")

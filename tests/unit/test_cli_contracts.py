@@ -70,8 +70,12 @@ def test_bench_sph_terrain_json_keys(cli_runner):
 
 def test_bench_hydrology_json_keys(cli_runner):
     out = _json(cli_runner.invoke(cli, ["bench", "hydrology", "--size", "32", "--droplets", "50", "--json"]))
-    assert {"size", "droplets_per_s", "steps_per_s", "flood_fraction"} <= out.keys()
+    assert {"size", "droplets_per_s", "steps_per_s", "flood_fraction", "device", "threads"} <= out.keys()
     assert out["size"] == 32 and 0.0 <= out["flood_fraction"] <= 1.0
+    assert out["device"] == "cpu" and out["threads"] == 1 and out["batch"] == 0  # the seed's order
+    args = ["bench", "hydrology", "--size", "32", "--droplets", "20", "--preset", "library", "--json"]
+    lib = _json(cli_runner.invoke(cli, args))
+    assert lib["preset"] == "library" and lib["batch"] > 0 and lib["threads"] >= 1 and lib["flood_fraction"] is None
 
 
 @pytest.mark.parametrize(

@@ -18,7 +18,7 @@ def test_a_run_too_large_for_memory_is_refused_before_anything_is_built(tmp_path
     result = CliRunner().invoke(cli, ["--quiet", "run", "hydrology", "--set", "terrain.size=4096", "--out", str(out)])
     assert result.exit_code == 2
     lines = [ln for ln in result.output.splitlines() if ln.strip()]
-    assert len(lines) == 1 and "needs about 5.53 GB of memory, but only 2 GB is free" in lines[0], result.output
+    assert len(lines) == 1 and "needs about 3.1 GB of memory, but only 2 GB is free" in lines[0], result.output
     assert "terrain.size" in lines[0]
     assert not out.exists()
 

@@ -3,7 +3,7 @@
 Each test names the law it checks and fails when that law is broken in any one kernel: the general
 :func:`~erosim.hydrology.droplets.descend`, the seed-case
 :func:`~erosim.hydrology.droplets.descend_cell` (the ``simplehydrology-2020`` preset) and the
-batch mode's :func:`~erosim.hydrology.batch.descend_logged` (``hydrology.batch = N``).
+batch mode's :func:`~erosim.hydrology.batch.descend_logged` (``hydrology.batch``).
 """
 
 import numpy as np
@@ -46,13 +46,15 @@ def _seed_preset():
 # variant → (hydrology parameters, the HY-1 kernel the model must pick)
 VARIANTS = {
     # ℓ = 2 cells, sub-steps of at most one cell: the general kernel, footprint transfer
-    "general": (lambda: dict(length_scale=2 * CELL, cycle_droplets=4000), droplets.descend),
+    "general": (lambda: dict(length_scale=2 * CELL, cycle_droplets=4000, batch=0), droplets.descend),
     # ℓ = one cell with sub-steps: still the general kernel (its one-cell branch)
-    "general-one-cell": (lambda: dict(length_scale=0.0, max_step=1.0, cycle_droplets=4000), droplets.descend),
+    "general-one-cell": (lambda: dict(length_scale=0.0, max_step=1.0, cycle_droplets=4000, batch=0), droplets.descend),
     # the seed preset: the seed-case kernel
     "seed-case": (lambda: {**_seed_preset(), "cycle_droplets": 8000}, droplets.descend_cell),
-    # the seed preset in batch mode: first descents logged in parallel, later ones seed-case
+    # the seed preset in batch mode: descents logged in parallel (the logged kernel's one-cell case)
     "batch": (lambda: {**_seed_preset(), "cycle_droplets": 8000, "batch": 64}, droplets.descend_cell),
+    # the library default: ℓ = 2 cells in parallel batches (the logged kernel's footprint case)
+    "batch-footprint": (lambda: dict(length_scale=2 * CELL, cycle_droplets=4000), droplets.descend),
 }
 
 
@@ -66,7 +68,7 @@ def _model(name, z, veg=None, erodibility=None, **over):
         erodibility=erodibility,
     )
     assert m._descend is kernel  # the variant really runs the kernel it names
-    assert (m.p.batch > 0) == (name == "batch")
+    assert (m.batch > 0) == name.startswith("batch")
     return m
 
 
@@ -102,9 +104,11 @@ def _one_step(name, m, x, y, S, roots):
     B = np.zeros(B_SIZE)
     args = (x, y, 0.0, 0.0, P[P_V0], S, z, z.reshape(-1), m.stream.reshape(-1), roots.reshape(-1),
             m.erod.reshape(-1), m.lake_of, m.level)  # fmt: skip
-    if name == "batch":
+    if name.startswith("batch"):
         lc, ldz = np.zeros(4, np.int64), np.zeros(4)
-        status = batch.descend_logged(*args, lc, ldz, B, P)[0]
+        ov = np.zeros(z.size)  # the droplet's own changes (zero on entry)
+        status = batch.descend_logged(*args[:6], 0, *args[6:8], ov, *args[8:], lc, ldz, B, P)[0]
+        assert not ov.any()  # left at zero for the thread's next droplet
     else:
         status = m._descend(*args, m.track.copy(), B, P)[0]
     return status, B[B_ERODED], B[B_DEPOSITED]

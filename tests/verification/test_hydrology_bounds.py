@@ -26,7 +26,7 @@ SCRIPT = textwrap.dedent(
                 -3.0 * np.hypot(xx - n / 2, yy - n / 2) + 5.0 * rng.random((n, n))]
     for i, z in enumerate(terrains):
         for sea in (None, 20.0):
-            for ell, dx, nb in ((40.0, 20.0, 0), (0.0, 20.0, 0), (0.0, 20.0, 16)):
+            for ell, dx, nb in ((40.0, 20.0, 0), (0.0, 20.0, 0), (0.0, 20.0, 16), (40.0, 20.0, 16)):
                 p = HydrologyParams(length_scale=ell, cycle_droplets=20000, sea_level=sea,
                                     max_step=1.0 if ell else 0.0, batch=nb)
                 m = HydrologyModel(Heightmap(z=z + rng.random((n, n)), cell_size=dx), p,

@@ -1,24 +1,29 @@
 """``erosim bench hydrology``: droplets per second of the hydrology model, lakes on.
 
-The library scenario ``hydrology`` with the ``simplehydrology-2020`` preset (the reference
-implementation's constants, ℓ = one cell) on a generated mountain terrain of ``size``² cells and
-the extent of the seed's world at 256² (10.24 km). The model first spins up for ``spinup``
-droplets (2 per cell, untimed: Numba compilation, and the first lakes and streams form — the
-reference C++ was also timed on running simulations), then runs whole cycles until ``droplets``
-more have fallen (default: 4 per cell) and reports
+``preset = "simplehydrology-2020"`` (default): the library scenario ``hydrology`` with the seed's
+constants (ℓ = one cell) on a generated mountain terrain of ``size``² cells and the extent of the
+seed's world at 256² (10.24 km); its droplets run one after another (the seed's order, one
+thread) unless ``batch`` is given. The model first spins up for ``spinup`` droplets (2 per cell,
+untimed: Numba compilation, and the first lakes and streams form — the reference C++ was also
+timed on running simulations), then runs whole cycles until ``droplets`` more have fallen
+(default: 4 per cell).
 
-* ``droplets_per_s`` — droplets of the timed cycles / wall time (stream and vegetation updates
-  and the per-cycle lake rebuild included);
+``preset = "library"``: the library scenario itself (``erosim run hydrology --set
+terrain.size=N``: 20 m cells, ℓ = two cells, parallel batches of an eighth of a cycle's droplets,
+:mod:`erosim.hydrology.batch`); spin-up 16 cycles, then 32 timed cycles by default.
+
+Reported:
+
+* ``droplets_per_s`` — droplets of the timed cycles / wall time (stream, creep and vegetation
+  updates and the lake rebuilds included);
 * ``steps_per_s`` — descend sub-steps per second;
 * ``flood_fraction`` — share of that wall time spent in HY-2 flood (lake filling / draining),
-  measured with a monotonic clock around each flood call (a separate Numba build of the loop);
+  measured with a monotonic clock around each flood call (a separate Numba build of the serial
+  loop; ``None`` in batch mode, whose floods are not timed);
 * ``droplets_per_cpu_s`` — the same per second of this process's CPU time: on a shared, loaded
-  machine it shows what the loop does when it has a core to itself.
-
-The droplets run one after another (the seed's order, one thread: ``threads`` 1). ``batch = N``
-(Python API only) times the opt-in batch-synchronous mode instead (``hydrology.batch = N``:
-first descents of N droplets at a time on Numba's threads, see :mod:`erosim.hydrology.batch`);
-``threads`` then reports Numba's thread count.
+  machine it shows what the loop does when it has a core to itself (summed over threads);
+* ``device`` (``cpu``), ``threads`` (Numba's thread count in batch mode, 1 for the serial order),
+  ``batch`` (droplets per parallel batch, 0 = serial).
 """
 
 from __future__ import annotations
@@ -28,7 +33,14 @@ import time
 import warnings
 
 
-def run(size: int = 256, droplets: int | None = None, spinup: int | None = None, seed: int = 1, batch: int = 0) -> dict:
+def run(
+    size: int = 256,
+    droplets: int | None = None,
+    spinup: int | None = None,
+    seed: int = 1,
+    batch: int | None = None,
+    preset: str = "simplehydrology-2020",
+) -> dict:
     """Benchmark one map size; returns the JSON-able result."""
     import numba
     from numba import NumbaWarning
@@ -38,19 +50,22 @@ def run(size: int = 256, droplets: int | None = None, spinup: int | None = None,
     from erosim.scenarios.builders_hydrology import build_model
 
     size = int(size)
-    cell = 10240.0 / size
-    sc = loader.load(
-        "hydrology",
-        [f"terrain.size={size}", f"terrain.cell_size={cell}", f"seed={seed}"]
-        + ([f"hydrology.batch={int(batch)}"] if batch else []),
-        preset="simplehydrology-2020",
-    )
+    seed_case = preset != "library"
+    over = [f"terrain.size={size}", f"seed={seed}"] + ([] if batch is None else [f"hydrology.batch={int(batch)}"])
+    if seed_case:
+        over.append(f"terrain.cell_size={10240.0 / size}")
+    sc = loader.load("hydrology", over, preset="simplehydrology-2020" if seed_case else None)
+    cell = float(sc.config.terrain.cell_size)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NumbaWarning)  # the timed build cannot be cached
         _terrain, model = build_model(sc.config, timing=True)
         n_cells = size * size
-        spin = 2 * n_cells if spinup is None else int(spinup)
-        want = 4 * n_cells if droplets is None else int(droplets)
+        if seed_case:
+            spin = 2 * n_cells if spinup is None else int(spinup)
+            want = 4 * n_cells if droplets is None else int(droplets)
+        else:
+            spin = 16 * model.per_cycle if spinup is None else int(spinup)
+            want = 32 * model.per_cycle if droplets is None else int(droplets)
         while model.droplets < spin:
             model.cycle()
         d0, s0, f0 = model.droplets, model.budget[B_STEPS], model.budget[B_FLOOD_NS]
@@ -62,9 +77,10 @@ def run(size: int = 256, droplets: int | None = None, spinup: int | None = None,
     done = model.droplets - d0
     steps = float(model.budget[B_STEPS] - s0)
     flood_s = float(model.budget[B_FLOOD_NS] - f0) * 1e-9
+    nb = int(model.batch)
     return {
         "benchmark": "hydrology",
-        "preset": "simplehydrology-2020",
+        "preset": "simplehydrology-2020" if seed_case else "library",
         "size": size,
         "cell_size_m": cell,
         "droplets": int(done),
@@ -74,9 +90,11 @@ def run(size: int = 256, droplets: int | None = None, spinup: int | None = None,
         "droplets_per_cpu_s": round(done / cpu, 1) if cpu > 0 else None,
         "steps_per_s": round(steps / wall, 1),
         "steps_per_droplet": round(steps / done, 1),
-        "flood_fraction": round(flood_s / wall, 4),
+        "flood_fraction": None if nb else round(flood_s / wall, 4),
         "lake_fraction": round(model.stats()["lake_fraction"], 4),
-        "mode": f"batch {int(batch)}" if batch else "serial",
-        "threads": numba.get_num_threads() if batch else 1,
+        "mode": f"batch {nb}" if nb else "serial",
+        "batch": nb,
+        "device": "cpu",
+        "threads": numba.get_num_threads() if nb else 1,
         "cpu_count": os.cpu_count(),
     }

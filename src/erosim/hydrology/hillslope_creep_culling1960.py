@@ -12,7 +12,9 @@ rounding: a face carries c·w·(z_j − z_i) with c = κ/Δx² per cycle and w t
 two cells — the cell's erodibility (1 − hardness: bedrock does not creep) on dry land, 0 on a lake
 cell (lakes keep their bed, whose volume their level accounts for), a nodata cell, and beyond the
 map's edge. The explicit step is stable for c ≤ ¼; larger c is split into sub-steps.
-Written with NumPy: four slice operations per sub-step on the whole map.
+One Numba pass per sub-step, in place (two rows of the old heights kept aside), the mobility read
+from the erodibility and lake maps as it goes: in NumPy the step made ~10 whole-map temporaries a
+cycle, about 7 % of a 1024² run's time.
 """
 
 from __future__ import annotations
@@ -20,29 +22,63 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 STABLE = 0.2  # largest c of one explicit sub-step (stability limit ¼)
 
 
-def creep_step(z: np.ndarray, mobility: np.ndarray, c: float) -> float:
+@njit(cache=True, inline="always")
+def _mob(erod, lake_of, c):
+    """Mobility of cell c: its erodibility on dry land, 0 on a lake or nodata cell."""
+    return erod[c] if lake_of[c] == -1 else 0.0
+
+
+@njit(cache=True)
+def _creep(z, erod, lake_of, c, steps, old):
+    """``steps`` explicit sub-steps of c each, in place; returns Σ|flux| (m). Every flux of a
+    sub-step comes from the heights before it: ``old`` (2 × nx) keeps rows j and j + 1 as they
+    were, since row j is changed by its faces with row j + 1 before row j + 1's own faces."""
+    ny, nx = z.shape
+    zf = z.reshape(-1)
+    moved = 0.0
+    for _ in range(steps):
+        for i in range(nx):
+            old[0, i] = zf[i]
+        for j in range(ny):
+            a = j % 2  # old row j in old[a], old row j + 1 goes to old[1 − a]
+            b = j * nx
+            if j + 1 < ny:
+                for i in range(nx):
+                    old[1 - a, i] = zf[b + nx + i]
+            ml = _mob(erod, lake_of, b)
+            for i in range(nx - 1):  # x faces: q = c·w·(z[i+1] − z[i])
+                mr = _mob(erod, lake_of, b + i + 1)
+                q = c * min(ml, mr) * (old[a, i + 1] - old[a, i])
+                zf[b + i] += q
+                zf[b + i + 1] -= q
+                moved += abs(q)
+                ml = mr
+            if j + 1 < ny:  # y faces with row j + 1
+                for i in range(nx):
+                    w = min(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))
+                    q = c * w * (old[1 - a, i] - old[a, i])
+                    zf[b + i] += q
+                    zf[b + nx + i] -= q
+                    moved += abs(q)
+    return moved
+
+
+def creep_step(z: np.ndarray, mobility: np.ndarray, c: float, lake_of: np.ndarray | None = None) -> float:
     """Advance ``z`` (m, changed in place) by one cycle of creep with c = κ/Δx² (``mobility`` per
-    cell in [0, 1], 0 = does not creep).
+    cell in [0, 1], 0 = does not creep; with ``lake_of`` (flat, the lake of each cell, −1 dry) a
+    cell that is not dry does not creep either).
 
     Returns the volume moved across faces per cell area (m), Σ|flux|, for the sediment report.
     """
     if c <= 0.0:
         return 0.0
     steps = max(1, math.ceil(c / STABLE))
-    ci = c / steps
-    wx = ci * np.minimum(mobility[:, 1:], mobility[:, :-1])
-    wy = ci * np.minimum(mobility[1:, :], mobility[:-1, :])
-    moved = 0.0
-    for _ in range(steps):
-        qx = wx * (z[:, 1:] - z[:, :-1])
-        qy = wy * (z[1:, :] - z[:-1, :])
-        z[:, :-1] += qx
-        z[:, 1:] -= qx
-        z[:-1, :] += qy
-        z[1:, :] -= qy
-        moved += float(np.abs(qx).sum() + np.abs(qy).sum())
-    return moved
+    erod = np.ascontiguousarray(mobility, dtype=np.float64).reshape(-1)
+    if lake_of is None:
+        lake_of = np.full(erod.shape[0], -1, np.int64)
+    return float(_creep(z, erod, lake_of, c / steps, steps, np.empty((2, z.shape[1]))))

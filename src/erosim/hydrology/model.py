@@ -2,22 +2,24 @@
 
 A cycle: ``droplets_per_cycle`` droplets, each spawned uniformly (or by the rain map), then
 descend (HY-1) and flood (HY-2) alternately — at most ``spill`` floods — until its volume is
-spent; then the stream map update (HY-4) and one vegetation step (HY-5). Droplets run one after
-another in a single-threaded Numba loop: each droplet sees the terrain and lakes the previous one
-left, which is the seed's semantics and makes the result independent of the thread count. The
-opt-in ``hydrology.batch = N`` runs the first descents of N droplets at a time in parallel against
-the batch-start state instead (:mod:`erosim.hydrology.batch`; also independent of the thread
-count, not of N).
+spent; then the hillslope creep, the stream map update (HY-4) and one vegetation step (HY-5).
+By default the droplets run in parallel batches (an eighth of a cycle's droplets, ``hydrology.batch``
+unset; :mod:`erosim.hydrology.batch`, :func:`batch_floods`): each round they descend at once
+against the round-start state plus their own changes, then serially in droplet order their logs
+are applied and their lakes filled — independent of the thread count, not of the batch size.
+``hydrology.batch = 0`` (the ``simplehydrology-2020`` preset) runs them one after another in a
+single-threaded Numba loop (:func:`run_droplets`): each droplet sees the terrain and lakes the
+previous one left, the seed's semantics.
 
 Random numbers: droplet i's spawn point comes from SplitMix64 hashing of (seed, i), vegetation's
 from NumPy's PCG64 seeded with (seed, cycle) (the seedling count and the key of the vegetation
 kernel's SplitMix64 stream): a run resumed from a checkpoint taken between cycles repeats the
 uninterrupted run bit for bit.
 
-HY-1 runs in one of two kernels chosen once from the parameters
+In the serial order HY-1 runs in one of two kernels chosen once from the parameters
 (:func:`erosim.hydrology.droplets.descend_variant`): the seed's case (footprint one cell, whole
 time steps — the ``simplehydrology-2020`` preset) has its own short loop, everything else the
-general one.
+general one; batches use :func:`erosim.hydrology.batch.descend_logged` for every case.
 
 Budgets (float64 accumulators, m³):
 
@@ -37,6 +39,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -44,20 +47,24 @@ from erosim.core.errors import InputError
 from erosim.core.heightmap import Heightmap
 from erosim.hydrology import pools, streams, vegetation
 from erosim.hydrology.batch import (
+    DONE,
+    NEW,
+    NEXT,
     PAUSED,
+    R_ROUNDS,
     R_S,
-    R_SIZE,
     R_STATUS,
     R_V,
     R_VX,
     R_VY,
     R_X,
     R_Y,
+    SERIAL_BELOW,
     apply_logs,
     descend_batch,
+    descend_batch_serial,
     work_arrays,
 )
-from erosim.hydrology.batch import check as check_batch
 from erosim.hydrology.counter_rng import spawn_base, spawn_point, splitmix64
 from erosim.hydrology.droplets import ENDED, LEFT, descend, descend_cell, descend_variant
 from erosim.hydrology.hillslope_creep_culling1960 import creep_step
@@ -73,6 +80,7 @@ from erosim.hydrology.params import (
     P_V0,
     HydrologyParams,
     VegetationParams,
+    batch_size,
     droplets_per_cycle,
     kernel_constants,
     reference_length,
@@ -168,15 +176,13 @@ def run_droplets(
     margin,
     lake_cap,
     descend,
-    pre,
 ):
     """Droplets ``first`` … ``first + count − 1``; returns how many ran (fewer when the heap pool
     or the lake table needs a rebuild first — the caller rebuilds and continues).
 
     ``now`` is the flood timer: :func:`_now_none` normally (cached build), :func:`_now_real` in
     the benchmark (a separate, uncached build that measures the time spent in HY-2); ``descend``
-    the HY-1 kernel (:func:`erosim.hydrology.droplets.descend_variant`); ``pre``: empty, or (batch
-    mode) the droplets' first descents done by :func:`erosim.hydrology.batch.descend_batch`."""
+    the HY-1 kernel (:func:`erosim.hydrology.droplets.descend_variant`)."""
     ny, nx = z2.shape
     zf = z2.reshape(-1)
     sf = stream.reshape(-1)
@@ -191,34 +197,20 @@ def run_droplets(
     drainage = P[P_DRAIN]
     nwalk = 2 * int(P[P_FOOT]) + 1
     base = spawn_base(seed)
-    has_pre = pre.shape[0] > 0
     for i in range(count):
         if hkey.shape[0] - hs[HS_BUMP] < margin or hs[HS_NLAKES] + spill + 2 >= lake_cap:
             return i
-        given = False  # first descent already done (batch mode)
-        if has_pre:
-            status = int(pre[i, R_STATUS])
-            x = pre[i, R_X]
-            y = pre[i, R_Y]
-            vx = pre[i, R_VX]
-            vy = pre[i, R_VY]
-            V = pre[i, R_V]
-            S = pre[i, R_S]
-            given = status != PAUSED
-        else:
-            x, y = spawn_point(base, first + i, rain_cdf, nx, ny)
-            V = P[P_V0]
-            S = 0.0
-            vx = 0.0
-            vy = 0.0
+        x, y = spawn_point(base, first + i, rain_cdf, nx, ny)
+        V = P[P_V0]
+        S = 0.0
+        vx = 0.0
+        vy = 0.0
         B[B_RAINED] += P[P_V0]
         rounds = spill
         at_min = False
         while True:
             if at_min:  # spilled into a depression: it floods there without descending
                 status = 2
-            elif given:
-                given = False
             else:
                 status, x, y, vx, vy, V, S = descend(
                     x, y, vx, vy, V, S, z2, zf, sf, rf, ef, lake_of, level, track, B, P
@@ -304,27 +296,107 @@ def run_droplets(
 @njit(cache=True)
 def run_droplets_cell(
     first, count, seed, z2, stream, roots, erod, lake_of, track, level, area, mroot, broot, hkey,
-    hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, margin, lake_cap, pre,
+    hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, margin, lake_cap,
 ):  # fmt: skip
     """:func:`run_droplets` with the seed-case descend kernel (:func:`descend_cell`), untimed."""
     return run_droplets(
         first, count, seed, z2, stream, roots, erod, lake_of, track, level, area, mroot, broot, hkey,
         hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, _now_none, margin, lake_cap,
-        descend_cell, pre,
+        descend_cell,
     )  # fmt: skip
 
 
 @njit(cache=True)
 def run_droplets_general(
     first, count, seed, z2, stream, roots, erod, lake_of, track, level, area, mroot, broot, hkey,
-    hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, margin, lake_cap, pre,
+    hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, margin, lake_cap,
 ):  # fmt: skip
     """:func:`run_droplets` with the general descend kernel (:func:`descend`), untimed."""
     return run_droplets(
         first, count, seed, z2, stream, roots, erod, lake_of, track, level, area, mroot, broot, hkey,
         hcell, hleft, hright, hrank, hs, stack, walk, rain_cdf, B, P, _now_none, margin, lake_cap,
-        descend, pre,
+        descend,
     )  # fmt: skip
+
+
+@njit(cache=True)
+def batch_floods(
+    start, count, res, z2, lake_of, level, area, mroot, broot, hkey, hcell, hleft, hright, hrank, hs,
+    stack, walk, B, P, margin, lake_cap,
+):  # fmt: skip
+    """Phase 2b of a batch round (:mod:`erosim.hydrology.batch`), serial in droplet order from
+    ``start``: each droplet that stopped floods (HY-2) as in :func:`run_droplets` — it ends in a
+    lake, or drains, walks off the drain (floods again at once where that walk ends in a
+    depression) and is marked ``NEXT`` for another descent; one that ended settles. Returns the
+    index reached: below ``count`` when the heap pool or the lake table needs a rebuild first (the
+    caller rebuilds and calls again from there)."""
+    ny, nx = z2.shape
+    zf = z2.reshape(-1)
+    spill = int(P[P_SPILL])
+    lakes_on = P[P_LAKES] > 0.0
+    nwalk = 2 * int(P[P_FOOT]) + 1
+    for i in range(start, count):
+        status = int(res[i, R_STATUS])
+        if status == DONE:
+            continue
+        if status == PAUSED:
+            continue
+        if hkey.shape[0] - hs[HS_BUMP] < margin or hs[HS_NLAKES] + spill + 2 >= lake_cap:
+            return i
+        x = res[i, R_X]
+        y = res[i, R_Y]
+        V = res[i, R_V]
+        S = res[i, R_S]
+        rounds = int(res[i, R_ROUNDS])
+        while True:
+            if status == LEFT:
+                break
+            c = int(y + 0.5) * nx + int(x + 0.5)
+            if status == ENDED or not lakes_on:
+                _settle(
+                    c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack
+                )
+                break
+            res_f, cell, V, S = flood(
+                c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, P[P_SEA], P[P_EDGE], P[P_CA],
+                P[P_DRAIN], hkey, hcell, hleft, hright, hrank, hs, stack, walk,
+            )  # fmt: skip
+            B[B_FLOODS] += 1
+            if res_f != DRAIN:
+                break
+            cell, at_min = walk_down(cell, nwalk, zf, lake_of, level, P[P_SEA], nx, ny)
+            x = float(cell % nx)
+            y = float(cell // nx)
+            rounds -= 1
+            if rounds <= 0:
+                _settle(
+                    cell, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs,
+                    stack,
+                )  # fmt: skip
+                break
+            if at_min:  # spilled into a depression: it floods there without descending
+                status = 2
+                continue
+            status = NEXT
+            break
+        if status == NEXT:
+            res[i, R_STATUS] = NEXT
+            res[i, R_X] = x
+            res[i, R_Y] = y
+            res[i, R_VX] = 0.0
+            res[i, R_VY] = 0.0
+            res[i, R_V] = V
+            res[i, R_S] = S
+            res[i, R_ROUNDS] = rounds
+        else:
+            res[i, R_STATUS] = DONE
+    return count
+
+
+def _index_dtype(count: int):
+    """int32 for indices below ``count`` where they fit (the lake heaps' node pool is 3 map sizes:
+    28 instead of 48 bytes a node, 60 bytes a cell), else int64."""
+    return np.int32 if count < 2**31 - 1 else np.int64
 
 
 def _check_map(name: str, arr, shape) -> np.ndarray:
@@ -391,9 +463,6 @@ class HydrologyModel:
         self._creep = self.p.creep * (self.ell / self.cell_size) ** 2  # κ/Δx² per cycle
         self._descend = descend_variant(self.P)
         self._driver = run_droplets_cell if self._descend is descend_cell else run_droplets_general
-        check_batch(self.p, int(self.P[P_FOOT]))
-        self._no_pre = np.zeros((0, R_SIZE))
-        self._work = work_arrays(int(self.p.batch)) if self.p.batch > 0 else None
         self.z = np.ascontiguousarray(terrain.z, dtype=np.float64).copy()
         self.z0 = self.z.copy()
         ny, nx = self.z.shape
@@ -425,26 +494,30 @@ class HydrologyModel:
         self.cycles = 0
         self.timing = bool(timing)
         # work arrays (rebuilt lake structures live only within a cycle)
-        self.area = np.zeros(self.lake_cap, np.int64)
-        self.mroot = np.full(self.lake_cap, -1, np.int64)
-        self.broot = np.full(self.lake_cap, -1, np.int64)
+        idx = _index_dtype(self.lake_cap + n)  # cell, lake and heap-node indices: 4 bytes where they fit
+        self.area = np.zeros(self.lake_cap, idx)
+        self.mroot = np.full(self.lake_cap, -1, idx)
+        self.broot = np.full(self.lake_cap, -1, idx)
         self.stack = np.zeros(256, np.int64)
         self.stamp = np.zeros(n, np.int64)
-        self.order = np.zeros(n, np.int64)
-        self.start = np.zeros(n + 2, np.int64)
+        self.order = np.zeros(n, idx)
+        self.start = np.zeros(n + 2, idx)
         self.hs = np.zeros(4, np.int64)
         self.margin = max(n, 65536)
         self._alloc_pool(3 * self.margin)
         self._built = False
+        self.batch = batch_size(self.p, self.per_cycle)
+        self._work = work_arrays(self.batch, n) if self.batch > 0 else None
 
     # ----------------------------------------------------------------------------- internals
     def _alloc_pool(self, size: int) -> None:
         self.hkey = np.zeros(size)
-        self.hcell = np.zeros(size, np.int64)
-        self.hleft = np.zeros(size, np.int64)
-        self.hright = np.zeros(size, np.int64)
-        self.hrank = np.zeros(size, np.int64)
-        self.walk = np.zeros(size, np.int64)
+        idx = _index_dtype(size)
+        self.hcell = np.zeros(size, idx)
+        self.hleft = np.zeros(size, idx)
+        self.hright = np.zeros(size, idx)
+        self.hrank = np.zeros(size, idx)
+        self.walk = np.zeros(size, idx)
 
     def _rebuild(self) -> None:
         ny, nx = self.z.shape
@@ -485,9 +558,9 @@ class HydrologyModel:
             self.hs[HS_NLAKES] = old.size
             self._alloc_pool(2 * self.hkey.shape[0] + 2 * self.margin)
 
-    def _run(self, first: int, count: int, pre: np.ndarray) -> None:
-        """Droplets first … first + count − 1 (their first descent already in ``pre`` in batch
-        mode), rebuilding the lake heaps whenever the pool or the lake table fills."""
+    def _run(self, first: int, count: int) -> None:
+        """Droplets first … first + count − 1 one after another (the seed's order), rebuilding the
+        lake heaps whenever the pool or the lake table fills."""
         k = 0
         while k < count:
             head = (
@@ -497,39 +570,68 @@ class HydrologyModel:
                 self.budget, self.P,
             )  # fmt: skip
             if self.timing:  # the benchmark's build with a real clock around the lake filling
-                done = run_droplets(*head, _now_real, self.margin, self.lake_cap, self._descend, pre[k:])
+                done = run_droplets(*head, _now_real, self.margin, self.lake_cap, self._descend)
             else:
-                done = self._driver(*head, self.margin, self.lake_cap, pre[k:])
+                done = self._driver(*head, self.margin, self.lake_cap)
             self.droplets += done
             k += done
             if k < count:
                 self._rebuild()  # heap pool or lake table full: compact, then go on
+
+    def _run_batch(self, first: int, nb: int) -> None:
+        """Droplets first … first + nb − 1 in batch rounds (:mod:`erosim.hydrology.batch`):
+        parallel descents, then serially their logs applied and their floods."""
+        ny, nx = self.z.shape
+        zf = self.z.reshape(-1)
+        res, lc, ldz, bd, ov = self._work
+        res[:nb, R_STATUS] = NEW
+        res[:nb, R_ROUNDS] = self.p.spill
+        self.budget[B_RAINED] += nb * self.P[P_V0]
+        foot = int(self.P[P_FOOT])
+        old = numba.set_parallel_chunksize(4)  # dynamic scheduling: droplets differ in length
+        try:
+            descend = descend_batch
+            while True:
+                descend(first, nb, self.seed, self.z, self.stream, self.cover, self.erod, self.lake_of,
+                        self.level, self.rain_cdf, self.P, res, lc, ldz, bd, ov)  # fmt: skip
+                apply_logs(nb, nx, ny, foot, zf, self.lake_of, self.track, res, lc, ldz, bd, self.budget)
+                k = 0
+                while True:
+                    k = batch_floods(
+                        k, nb, res, self.z, self.lake_of, self.level, self.area, self.mroot, self.broot, self.hkey,
+                        self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk,
+                        self.budget, self.P, self.margin, self.lake_cap,
+                    )  # fmt: skip
+                    if k >= nb:
+                        break
+                    self._rebuild()  # heap pool or lake table full: compact, then go on
+                status = res[:nb, R_STATUS]
+                left = np.count_nonzero((status == NEXT) | (status == PAUSED))
+                if left == 0:
+                    return
+                descend = descend_batch_serial if left < SERIAL_BELOW else descend_batch
+        finally:
+            numba.set_parallel_chunksize(old)
 
     # ----------------------------------------------------------------------------- public API
     def cycle(self) -> None:
         """One cycle: droplets, then the stream map and the vegetation."""
         if not self._built or self.cycles % self.p.rebuild_every == 0:
             self._rebuild()
-        batch = int(self.p.batch)
+        batch = self.batch
         if batch <= 0:
-            self._run(self.droplets, self.per_cycle, self._no_pre)
+            self._run(self.droplets, self.per_cycle)
         else:
-            zf = self.z.reshape(-1)
-            res, lc, ldz, bd = self._work
             todo = self.per_cycle
             while todo > 0:
                 nb = min(batch, todo)
-                first = self.droplets
-                descend_batch(first, nb, self.seed, self.z, self.stream, self.cover,
-                              self.erod, self.lake_of, self.level, self.rain_cdf, self.P, res, lc,
-                              ldz, bd)  # fmt: skip
-                apply_logs(nb, zf, self.track, res, lc, ldz, bd, self.budget)
-                self._run(first, nb, res[:nb])
+                self._run_batch(self.droplets, nb)
+                self.droplets += nb
                 todo -= nb
         streams.update(self.stream, self.track, self.p.stream_rate)
         if self._creep > 0.0:
-            mobility = np.where((self.lake_of == pools.NO_LAKE).reshape(self.z.shape), self.erod, 0.0)
-            self.budget[pools.B_CREPT] += creep_step(self.z, mobility, self._creep) * self.cell_size**2
+            moved = creep_step(self.z, self.erod, self._creep, self.lake_of)  # dry land only
+            self.budget[pools.B_CREPT] += moved * self.cell_size**2
         if self.veg.enabled:
             rng = np.random.default_rng([self.seed & 0xFFFFFFFF, self.cycles, 0x5EED])
             vegetation.step(
@@ -631,6 +733,7 @@ class HydrologyModel:
             "droplets": int(self.droplets),
             "cycles": int(self.cycles),
             "droplets_per_cycle": int(self.per_cycle),
+            "batch": int(self.batch),
             "descend_steps": int(B[B_STEPS]),
             "floods": int(B[B_FLOODS]),
             "lake_cells": int((depth > 0).sum()),

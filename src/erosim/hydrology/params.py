@@ -66,13 +66,13 @@ class HydrologyParams(Section):
         True, doc="a slow droplet in a pit (cell lower than its 8 neighbours) floods there; seed: off"
     )
     max_steps: int = param(20_000, ge=10, unit="1", doc="safety cap on sub-steps per descent")
-    batch: int = param(
-        0,
+    batch: int | None = param(
+        None,
         ge=0,
-        le=4096,
+        le=65536,
         unit="droplets",
-        doc="0: droplets one after another (the seed); N: batches of N descend in parallel "
-        "against the batch-start terrain (hydrology/batch.py; one-cell footprint, max_step 0)",
+        doc="droplets descending in parallel per batch (hydrology/batch.py); none = an eighth of a cycle's; "
+        "0 = one after another (the seed's order)",
     )
     creep: float = param(
         0.00025, ge=0, unit="ℓ²/cycle",
@@ -139,6 +139,21 @@ def droplets_per_cycle(p: HydrologyParams, shape: tuple[int, int], cell_size: fl
     ell = reference_length(p, cell_size)
     area = shape[0] * shape[1] * cell_size**2
     return max(1, int(round(p.cycle_droplets * area / (256.0 * ell) ** 2)))
+
+
+BATCHES_PER_CYCLE = 8  # the default batch: an eighth of a cycle's droplets (hydrology/batch.py)
+
+
+def batch_size(p: HydrologyParams, per_cycle: int) -> int:
+    """Droplets per parallel batch: ``batch``; unset, ⌈droplets per cycle / 8⌉; 0 = serial.
+
+    A fixed share of the cycle keeps the droplets that do not see each other's erosion at the same
+    density on every map size (the cycle's droplets scale with the map's area): measured on the
+    library terrain at 512², batches of an eighth of a cycle match the serial order's erosion and
+    step counts within the seed-to-seed scatter, whole-cycle batches erode ~5 % less."""
+    if p.batch is None:
+        return max(1, -(-per_cycle // BATCHES_PER_CYCLE))
+    return int(p.batch)
 
 
 def kernel_constants(p: HydrologyParams, cell_size: float) -> np.ndarray:

@@ -55,17 +55,30 @@ def build_model(cfg, *, timing: bool = False):
     return terrain, model
 
 
-def picture(model):
-    """The combined hydrology map (HY-9) of the model's current state."""
+FIGURE_CELLS = 1024  # the figures are ~800 px across: drawn from maps of at most this many cells a side
+
+
+def figure_step(shape) -> int:
+    """Stride that brings a map to at most ``FIGURE_CELLS`` cells a side for a figure (1 when smaller): a
+    4096² run's pictures then cost what a 1024² run's do instead of 16 times that in memory."""
+    return max(1, -(-max(shape) // FIGURE_CELLS))
+
+
+def picture(model, step: int = 1):
+    """The combined hydrology map (HY-9) of the model's current state, every ``step``-th cell."""
+    from erosim.hydrology import pools, vegetation
+    from erosim.hydrology.params import P_SEA
     from erosim.viz.maps import hydrology_map
 
-    return hydrology_map(model.z, model.cell_size, model.stream, model.lake_depth(), vegetation=model.vegetation())
+    s = slice(None, None, step)
+    z = model.z[s, s]
+    depth = pools.depth_map(model.lake_of.reshape(model.z.shape)[s, s], model.level, z)
+    veg = vegetation.root_density(model.cover[s, s], model.veg, (depth > 0) | (z < model.P[P_SEA]))
+    return hydrology_map(z, model.cell_size * step, model.stream[s, s], depth, vegetation=veg)
 
 
 def _thumbnail(model, size: int = 256):
-    pic = picture(model)
-    step = max(1, pic.shape[0] // size, pic.shape[1] // size)
-    return pic[::step, ::step]
+    return picture(model, max(1, model.z.shape[0] // size, model.z.shape[1] // size))
 
 
 def _frame_maps(model) -> dict:
@@ -111,13 +124,15 @@ def write_outputs(model, terrain, folder) -> dict:
         from erosim.viz.maps import DARK_BLUE, FOREST, GROUND, LIGHT_BLUE
         from erosim.viz.plots import change_figure, extent_of, hillshade_figure, map_figure
 
-        cs, box = model.cell_size, extent_of(terrain.transform, model.z.shape, model.cell_size)
-        hillshade_figure(folder.figures / "hillshade_before.png", model.z0, cs, "Terrain before", box)
-        hillshade_figure(folder.figures / "hillshade_after.png", model.z, cs, "Terrain after", box)
+        box = extent_of(terrain.transform, model.z.shape, model.cell_size)
+        k = figure_step(model.z.shape)
+        s, cs = slice(None, None, k), model.cell_size * k
+        hillshade_figure(folder.figures / "hillshade_before.png", model.z0[s, s], cs, "Terrain before", box)
+        hillshade_figure(folder.figures / "hillshade_after.png", model.z[s, s], cs, "Terrain after", box)
         legend = [("stream", LIGHT_BLUE), ("lake", DARK_BLUE), ("forest", FOREST), ("bare ground", GROUND)]
-        map_figure(folder.figures / "hydrology.png", picture(model), cs, "Rivers, lakes and forest", legend=legend,
+        map_figure(folder.figures / "hydrology.png", picture(model, k), cs, "Rivers, lakes and forest", legend=legend,
                    extent=box)  # fmt: skip
-        change_figure(folder.figures / "erosion_deposition.png", maps["deposition"] - maps["erosion"], cs,
+        change_figure(folder.figures / "erosion_deposition.png", maps["deposition"][s, s] - maps["erosion"][s, s], cs,
                       "Erosion and deposition", box)  # fmt: skip
     return info
 
@@ -147,8 +162,9 @@ def setup(scenario, out) -> Setup:
     how = "hydrology.length_scale" if cfg.hydrology.length_scale else "one cell"  # set in m, or 0
     if cfg.hydrology.length_scale is None:
         how = "two cells, hydrology.length_scale unset"
+    order = f"in parallel batches of {model.batch}" if model.batch else "one after another (the seed's order)"
     assumed.append(f"scaled: ℓ = {model.ell:g} m ({how}), {model.per_cycle} droplets per cycle "
-                   f"({cfg.hydrology.cycle_droplets} per (256 ℓ)² of map)")  # fmt: skip
+                   f"({cfg.hydrology.cycle_droplets} per (256 ℓ)² of map), {order}")  # fmt: skip
     ratio = model.ell / model.cell_size
     if ratio > 8:
         warnings.append(

@@ -4,8 +4,11 @@ Read from the validated scenario alone (before a terrain is generated or a parti
 per-unit costs measured on the 2-core reference machine (peak RSS with ``/usr/bin/time -f %M``, wall
 time from ``report.json``; ``docs/performance.md``):
 
-* map cells (hydrology): 315 B and 2 µs of set-up and output per cell, 0.25 µs per cell per cycle
-  (``erosim run hydrology --set terrain.size=N --set run.cycles=1``, N = 512, 1024, 2048);
+* map cells (hydrology): 170 B and 3 µs of set-up and output per cell, 0.2 µs per cell per cycle
+  (peak RSS of ``erosim run hydrology --set terrain.size=N --set run.cycles=C``: 2.88 GB at N = 4096,
+  C = 8, int32 lake-heap indices and figures from strided maps; the seed's serial loop took 0.25 µs per
+  cell-cycle on the idle machine and the parallel batches 0.77 of its wall time back to back at 1024²
+  and 2048², docs/performance.md);
 * map cells (particle stream): 180 B and 3 µs per cell; 0.45 µs per particle update (2.2·10⁶/s);
 * SPH particles: 800 B each (fluid, walls and neighbour lists; ``erosim bench sph`` at 10⁵ and 10⁶),
   2.2·10⁶ particle-steps/s per core, 1.5 ms per step and 10 s of start (``spheric2`` at 0.05, 0.03 and
@@ -32,7 +35,7 @@ from pathlib import Path
 from erosim.core.errors import ConfigError
 
 BASE_BYTES = 250e6
-HYDRO_CELL_BYTES, HYDRO_CELL_S, HYDRO_CELL_CYCLE_S = 315.0, 2e-6, 0.25e-6
+HYDRO_CELL_BYTES, HYDRO_CELL_S, HYDRO_CELL_CYCLE_S = 170.0, 3e-6, 0.2e-6
 STREAM_CELL_BYTES, STREAM_CELL_S, STREAM_UPDATE_S = 180.0, 3e-6, 0.45e-6
 SPH_PARTICLE_BYTES, SPH_STEPS_PER_CORE_S = 800.0, 2.2e6
 #: a run's start (imports, loading the compiled kernels, final outputs) and each SPH step's fixed cost
