@@ -42,6 +42,13 @@ IGNORED: dict[str, str] = {
     "model[*].state.fluid_capacity": "the particle stores' fluid rows (spare rows included)",
     "model[hydrology].stack": "the lake heaps' scratch stack",
     "model[hydrology].walk": "the lake heaps' scratch walk",
+    # the parallel batches' results and logs are set at each batch's start or written before they are read,
+    # and a cycle (the unit a checkpoint falls between) ends its batches; the per-thread overlay (index 4)
+    # returns to zero after each droplet and is compared
+    "model[hydrology]._work[0]": "a batch's droplet results, set when the batch starts",
+    "model[hydrology]._work[1]": "a batch's logged cells, written before they are applied",
+    "model[hydrology]._work[2]": "a batch's logged height changes, written before they are applied",
+    "model[hydrology]._work[3]": "a batch's budget rows, written before they are applied",
     "model[hydrology].stamp": "neighbour marks of a lake rebuild, reset at its start",
     "model[hydrology].n_lakes": "the lake count of the last rebuild, written and never read (hs holds the count)",
     "*.eroder.dz": "the eroder's output buffer, written in full at each coupling",
