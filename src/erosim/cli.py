@@ -209,6 +209,13 @@ def run(scenario, overrides, preset, out, resume, overwrite, device, tile, overl
     """
     from erosim.api import execute
 
+    if (tile is not None or overlap is not None) and scenario is not None:
+        from erosim.scenarios import loader
+
+        kind = _guard(loader.load, scenario, list(overrides), preset).kind
+        if kind != "hydrology":
+            _fail(ErosimError(f'--tile and --overlap apply to kind = "hydrology" scenarios, not kind \'{kind}\'; '
+                              "leave them out."))  # fmt: skip
     if tile is not None:
         overrides = (*overrides, f"tiles.size={tile}")
     if overlap is not None:

@@ -140,7 +140,7 @@ def test_seam_figures_are_reported_and_measured_right(tiled):
     assert seams["border_jump_max_m"] <= seams["inside_p999_m"]
 
 
-@pytest.mark.slow  # a second build of four tiles (~10 s)
+@pytest.mark.slow  # a second build of four tiles (~5 s warm, more on a loaded machine)
 def test_a_tiled_build_stopped_after_one_tile_resumes_the_rest(tiled, dem, client, tmp_path):
     out = tmp_path / "build"
     sets = _sets(dem) + [f"tiles.size={TILE}", f"tiles.overlap={OVERLAP}"]
@@ -166,6 +166,7 @@ def test_a_tiled_build_stopped_after_one_tile_resumes_the_rest(tiled, dem, clien
         (["--tile", "48"], "give it with --set terrain.file"),
         (["--tile", "48", "--overlap", "30", "FILE"], "overlap of at most half the size"),
         (["--workers", "2"], "apply to tiled builds"),
+        (["--tile", "48", "SPH"], 'apply to kind = "hydrology" scenarios'),
         (["--tile", "48", "--overlap", "12", "NPY"], "is not a GeoTIFF"),
     ],
 )
@@ -175,8 +176,29 @@ def test_bad_input_is_one_sentence_and_leaves_nothing(args, words, dem, tmp_path
     extra = {"FILE": ["--set", f"terrain.file={dem}"], "NPY": ["--set", f"terrain.file={npy}"]}
     argv = list(itertools.chain.from_iterable(extra.get(a, [a]) for a in args))
     out = tmp_path / "out"
-    result = CliRunner().invoke(cli, ["--quiet", "run", "hydrology", *argv, "--out", str(out)])
+    scenario = "dam-break-2d" if "SPH" in args else "hydrology"
+    argv = [a for a in argv if a != "SPH"]
+    result = CliRunner().invoke(cli, ["--quiet", "run", scenario, *argv, "--out", str(out)])
     assert result.exit_code == 2, result.output
     lines = [ln for ln in result.output.splitlines() if ln.strip()]
     assert len(lines) == 1 and words in lines[0], result.output
     assert not out.exists()
+
+
+@pytest.mark.slow  # two rounds of four tiles (~7 s warm)
+def test_a_second_round_starts_from_the_blended_heights(dem, client, tmp_path):
+    sets = _sets(dem) + [f"tiles.size={TILE}", f"tiles.overlap={OVERLAP}", "tiles.rounds=2"]
+    folder, summary = run_tiled("hydrology", sets, out=str(tmp_path / "r2"), progress=False, client=client)
+    assert summary["ran_now"] == 8
+    report = json.loads((folder / "report.json").read_text())
+    assert [r["cycles"] for r in report["rounds"]] == [20, 20]  # run.cycles split over the rounds
+    start = _read(folder / "tiles" / "round2" / "start_height.tif")
+    for t in report["plan"]["tiles"]:
+        r0, r1, c0, c1 = t["window"]
+        tile = folder / "tiles" / "round2" / t["name"]
+        np.testing.assert_array_equal(_read(tile / "input.tif"), start[r0:r1, c0:c1])
+        assert json.loads((tile / "report.json").read_text())["statistics"]["cycles"] == 20
+    # the initial height is the DEM's, the erosion is measured from it over both rounds
+    z0, z = _read(dem), _read(folder / "maps" / "height.tif")
+    np.testing.assert_allclose(_read(folder / "maps" / "height_initial.tif"), z0, rtol=1e-6)
+    np.testing.assert_allclose(_read(folder / "maps" / "erosion.tif"), np.maximum(z0 - z, 0), atol=1e-4)
