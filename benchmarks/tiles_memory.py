@@ -48,7 +48,9 @@ def _tree_rss(pid: int) -> int:
 def measured(cmd: list[str]) -> dict:
     """Run ``cmd`` under /usr/bin/time; its largest process's and its whole tree's peak RSS, wall time."""
     t0 = time.perf_counter()
-    proc = subprocess.Popen(["/usr/bin/time", "-f", "TIME %M kB %e s", *cmd], stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        ["/usr/bin/time", "-f", "TIME %M kB %e s", *cmd], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
+    )
     peak = [0]
 
     def sample():

@@ -202,3 +202,15 @@ def test_a_second_round_starts_from_the_blended_heights(dem, client, tmp_path):
     z0, z = _read(dem), _read(folder / "maps" / "height.tif")
     np.testing.assert_allclose(_read(folder / "maps" / "height_initial.tif"), z0, rtol=1e-6)
     np.testing.assert_allclose(_read(folder / "maps" / "erosion.tif"), np.maximum(z0 - z, 0), atol=1e-4)
+
+
+def test_the_python_api_refuses_a_tiled_scenario_instead_of_running_it_whole(dem, tmp_path):
+    from erosim.core.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="tiled build"):
+        erosim.run(
+            "hydrology",
+            tmp_path / "whole",
+            set={"terrain.file": str(dem), "tiles.size": TILE, "tiles.overlap": OVERLAP},
+        )
+    assert not (tmp_path / "whole").exists()
