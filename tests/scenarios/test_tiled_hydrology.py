@@ -214,3 +214,16 @@ def test_the_python_api_refuses_a_tiled_scenario_instead_of_running_it_whole(dem
             set={"terrain.file": str(dem), "tiles.size": TILE, "tiles.overlap": OVERLAP},
         )
     assert not (tmp_path / "whole").exists()
+
+
+@pytest.mark.slow  # a cluster of its own (~10 s) and a build
+def test_a_scheduler_address_runs_the_same_build(tiled, dem, tmp_path):
+    from distributed import LocalCluster
+
+    sets = _sets(dem) + [f"tiles.size={TILE}", f"tiles.overlap={OVERLAP}"]
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        folder, summary = run_tiled(
+            "hydrology", sets, out=str(tmp_path / "remote"), progress=False, scheduler=cluster.scheduler_address
+        )
+    assert summary["workers"] == "remote" and summary["ran_now"] == 4
+    np.testing.assert_array_equal(_read(folder / "maps" / "height.tif"), _read(tiled[0] / "maps" / "height.tif"))
