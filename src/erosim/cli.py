@@ -186,9 +186,54 @@ def cli(threads: int | None, quiet: bool, debug: bool) -> None:
 )
 @click.option("--overwrite", is_flag=True, help="Allow writing into an existing, non-empty --out folder.")
 @_device_option('Where the SPH steps run, for kind = "sph" and "flood" scenarios: cpu or cuda; sets run.device')
-def run(scenario, overrides, preset, out, resume, overwrite, device):
-    """Run SCENARIO (a library name or a TOML file) and write a run folder."""
+@click.option(
+    "--tile", type=int, default=None, metavar="N",
+    help="Hydrology on a large GeoTIFF (terrain.file): erode it in tiles of at most N cells a side (tiles.size).",
+)  # fmt: skip
+@click.option(
+    "--overlap", type=int, default=None, metavar="K", help="Tiled build: halo cells per tile (tiles.overlap)."
+)
+@click.option(
+    "--scheduler", default=None, metavar="ADDRESS",
+    help="Tiled build: a dask.distributed scheduler (default: local workers).",
+)  # fmt: skip
+@click.option("--workers", type=int, default=None, help="Tiled build: local worker processes (default: one per core).")
+def run(scenario, overrides, preset, out, resume, overwrite, device, tile, overlap, scheduler, workers):
+    """Run SCENARIO (a library name or a TOML file) and write a run folder.
+
+    \b
+    A tiled build erodes a DEM too large for one run tile by tile on Dask (docs/tiles.md):
+      erosim run hydrology --set terrain.file=big.tif --tile 1024 --overlap 64 [--workers 2]
+    writes one Cloud-Optimized GeoTIFF per map in OUT/maps/ on the DEM's grid, CRS and transform,
+    and the seam figures in OUT/report.json; --resume OUT continues it, keeping finished tiles.
+    """
     from erosim.api import execute
+
+    if (tile is not None or overlap is not None) and scenario is not None:
+        from erosim.scenarios import loader
+
+        kind = _guard(loader.load, scenario, list(overrides), preset).kind
+        if kind != "hydrology":
+            _fail(ErosimError(f'--tile and --overlap apply to kind = "hydrology" scenarios, not kind \'{kind}\'; '
+                              "leave them out."))  # fmt: skip
+    if tile is not None:
+        overrides = (*overrides, f"tiles.size={tile}")
+    if overlap is not None:
+        overrides = (*overrides, f"tiles.overlap={overlap}")
+    if _is_tiled(scenario, overrides, preset, resume):
+        if device is not None:
+            _fail(ErosimError("--device does not apply to a tiled hydrology build; leave it out."))
+        from erosim.tiles.build import run_tiled
+
+        folder, summary = _guard(
+            run_tiled, scenario, list(overrides) if resume is None else [], preset, out, resume, overwrite,
+            scheduler=scheduler, workers=workers, progress=not STATE.quiet,
+        )  # fmt: skip
+        _print_result(summary, as_json=False)
+        click.echo(f"Results in {folder}/: {_contents(folder)}")
+        return
+    if scheduler is not None or workers is not None:
+        _fail(ErosimError("--scheduler and --workers apply to tiled builds (--tile N) only; leave them out."))
 
     if resume is not None and scenario is None and not overrides and device is None:
         from erosim.validation import session
@@ -262,6 +307,19 @@ def sweep(scenario, vary, seeds, design, overrides, preset, exceed, quantiles, r
         resume=resume, overwrite=overwrite, progress=not STATE.quiet and not as_json,
     )  # fmt: skip
     _print_result(summary, as_json=as_json)
+
+
+def _is_tiled(scenario, overrides, preset, resume) -> bool:
+    """Whether this run is a tiled build: its scenario (or the resumed folder) sets tiles.size."""
+    if resume is not None:
+        return (Path(resume) / "tiles.json").is_file()
+    if scenario is None:
+        return False
+    from erosim.scenarios import loader
+    from erosim.tiles.build import tiled
+
+    sc = _guard(loader.load, scenario, list(overrides), preset)
+    return tiled(sc)
 
 
 def _contents(folder: Path) -> str:

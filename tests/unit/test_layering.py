@@ -14,7 +14,7 @@ RANK = {
     "core": 0, "data": 1, "kernels": 1, "io": 1, "viz": 1, "analysis": 1,
     "sph": 2, "terrain": 2, "erosion": 2, "hydrology": 2,
     "coupling": 3, "simulation": 4, "scenarios": 5, "validation": 6, "api": 6, "view": 6,
-    "sweep": 7, "bench": 8, "cli": 9, "__main__": 10,
+    "sweep": 7, "tiles": 8, "bench": 8, "cli": 9, "__main__": 10,
 }  # fmt: skip
 CORE_ONLY = {"io", "viz", "analysis", "data", "kernels"}
 ALSO = {"analysis": {"kernels"}}  # measurements interpolate with the SPH kernels

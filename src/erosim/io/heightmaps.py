@@ -341,6 +341,41 @@ def _read_geotiff(p: Path, cs: float | None) -> Heightmap:
     return hm
 
 
+def geotiff_header(path: str | os.PathLike, cell_size: float | None = None) -> dict:
+    """What a GeoTIFF's header says, no heights read: ``shape`` (rows, cols), ``transform`` (a..f),
+    ``crs`` (WKT or None), ``nodata`` and ``cell_size`` (m: ``cell_size`` if given, else the file's
+    ``cell_size_m`` tag, else from the transform as :func:`read` takes it, else 1 m)."""
+    import rasterio
+    from rasterio.errors import NotGeoreferencedWarning
+
+    p = Path(path)
+    if _format(p, "read") != "geotiff":
+        raise InputError(f"'{p}' is not a GeoTIFF (.tif); convert it with `erosim convert {p.name} DEM.tif`.")
+    if not p.is_file():
+        raise InputError(f"Heightmap file '{p}' does not exist; check the path.")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NotGeoreferencedWarning)
+            with rasterio.open(p) as ds:
+                t, crs, shape, nodata = ds.transform, ds.crs, (ds.height, ds.width), ds.nodata
+                tag = ds.tags().get("cell_size_m")
+    except Exception as exc:  # a corrupt file: one sentence
+        raise InputError(
+            f"Cannot read the GeoTIFF '{p}' ({type(exc).__name__}: {exc}); is it a valid GeoTIFF?"
+        ) from exc
+    cs = _check_cell_size(cell_size) or (_check_cell_size(tag) if tag else None)
+    georef = not t.is_identity
+    if cs is None:
+        cs = _cell_from_transform(tuple(t)[:6], crs, shape[0]) if georef else 1.0
+    return {
+        "shape": shape,
+        "transform": tuple(t)[:6] if georef else None,
+        "crs": crs.to_wkt() if crs is not None else None,
+        "nodata": nodata,
+        "cell_size": cs,
+    }
+
+
 def _read_png(p: Path, cs: float | None, rng) -> Heightmap:
     from PIL import Image
 

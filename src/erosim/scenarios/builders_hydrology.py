@@ -151,6 +151,11 @@ class HydrologyOutputs(Callback):
 def setup(scenario, out) -> Setup:
     """The model and callbacks of a ``hydrology`` run (see the module docstring)."""
     cfg = scenario.config
+    if cfg.tiles.size:  # a tiled build runs its tiles as runs of tiles.size = 0 (erosim.tiles.build)
+        raise ConfigError(
+            "This scenario asks for a tiled build (tiles.size > 0), which `erosim run` makes (docs/tiles.md); "
+            "from Python call erosim.tiles.build.run_tiled, or set tiles.size=0 for one run."
+        )
     terrain, model = build_model(cfg)
     warnings = list(terrain.notes)
     facts, assumed = terrain_facts(terrain, cfg.terrain)

@@ -8,11 +8,15 @@
     [vegetation]   trees and roots (erosim.hydrology.params.VegetationParams)
     [inputs]       optional rain map (relative weights) and hardness map (0 = soft … 1 = rock)
     [run]          cycles, animation frames, checkpoint interval
+    [tiles]        tiled builds of a large GeoTIFF (size 0 = one piece; docs/tiles.md)
 """
 
 from __future__ import annotations
 
+from pydantic import model_validator
+
 from erosim.core.config import Section, param
+from erosim.core.errors import ConfigError
 from erosim.hydrology.params import HydrologyParams, VegetationParams
 from erosim.scenarios.schema_common import TerrainSection
 
@@ -32,6 +36,16 @@ class HydrologyRun(Section):
     checkpoint_interval: float = param(300.0, gt=0, unit="s", doc="wall time between checkpoints")
 
 
+class Tiles(Section):
+    size: int = param(
+        0, ge=0, unit="cells", doc="tiled build: largest tile core, cells a side (0 = the whole map in one run)"
+    )
+    overlap: int = param(32, ge=0, unit="cells", doc="tiled build: halo cells around each tile (at most size/2)")
+    rounds: int = param(
+        1, ge=1, unit="1", doc="tiled build: passes over all tiles, each on the last one's heights (run.cycles split)"
+    )
+
+
 class HydrologyScenario(Section):
     seed: int = param(1, doc="random seed (terrain, droplets, vegetation)")
     terrain: TerrainSection = param(TerrainSection(preset="mountains", size=512, cell_size=20.0), doc="the heightmap")
@@ -39,3 +53,30 @@ class HydrologyScenario(Section):
     vegetation: VegetationParams = param(VegetationParams(), doc="trees")
     inputs: Inputs = param(Inputs(), doc="rain and hardness maps")
     run: HydrologyRun = param(HydrologyRun(), doc="run length and outputs")
+    tiles: Tiles = param(Tiles(), doc="tiled builds of a DEM too large for one run (erosim.tiles)")
+
+    @model_validator(mode="after")
+    def _check_tiles(self) -> HydrologyScenario:
+        t = self.tiles
+        if t.size == 0:
+            return self
+        if not self.terrain.uses_file:
+            raise ConfigError(
+                "A tiled build (tiles.size, --tile) erodes a DEM file; give it with --set terrain.file=DEM.tif."
+            )
+        if t.size < 16 or 2 * t.overlap > t.size:
+            raise ConfigError(
+                f"tiles.size = {t.size} with tiles.overlap = {t.overlap} is not valid; give a size of at least 16 "
+                "cells and an overlap of at most half the size."
+            )
+        if self.inputs.rain_map or self.inputs.hardness_map:
+            raise ConfigError(
+                "A tiled build does not cut inputs.rain_map or inputs.hardness_map into tiles yet; leave them out "
+                "or run without tiles."
+            )
+        if t.rounds > self.run.cycles:
+            raise ConfigError(
+                f"tiles.rounds = {t.rounds} exceeds run.cycles = {self.run.cycles}; each round runs a share of the "
+                "cycles, so give fewer rounds or more cycles."
+            )
+        return self

@@ -1,0 +1,302 @@
+"""A tiled hydrology build (``erosim run hydrology --set terrain.file=big.tif --tile N --overlap K``):
+a DEM too large for one run eroded tile by tile on Dask, then mosaicked.
+
+The build folder::
+
+    <out>/scenario.toml          the resolved scenario, [tiles] included (``--resume`` reads it)
+    <out>/tiles.json             the plan: the DEM's grid, every tile's core and window
+    <out>/tiles/rR_cC/           round 1: input.tif (the tile's window + halo of the DEM, CRS and
+                                 transform kept) and an ordinary hydrology run folder around it
+    <out>/tiles/roundK/          rounds K ≥ 2: start_height.tif (round K−1's mosaicked height) and
+                                 rR_cC/ as above, cut from it
+    <out>/maps/NAME.tif          one Cloud-Optimized GeoTIFF per map on the DEM's grid, CRS, transform
+    <out>/report.json            plan, per-tile status and wall time, seam figures
+
+Only the DEM's header is read whole; tiles are cut with windowed reads and the mosaics are written
+core by core (:mod:`erosim.tiles.rasters`), so the build's own memory is bounded by a tile; each Dask
+worker holds one tile's run. Tiles are sweep members (:mod:`erosim.sweep.member`): a finished tile is
+kept and an interrupted one resumed from its checkpoint when the build is run again with
+``erosim run --resume <out>``.
+
+Each round runs ``run.cycles / rounds`` cycles in every tile. What crosses a border is the terrain of
+the halo: a tile erodes its window, its neighbours' cores included, and with ``rounds > 1`` every later
+round starts from the blended heights, so it sees what its neighbours eroded. Droplets and their
+sediment do not cross: a droplet that reaches the halo's edge leaves the tile as it leaves the map, and
+a river's catchment beyond the halo is missing downstream.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from erosim.core.atomic import write_json, write_text
+from erosim.core.errors import ConfigError, ErosimError, Interrupted
+from erosim.io.heightmaps import geotiff_header
+from erosim.io.runfolder import default_out
+from erosim.scenarios import loader
+from erosim.sweep import dask_executor
+from erosim.sweep.member import FINISHED, MemberTask, read_report, record, run_member
+from erosim.sweep.runner import plan_threads
+from erosim.tiles import rasters, seams
+from erosim.tiles.plan import Tile, cycles_per_round, plan
+from erosim.tiles.rasters import blend
+
+PLAN_FILE = "tiles.json"
+OUTPUTS = ("tiles", "maps", "report.json", PLAN_FILE, "scenario.toml")
+
+
+def tiled(scenario) -> bool:
+    """Whether a loaded scenario asks for a tiled build."""
+    return scenario.kind == "hydrology" and scenario.config.tiles.size > 0
+
+
+class TileProgress:
+    """``tiles 3/8 · round 1/2 · running 2 · failed 0 · ETA 40 s`` (rich; silent when disabled)."""
+
+    def __init__(self, total: int, slots: int, enabled: bool):
+        self.total, self.slots, self.done, self.failed, self.round = total, slots, 0, 0, ""
+        self.started, self.ran = time.perf_counter(), 0
+        self._progress = None
+        if enabled:
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+            self._progress = Progress(
+                TextColumn("[bold]tiles"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[state]}")
+            )
+            self._task = self._progress.add_task("tiles", total=total, completed=0, state=self.state())
+            self._progress.start()
+
+    def state(self) -> str:
+        text = f"{self.round} · running {min(self.slots, self.total - self.done)} · failed {self.failed}"
+        if 0 < self.ran and self.done < self.total:
+            text += f" · ETA {(time.perf_counter() - self.started) / self.ran * (self.total - self.done):,.0f} s"
+        return text
+
+    def update(self, rec: dict[str, Any] | None = None, round_text: str | None = None) -> None:
+        if round_text is not None:
+            self.round = round_text
+        if rec is not None:
+            self.done += 1
+            self.ran += rec["action"] != "kept"
+            self.failed += rec["status"] != "completed"
+        if self._progress is not None:
+            self._progress.update(self._task, completed=self.done, state=self.state())
+
+    def close(self) -> None:
+        if self._progress is not None:
+            self._progress.stop()
+            self._progress = None
+
+
+def _load(scenario_ref, overrides, preset, resume):
+    if resume:
+        if scenario_ref is not None:
+            raise ErosimError("Give either a scenario or --resume DIR, not both; --resume reads DIR/scenario.toml.")
+        folder = Path(resume)
+        if not (folder / PLAN_FILE).is_file():
+            raise ErosimError(f"Cannot resume '{folder}' as a tiled build: it has no {PLAN_FILE}.")
+        return loader.load(folder / "scenario.toml", list(overrides)), folder
+    if scenario_ref is None:
+        raise ErosimError("Name a scenario (see `erosim list`) or a TOML file, or pass --resume DIR.")
+    return loader.load(scenario_ref, list(overrides), preset), None
+
+
+def _open_folder(scenario, out, overwrite: bool) -> tuple[Path, bool]:
+    folder = Path(out) if out else default_out(scenario.name)
+    if folder.exists() and not folder.is_dir():
+        raise ConfigError(f"'{folder}' is a file, not a folder; name a folder for the build (--out DIR).")
+    created = not folder.exists()
+    if folder.exists() and any(folder.iterdir()):
+        if not overwrite:
+            raise ConfigError(
+                f"Output folder '{folder}' already exists and is not empty; choose another --out, add --overwrite, "
+                f"or continue a tiled build with `erosim run --resume {folder}`."
+            )
+        for name in OUTPUTS:
+            target = folder / name
+            if target.is_dir():
+                shutil.rmtree(target)
+            elif target.exists():
+                target.unlink()
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder, created
+
+
+def _round_dir(folder: Path, k: int) -> Path:
+    return folder / "tiles" if k == 1 else folder / "tiles" / f"round{k}"
+
+
+def run_tiled(
+    scenario_ref: str | None,
+    overrides: list[str] = (),  # type: ignore[assignment]
+    preset: str | None = None,
+    out: str | None = None,
+    resume: str | None = None,
+    overwrite: bool = False,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: bool = True,
+    client: Any = None,
+    member_function=run_member,
+    timeout_s: float = 10.0,
+) -> tuple[Path, dict[str, Any]]:
+    """Run a tiled build (see the module docstring); returns (folder, summary). ``client``: a
+    ``distributed.Client`` to use instead of connecting (tests share one)."""
+    t0 = time.perf_counter()
+    scenario, folder = _load(scenario_ref, overrides, preset, resume)
+    if not tiled(scenario):
+        raise ConfigError("This scenario does not ask for tiles; set tiles.size (or --tile N) for a tiled build.")
+    cfg = scenario.config
+    dem = Path(cfg.terrain.file).resolve()
+    header = geotiff_header(dem, cfg.terrain.cell_size)  # bad input: one sentence, nothing written yet
+    shape = tuple(header["shape"])
+    tiles = plan(shape, cfg.tiles.size, cfg.tiles.overlap)
+    shares = cycles_per_round(cfg.run.cycles, cfg.tiles.rounds)
+    n_workers, threads = plan_threads(scheduler, workers, None, len(tiles))
+    if client is not None:
+        n_workers = len(client.scheduler_info().get("workers", {})) or n_workers
+    doc = {
+        "dem": str(dem), "shape": list(shape), "cell_size_m": header["cell_size"], "crs": header["crs"],
+        "transform": header["transform"], "size": cfg.tiles.size, "overlap": cfg.tiles.overlap,
+        "rounds": cfg.tiles.rounds, "cycles_per_round": shares, "tiles": [t.as_dict() for t in tiles],
+    }  # fmt: skip
+    created = False
+    if folder is None:
+        folder, created = _open_folder(scenario, out, overwrite)
+        terrain = cfg.terrain.model_copy(update={"file": str(dem)})
+        scenario.config = cfg.model_copy(update={"terrain": terrain})
+        write_text(folder / "scenario.toml", scenario.to_toml())
+        write_json(folder / PLAN_FILE, doc)
+    elif json.loads((folder / PLAN_FILE).read_text(encoding="utf-8"))["tiles"] != json.loads(json.dumps(doc["tiles"])):
+        raise ConfigError(f"'{folder}' holds another tiled build (another plan); start it afresh with --overwrite.")
+    if progress:
+        print(
+            f"tiled build: {shape[0]} × {shape[1]} cells in {len(tiles)} tiles of ≤ {cfg.tiles.size} cells + "
+            f"{cfg.tiles.overlap} halo, {cfg.tiles.rounds} round(s), "
+            f"{'scheduler ' + scheduler if scheduler else f'{n_workers} local workers'} → {folder}",
+            file=sys.stderr, flush=True,
+        )  # fmt: skip
+    base = str((folder / "scenario.toml").resolve())
+    bar = TileProgress(len(tiles) * len(shares), max(1, n_workers), progress)
+    rounds: list[dict[str, Any]] = []
+    try:
+        context = dask_executor.connect(scheduler, n_workers, timeout_s) if client is None else _given(client)
+        with context as cl:
+            for k, cycles in enumerate(shares, start=1):
+                rdir = _round_dir(folder, k)
+                source = dem
+                if k > 1:
+                    source = rdir / "start_height.tif"
+                    if not source.is_file():
+                        prev = _round_dir(folder, k - 1)
+                        rasters.write_by_cores(
+                            tiles, rasters.grid_profile(dem), source,
+                            lambda t, prev=prev: blend(tiles, cfg.tiles.overlap, _map(prev, "height"), t), cog=False,
+                        )  # fmt: skip
+                tasks, records = [], {}
+                bar.update(round_text=f"round {k}/{len(shares)}")
+                for i, t in enumerate(tiles):
+                    tdir = (rdir / t.name).resolve()
+                    report = read_report(tdir)
+                    if report is not None and report.get("status") in FINISHED:
+                        records[i] = record(i, t.name, report, "kept")
+                        bar.update(records[i])
+                        continue
+                    if not (tdir / "input.tif").is_file():
+                        rasters.cut(source, t, tdir / "input.tif", header["cell_size"])
+                    sets = (f"terrain.file={json.dumps(str(tdir / 'input.tif'))}",
+                            f"terrain.cell_size={header['cell_size']!r}", "tiles.size=0", f"run.cycles={cycles}",
+                            "run.frames=0")  # fmt: skip
+                    tasks.append(MemberTask(i, t.name, str(tdir), base, sets, threads))
+                if tasks:
+                    for rec in dask_executor.run_tasks(cl, tasks, on_done=bar.update, member_function=member_function):
+                        records[rec["index"]] = rec
+                ordered = [records[i] for i in range(len(tiles))]
+                rounds.append({"round": k, "cycles": cycles, "tiles": ordered})
+                unfinished = [r for r in ordered if r["status"] not in ("completed",)]
+                if unfinished:
+                    break
+    except KeyboardInterrupt:
+        raise Interrupted(
+            f"Tiled build interrupted; finished tiles are kept and running ones wrote checkpoints — continue with "
+            f"`erosim run --resume {folder}`."
+        ) from None
+    except BaseException:
+        if created and not any((folder / "tiles").glob("**/report.json")):
+            shutil.rmtree(folder, ignore_errors=True)  # stopped before any tile ran: nothing to keep
+        raise
+    finally:
+        bar.close()
+    summary: dict[str, Any] = {
+        "tiles": len(tiles), "rounds": len(shares), "workers": n_workers or "remote", "threads_per_tile": threads,
+    }  # fmt: skip
+    report: dict[str, Any] = {"plan": doc, "rounds": rounds}
+    if unfinished:
+        interrupted = all(r["status"] == "interrupted" for r in unfinished)
+        report.update(status="interrupted" if interrupted else "failed", wall_time_s=time.perf_counter() - t0)
+        write_json(folder / "report.json", report)
+        names = ", ".join(f"{r['member']} ({r['status']}{': ' + r['message'] if r['message'] else ''})"
+                          for r in unfinished[:4])  # fmt: skip
+        cls = Interrupted if interrupted else ErosimError
+        raise cls(f"Tiles not finished: {names}; the others are kept — continue with `erosim run --resume {folder}`.")
+    last = _round_dir(folder, len(shares))
+    outputs = _mosaic(folder, dem, tiles, cfg.tiles.overlap, last)
+    figures = seams.figures(folder / "maps" / "height.tif", folder / "maps" / "stream.tif", tiles, shape)
+    report.update(status="completed", outputs=outputs, seams=figures, wall_time_s=round(time.perf_counter() - t0, 2))
+    write_json(folder / "report.json", report)
+    ran = sum(r["action"] != "kept" for rd in rounds for r in rd["tiles"])
+    summary.update(
+        ran_now=ran, seam_jump_max_m=figures["border_jump_max_m"], inside_p999_m=figures["inside_p999_m"],
+        river_continuity=figures["river_continuity"], wall_s=report["wall_time_s"],
+    )  # fmt: skip
+    return folder, summary
+
+
+class _given:
+    """A context manager that yields an existing client and leaves it open."""
+
+    def __init__(self, client):
+        self.client = client
+
+    def __enter__(self):
+        return self.client
+
+    def __exit__(self, *exc):
+        return False
+
+
+def _map(rdir: Path, name: str):
+    return lambda t: rdir / t.name / "maps" / f"{name}.tif"
+
+
+def _mosaic(folder: Path, dem: Path, tiles: list[Tile], overlap: int, last: Path) -> list[str]:
+    """One COG per map of the tiles' runs in ``<out>/maps/``: blended from the last round, the initial
+    height from round 1, erosion and deposition from those two (max(z₀ − z, 0), max(z − z₀, 0))."""
+    grid = rasters.grid_profile(dem)
+    names = sorted(p.stem for p in (last / tiles[0].name / "maps").glob("*.tif"))
+    maps = folder / "maps"
+    derived = {"erosion", "deposition"} & set(names)
+    for name in names:
+        if name in derived:
+            continue
+        rdir = _round_dir(folder, 1) if name == "height_initial" else last
+        path_of = _map(rdir, name)
+        rasters.write_by_cores(tiles, grid, maps / f"{name}.tif", lambda t, f=path_of: blend(tiles, overlap, f, t))
+    for name in sorted(derived):
+        sign = 1.0 if name == "erosion" else -1.0
+
+        def change(t, sign=sign):
+            z0 = rasters.read_window(maps / "height_initial.tif", t.core)
+            z = rasters.read_window(maps / "height.tif", t.core)
+            return np.maximum(sign * (z0 - z), 0.0)
+
+        rasters.write_by_cores(tiles, grid, maps / f"{name}.tif", change)
+    return [f"maps/{n}.tif" for n in names]
