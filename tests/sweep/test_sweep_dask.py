@@ -102,11 +102,8 @@ def _sweep_command(out):
     ]
 
 
-@pytest.mark.parametrize(
-    "how",
-    [signal.SIGINT, pytest.param(signal.SIGKILL, marks=pytest.mark.slow)],  # killed: about 40 s more
-    ids=["ctrl-c", "killed"],
-)
+@pytest.mark.slow  # an uninterrupted sweep, a stopped one and its resume: about 40 s each
+@pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGKILL], ids=["ctrl-c", "killed"])
 def test_resume_after_stopping_mid_way(tmp_path, how):
     """Stop a sweep while its second member runs; the resumed sweep keeps the first, resumes (Ctrl-C) or
     reruns (killed) the second, and its maps equal an uninterrupted sweep's."""
