@@ -1,9 +1,10 @@
 """The flood's margins before and after a change: two run folders of `erosim run flood`, their figures
 and a picture of both hazard maps cropped to the flood.
 
-    PYTHONPATH=/work/main/src .venv/bin/erosim run flood --set flood.spacing=5 --out /tmp/tw-before
-    PYTHONPATH=src .venv/bin/erosim run flood --set flood.spacing=5 --out /tmp/tw-after
-    .venv/bin/python benchmarks/flood_margins.py /tmp/tw-before /tmp/tw-after \
+    git worktree add ../before REV     # the code before the change
+    PYTHONPATH=../before/src .venv/bin/erosim run flood --set flood.spacing=5 --out runs/flood-before
+    .venv/bin/erosim run flood --set flood.spacing=5 --out runs/flood-after
+    .venv/bin/python benchmarks/flood_margins.py runs/flood-before runs/flood-after \
         --png docs/images/before_after/flood_margins.png
 
 Printed per folder (JSON): the shallowest wet cell of maps/max_depth.tif, the shares of the flooded
