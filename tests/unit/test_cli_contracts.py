@@ -68,6 +68,12 @@ def test_bench_sph_terrain_json_keys(cli_runner):
     assert out["boundary_particles"]["terrain"] == 0 and 0.0 < out["coupling_fraction"] < 1.0
 
 
+def test_bench_stream_json_keys(cli_runner):
+    out = _json(cli_runner.invoke(cli, ["bench", "stream", "--particles", "200", "--json"]))
+    assert {"updates_per_s", "device", "threads", "runs"} <= out.keys()
+    assert out["device"] == "cpu" and out["updates_per_s"] == out["runs"][-1]["updates_per_s"] > 0
+
+
 def test_bench_hydrology_json_keys(cli_runner):
     out = _json(cli_runner.invoke(cli, ["bench", "hydrology", "--size", "32", "--droplets", "50", "--json"]))
     assert {"size", "droplets_per_s", "steps_per_s", "flood_fraction", "device", "threads"} <= out.keys()
@@ -348,6 +354,17 @@ def test_convert_says_true_things_of_the_crs(cli_runner, tmp_path):
     assert "georeferenced" not in result.output and "none in the source" in result.output
 
 
+def _small_hydrology_run(cli_runner, tmp_path):
+    """(folder, report) of a 32² hydrology run of two cycles, which must complete."""
+    out = tmp_path / "o"
+    args = ["--quiet", "run", "hydrology", "--set", "terrain.size=32", "--set", "run.cycles=2", "--set", "run.frames=0"]
+    result = cli_runner.invoke(cli, [*args, "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["status"] == "completed"
+    return out, rep
+
+
 def test_a_picture_that_fails_is_a_warning_not_a_lost_run(cli_runner, tmp_path, monkeypatch):
     """A figure that raises at the end of a run: the maps and report.json are written, the failure is
     one warning in the report."""
@@ -357,12 +374,8 @@ def test_a_picture_that_fails_is_a_warning_not_a_lost_run(cli_runner, tmp_path, 
         raise ZeroDivisionError("float division by zero")
 
     monkeypatch.setattr(plots, "hillshade_figure", broken)
-    out = tmp_path / "o"
-    args = ["--quiet", "run", "hydrology", "--set", "terrain.size=32", "--set", "run.cycles=2", "--set", "run.frames=0"]
-    result = cli_runner.invoke(cli, [*args, "--out", str(out)])
-    assert result.exit_code == 0, result.output
-    rep = json.loads((out / "report.json").read_text())
-    assert rep["status"] == "completed" and (out / "maps" / "height.tif").is_file()
+    out, rep = _small_hydrology_run(cli_runner, tmp_path)
+    assert (out / "maps" / "height.tif").is_file()
     assert any("figures" in w and "ZeroDivisionError" in w for w in rep["warnings"])
 
 
@@ -375,12 +388,7 @@ def test_a_final_output_that_fails_is_a_warning_in_the_report(cli_runner, tmp_pa
         raise ValueError("cannot draw")
 
     monkeypatch.setattr(builders_hydrology, "write_outputs", broken)
-    out = tmp_path / "o"
-    args = ["--quiet", "run", "hydrology", "--set", "terrain.size=32", "--set", "run.cycles=2", "--set", "run.frames=0"]
-    result = cli_runner.invoke(cli, [*args, "--out", str(out)])
-    assert result.exit_code == 0, result.output
-    rep = json.loads((out / "report.json").read_text())
-    assert rep["status"] == "completed"
+    _, rep = _small_hydrology_run(cli_runner, tmp_path)
     assert any("final output 'outputs' failed (ValueError: cannot draw)" in w for w in rep["warnings"])
 
 

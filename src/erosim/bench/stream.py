@@ -110,7 +110,9 @@ def run(particles: list[int], impacts_per_particle: int = STEPS) -> dict:
         "emitters": EMITTERS,
         "pool_per_emitter": POOL,
         "threads": 1,
+        "device": "cpu",
         "runs": runs,
+        "updates_per_s": runs[-1]["updates_per_s"] if runs else None,  # the largest particle count's
         "us_per_particle_spread": spread,
         "us_per_particle_cpu_spread": spread_cpu,
         # needs two counts or more to say anything
