@@ -32,34 +32,44 @@ from erosim.sweep.plan import BASE_FILE, PLAN_FILE, Plan, build
 OUTPUTS = ("members", "sweep.csv", "sweep.nc", "figures", "report.json", PLAN_FILE, BASE_FILE)
 
 
-class SweepProgress:
-    """``members 3/8 · running 2 · failed 0 · ETA 40 s`` on the console (rich; silent when disabled)."""
+class MemberProgress:
+    """``<label> 3/8 · <note> · running 2 · failed 0 · ETA 40 s`` on the console (rich; silent when disabled):
+    the members of a sweep, the tiles of a tiled build. ``done`` members were finished before it started; the
+    ETA counts the members run since (a kept one costs nothing)."""
 
-    def __init__(self, total: int, done: int, slots: int, enabled: bool):
-        self.total, self.done, self.failed, self.slots = total, done, 0, slots
-        self.started, self.done0 = time.perf_counter(), done
+    def __init__(self, label: str, total: int, done: int, slots: int, enabled: bool, note: str = ""):
+        self.total, self.done, self.failed, self.slots, self.note = total, done, 0, slots, note
+        self.started, self.ran = time.perf_counter(), 0
         self._progress = None
         if enabled:
             from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
             self._progress = Progress(
-                TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[state]}")
+                TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[state]}")
             )
-            self._task = self._progress.add_task("sweep", total=total, completed=done, state=self.state())
+            self._task = self._progress.add_task(label, total=total, completed=done, state=self.state())
             self._progress.start()
 
     def state(self) -> str:
         running = min(self.slots, self.total - self.done)
-        text = f"members · running {running} · failed {self.failed}"
-        ran = self.done - self.done0
-        if 0 < ran < self.total - self.done0:
-            left = (time.perf_counter() - self.started) / ran * (self.total - self.done)
-            text += f" · ETA {left:,.0f} s"
+        text = f"running {running} · failed {self.failed}"
+        if self.note:
+            text = f"{self.note} · {text}"
+        if 0 < self.ran and self.done < self.total:
+            text += f" · ETA {(time.perf_counter() - self.started) / self.ran * (self.total - self.done):,.0f} s"
         return text
+
+    def set_note(self, note: str) -> None:
+        self.note = note
+        self._show()
 
     def member_done(self, record: dict[str, Any]) -> None:
         self.done += 1
-        self.failed += record["status"] not in ("completed",)
+        self.ran += record.get("action") != "kept"
+        self.failed += record["status"] != "completed"
+        self._show()
+
+    def _show(self) -> None:
         if self._progress is not None:
             self._progress.update(self._task, completed=self.done, state=self.state())
 
@@ -169,7 +179,7 @@ def run_sweep(
             f"thread(s) each → {folder}",
             file=sys.stderr, flush=True,
         )  # fmt: skip
-    bar = SweepProgress(len(plan.members), len(records), max(1, n_workers), progress)
+    bar = MemberProgress("sweep", len(plan.members), len(records), max(1, n_workers), progress, note="members")
     try:
         if tasks:
             with dask_executor.connect(scheduler, n_workers, timeout_s) as client:

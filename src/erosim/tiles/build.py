@@ -43,7 +43,7 @@ from erosim.io.runfolder import default_out
 from erosim.scenarios import loader
 from erosim.sweep import dask_executor
 from erosim.sweep.member import FINISHED, MemberTask, read_report, record, run_member
-from erosim.sweep.runner import plan_threads
+from erosim.sweep.runner import MemberProgress, plan_threads
 from erosim.tiles import rasters, seams
 from erosim.tiles.plan import Tile, cycles_per_round, plan
 from erosim.tiles.rasters import blend
@@ -55,44 +55,6 @@ OUTPUTS = ("tiles", "maps", "report.json", PLAN_FILE, "scenario.toml")
 def tiled(scenario) -> bool:
     """Whether a loaded scenario asks for a tiled build."""
     return scenario.kind == "hydrology" and scenario.config.tiles.size > 0
-
-
-class TileProgress:
-    """``tiles 3/8 · round 1/2 · running 2 · failed 0 · ETA 40 s`` (rich; silent when disabled)."""
-
-    def __init__(self, total: int, slots: int, enabled: bool):
-        self.total, self.slots, self.done, self.failed, self.round = total, slots, 0, 0, ""
-        self.started, self.ran = time.perf_counter(), 0
-        self._progress = None
-        if enabled:
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-
-            self._progress = Progress(
-                TextColumn("[bold]tiles"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[state]}")
-            )
-            self._task = self._progress.add_task("tiles", total=total, completed=0, state=self.state())
-            self._progress.start()
-
-    def state(self) -> str:
-        text = f"{self.round} · running {min(self.slots, self.total - self.done)} · failed {self.failed}"
-        if 0 < self.ran and self.done < self.total:
-            text += f" · ETA {(time.perf_counter() - self.started) / self.ran * (self.total - self.done):,.0f} s"
-        return text
-
-    def update(self, rec: dict[str, Any] | None = None, round_text: str | None = None) -> None:
-        if round_text is not None:
-            self.round = round_text
-        if rec is not None:
-            self.done += 1
-            self.ran += rec["action"] != "kept"
-            self.failed += rec["status"] != "completed"
-        if self._progress is not None:
-            self._progress.update(self._task, completed=self.done, state=self.state())
-
-    def close(self) -> None:
-        if self._progress is not None:
-            self._progress.stop()
-            self._progress = None
 
 
 def _load(scenario_ref, overrides, preset, resume):
@@ -185,7 +147,7 @@ def run_tiled(
             file=sys.stderr, flush=True,
         )  # fmt: skip
     base = str((folder / "scenario.toml").resolve())
-    bar = TileProgress(len(tiles) * len(shares), max(1, n_workers), progress)
+    bar = MemberProgress("tiles", len(tiles) * len(shares), 0, max(1, n_workers), progress)
     rounds: list[dict[str, Any]] = []
     try:
         context = dask_executor.connect(scheduler, n_workers, timeout_s) if client is None else _given(client)
@@ -202,13 +164,13 @@ def run_tiled(
                             lambda t, prev=prev: blend(tiles, cfg.tiles.overlap, _map(prev, "height"), t), cog=False,
                         )  # fmt: skip
                 tasks, records = [], {}
-                bar.update(round_text=f"round {k}/{len(shares)}")
+                bar.set_note(f"round {k}/{len(shares)}")
                 for i, t in enumerate(tiles):
                     tdir = (rdir / t.name).resolve()
                     report = read_report(tdir)
                     if report is not None and report.get("status") in FINISHED:
                         records[i] = record(i, t.name, report, "kept")
-                        bar.update(records[i])
+                        bar.member_done(records[i])
                         continue
                     if not (tdir / "input.tif").is_file():
                         rasters.cut(source, t, tdir / "input.tif", header["cell_size"])
@@ -217,7 +179,8 @@ def run_tiled(
                             "run.frames=0")  # fmt: skip
                     tasks.append(MemberTask(i, t.name, str(tdir), base, sets, threads))
                 if tasks:
-                    for rec in dask_executor.run_tasks(cl, tasks, on_done=bar.update, member_function=member_function):
+                    done = dask_executor.run_tasks(cl, tasks, on_done=bar.member_done, member_function=member_function)
+                    for rec in done:
                         records[rec["index"]] = rec
                 ordered = [records[i] for i in range(len(tiles))]
                 rounds.append({"round": k, "cycles": cycles, "tiles": ordered})
