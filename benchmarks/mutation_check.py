@@ -160,10 +160,24 @@ MUTATIONS = (
     ),
     Mutation(
         "coupler-applies-twice",
-        "coupling/coupler.py",
-        (("new = self.terrain + inc.dz", "new = self.terrain + 2.0 * inc.dz"),),
+        "coupling/terrains.py",
+        (("self.z[...] = self.z + dz", "self.z[...] = self.z + 2.0 * dz"),),
         ("tests/unit/test_coupling.py",),
         "the coupler applies each increment twice",
+    ),
+    Mutation(
+        "voxel-coupler-applies-twice",
+        "coupling/terrains.py",
+        (("f.density += dd  #", "f.density += 2.0 * dd  #"),),
+        ("tests/unit/test_voxel_coupler.py",),
+        "the coupler applies each density increment of a voxel field twice",
+    ),
+    Mutation(
+        "coupler-drops-particle-loads",
+        "coupling/coupler.py",
+        (("getattr(s.state, field)[: len(values)] = values", "pass"),),
+        ("tests/unit/test_coupling.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
+        "the particles' new sediment loads in an increment are never written: picked-up sediment vanishes",
     ),
     Mutation(
         "capacity-slope-clamp-off",
@@ -301,7 +315,7 @@ MUTATIONS = (
     ),  # fmt: skip
     Mutation(
         "schedule-fires-every-call",
-        "simulation/schedules.py",
+        "core/schedules.py",
         (
             (
                 "if self.interval <= 0 or t < self.next_at - 1e-12 * max(1.0, abs(self.next_at)):",
@@ -342,7 +356,7 @@ MUTATIONS = (
     Mutation(
         "animation-not-checkpointed",
         "simulation/callbacks.py",
-        (('        return {"frames": np.stack(self.frames)} if self.frames else {}\n', "        return {}\n"),),
+        (('out: dict[str, Any] = {"frames": np.stack(self.frames)} if self.frames else {}', "out: dict[str, Any] = {}"),),
         ("tests/scenarios/test_interrupt_resume.py",),
         "a resumed run's animation starts at the resume",
     ),
@@ -596,7 +610,7 @@ def _tests_folder(rev: str | None, work: Path) -> Path:
 
 
 #: pytest's marker selections, run in turn: the default run's tests, then the slow tier's
-TIERS = ("not slow and not cuda and not browser", "slow and not cuda and not browser")
+TIERS = ("not slow and not cuda and not browser and not regression", "slow and not cuda and not browser")
 
 
 def run_one(m: Mutation, tests_root: Path, work: Path) -> dict:

@@ -15,9 +15,10 @@ import numpy as np
 
 from erosim.bench.sph import dam_break_geometry, timed_steps
 from erosim.bench.voxel import eroder_at_zero_threshold, tank_solver
-from erosim.coupling.voxel_coupler import VoxelCoupler
+from erosim.core.schedules import IterationInterval
+from erosim.coupling.coupler import Coupler
+from erosim.coupling.terrains import VoxelFieldTerrain
 from erosim.erosion.shear_stress_kristof2009 import shear_sums
-from erosim.simulation.schedules import IterationInterval
 
 
 def main(sediment: str, particles: int = 20000, steps: int = 500, every: int = 50) -> None:
@@ -25,7 +26,8 @@ def main(sediment: str, particles: int = 20000, steps: int = 500, every: int = 5
     fluid, lo, hi = dam_break_geometry(particles, 3, dx)
     solver, terrain = tank_solver(fluid, lo, hi, dx)
     eroder = eroder_at_zero_threshold(terrain, solver, dx, sediment=sediment)
-    timed_steps(solver.step, steps, every, VoxelCoupler(IterationInterval(every), solver, eroder, terrain))
+    timed_steps(solver.step, steps, every, Coupler(IterationInterval(every), solver, eroder,
+                                                             VoxelFieldTerrain(terrain)))
     law = getattr(eroder, "eroder", eroder)  # the shear-stress law under the settling wrapper
     pos = np.ascontiguousarray(solver.fluid_positions())
     vel = np.ascontiguousarray(solver.fluid_velocities())

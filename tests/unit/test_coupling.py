@@ -8,13 +8,14 @@ import pytest
 
 from erosim.core.errors import BudgetError, ConfigError, Interrupted
 from erosim.core.increments import Increment, check_budget
+from erosim.core.schedules import IterationInterval
 from erosim.coupling.binning import FluidGrid
 from erosim.coupling.coupler import Coupler
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
+from erosim.coupling.terrains import HeightfieldTerrain
 from erosim.io.runfolder import RunFolder
 from erosim.simulation.callbacks import BudgetCheck
-from erosim.simulation.schedules import IterationInterval
 from erosim.simulation.simulation import Simulation
 from erosim.sph.params import SPHParams
 from erosim.sph.solver import SPHSolver
@@ -142,7 +143,7 @@ def _flume(tmp_path, name, eroder, resume=False, stop=0.03, interrupt_at=None):
 
         solver.step = step
     raster = Raster(x0=0.5 * dx, y0=0.0, dx=dx, dy=1.0, nx=50)
-    coupler = Coupler(IterationInterval(10), solver, eroder, raster, np.zeros(raster.shape))
+    coupler = Coupler(IterationInterval(10), solver, eroder, HeightfieldTerrain(raster, np.zeros(raster.shape), 2))
     sim = Simulation([solver], out=RunFolder(tmp_path / name, resume=resume), stop_time=stop, callbacks=[coupler],
                      kind="test", progress=False)  # fmt: skip
     return sim, coupler
@@ -164,8 +165,9 @@ def test_coupler_applies_increments_once_every_n_steps_and_budget_closes(tmp_pat
     # each call saw the terrain with every earlier increment applied exactly once
     for (_, before, dz), (_, after, _) in zip(seen, seen[1:], strict=False):
         assert np.array_equal(after, before + dz)
-    assert np.array_equal(coupler.terrain, seen[-1][1] + seen[-1][2]) and coupler.terrain.min() < 0
-    b = coupler.sediment_budget()
+    z = coupler.terrain.z
+    assert np.array_equal(z, seen[-1][1] + seen[-1][2]) and z.min() < 0
+    b = coupler.budget()
     assert b["eroded"] > 0 and b["closure_rel"] < 1e-12
     assert b["terrain_change"] == pytest.approx(-b["suspended"], rel=1e-12)
     assert b["suspended"] == pytest.approx(coupler.eroder.held, rel=1e-12)
@@ -185,8 +187,9 @@ def test_coupler_refuses_a_broken_budget_missing_fields_and_bedrock(tmp_path):
     solver = SPHSolver(SPHParams(dim=2, spacing=0.01), [[0.05, 0.05]], domain_lo=[0, 0], domain_hi=[0.2, 0.2])
     r = Raster(0.0, 0.0, 0.01, 1.0, 20)
     with pytest.raises(ConfigError, match="needs hardness"):
-        Coupler(IterationInterval(1), solver, NeedsHardness(), r, np.zeros(r.shape))
-    c = Coupler(IterationInterval(1), solver, DepthEroder(k=1e9), r, np.zeros(r.shape), bedrock=np.zeros(r.shape))
+        Coupler(IterationInterval(1), solver, NeedsHardness(), HeightfieldTerrain(r, np.zeros(r.shape), 2))
+    rock = HeightfieldTerrain(r, np.zeros(r.shape), 2, bedrock=np.zeros(r.shape))
+    c = Coupler(IterationInterval(1), solver, DepthEroder(k=1e9), rock)
     with pytest.raises(BudgetError, match="bedrock"):
         solver.step()
         c()
@@ -201,9 +204,45 @@ def test_coupled_run_resumes_bit_identical(tmp_path):
     again, ca = _flume(tmp_path, "cut", DepthEroder(), resume=True)
     again.restore()
     again.run()
-    assert np.array_equal(ca.terrain, cw.terrain) and ca.eroder.held == cw.eroder.held
+    assert np.array_equal(ca.terrain.z, cw.terrain.z) and ca.eroder.held == cw.eroder.held
     assert np.array_equal(again.models[0].fluid_positions(), whole.models[0].fluid_positions())
-    assert np.array_equal(ca.grid.max_depth, cw.grid.max_depth)
+    assert np.array_equal(ca.terrain.grid.max_depth, cw.terrain.grid.max_depth)
+
+
+class LoadingEroder(DepthEroder):
+    """The toy, with what it lowers carried by the particles: the new loads travel in the increment."""
+
+    def increments(self, terrain, grid, dt):
+        inc = super().increments(terrain, grid, dt)
+        st = self.solver.state
+        loads = st.sediment[: st.n_fluid] + inc.suspended / st.n_fluid  # an equal share each
+        return Increment(inc.dz, suspended=inc.suspended, particles={"sediment": loads})
+
+
+def test_coupler_writes_the_particle_loads_an_increment_carries(tmp_path):
+    """Known answer: the particles hold exactly what the terrain lost (Σ s_j = −Σ Δz A), and a refused
+    increment writes neither the terrain nor the particles."""
+    eroder = LoadingEroder()
+    sim, coupler = _flume(tmp_path, "loads", eroder)
+    eroder.solver = coupler.solver
+    coupler.solver.state.register("sediment")
+    sim.run()
+    st = coupler.solver.state
+    lost = -float(coupler.terrain.z.sum() * coupler.terrain.raster.cell_area)
+    assert lost > 0 and float(st.sediment[: st.n_fluid].sum()) == pytest.approx(lost, rel=1e-12)
+
+    class Broken(LoadingEroder):
+        def increments(self, terrain, grid, dt):
+            inc = super().increments(terrain, grid, dt)
+            return Increment(inc.dz, suspended=0.0, particles=inc.particles)
+
+    bad = Broken()
+    sim, coupler = _flume(tmp_path, "broken", bad)
+    bad.solver = coupler.solver
+    coupler.solver.state.register("sediment")
+    with pytest.raises(BudgetError):
+        sim.run()
+    assert not coupler.solver.state.sediment.any() and not coupler.terrain.z.any()
 
 
 def test_budget_check_stops_a_model_whose_bookkeeping_is_wrong(tmp_path):

@@ -97,7 +97,7 @@ def test_the_non_erodible_base_and_the_budget():
                            support=0.04, spacing=0.02)  # fmt: skip
     total = 0.0
     for _ in range(20):
-        inc = e.increments(pos, vel, 0.5)
+        inc = e.transfer(pos, vel, 0.5)
         check_budget(inc, terrain.shape, terrain.volume_per_unit, "excess shear")
         total += inc.carried_off
     assert total > 0
@@ -123,7 +123,7 @@ def test_the_surface_retreats_at_the_erosion_rate(angle, cell, dx):
     for _ in range(100):
         below = retreat.mean() / math.cos(math.radians(angle))  # the bed's vertical drop so far
         pos, vel, _ = _log_layers(normal, along, dx, half=0.1, centre=(0.5, 0.5, 0.3 - below))
-        terrain.density += e.increments(pos, vel, 0.5).dz.astype(np.float32)
+        terrain.density += e.transfer(pos, vel, 0.5).dz.astype(np.float32)
         z = bed0 - below + 0.005
         l, n = terrain.distance(np.column_stack([xy, z]))
         retreat = (bed0 - (z - l / n[:, 2])) * math.cos(math.radians(angle))

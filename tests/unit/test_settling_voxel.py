@@ -68,16 +68,20 @@ def test_a_load_at_rest_settles_at_ws_over_its_height_onto_the_ground_under_it(f
     before = terrain.density.astype(np.float64).copy()
     dt = 0.5
     st.vel[:n] = 0.0
-    inc = sus.step(solver, dt)
+    loads = st.sediment[:n].copy()
+    inc = sus.increments(terrain, solver, dt)
+    np.testing.assert_array_equal(st.sediment[:n], loads)  # the caller writes the particles' new loads
+    new = inc.particles["sediment"]
     kept = 1e-6 * math.exp(-0.02 * dt / max(l[low], sus.l_min))
-    assert st.sediment[low] == pytest.approx(kept, rel=1e-12) and st.sediment[high] == 1e-6
+    assert new[low] == pytest.approx(kept, rel=1e-12) and new[high] == 1e-6
     vpu = terrain.volume_per_unit
     gained = float(np.sum(inc.dz) * vpu) + float(sus.bound.sum() * vpu)
     assert gained == pytest.approx(1e-6 - kept, rel=1e-9)
     assert np.count_nonzero(np.asarray(inc.dz) + sus.bound) == 1  # one node, under the particle
     terms = check_budget(inc, terrain.shape, vpu, "suspended sediment")
     assert terms["carried_off"] == 0.0 and terms["eroded"] == 0.0
-    assert sus.held() + float(sus.bound.sum() * vpu) == pytest.approx(2e-6 - float(np.sum(inc.dz) * vpu), rel=1e-12)
+    held = float(new.sum()) + float(sus.bound.sum() * vpu)
+    assert held == pytest.approx(2e-6 - float(np.sum(inc.dz) * vpu), rel=1e-12)
     np.testing.assert_array_equal(terrain.density, before.astype(np.float32))  # the caller applies the increment
 
 

@@ -10,11 +10,11 @@ import time
 import numpy as np
 import pytest
 
+from erosim.core.callbacks import Callback
 from erosim.core.errors import InstabilityError, Interrupted
+from erosim.core.schedules import IterationInterval, Schedule, TimeInterval, WallTimeInterval
 from erosim.io import checkpoint
 from erosim.io.runfolder import RunFolder
-from erosim.simulation.callbacks import Callback
-from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval, WallTimeInterval
 from erosim.simulation.simulation import Simulation
 
 

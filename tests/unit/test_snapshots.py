@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from erosim.core.schedules import IterationInterval
 from erosim.simulation import callbacks
-from erosim.simulation.schedules import IterationInterval
 from erosim.viz import plots
 
 

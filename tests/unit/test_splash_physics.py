@@ -189,8 +189,8 @@ def test_mud_settles_only_on_the_terrain_and_keeps_its_volume():
 
 
 def test_water_over_nodata_leaves_and_is_counted():
+    from erosim.core.schedules import IterationInterval
     from erosim.coupling.sources import OutsideOutflow
-    from erosim.simulation.schedules import IterationInterval
     from erosim.sph.params import SPHParams
     from erosim.sph.solver import SPHSolver
 

@@ -52,7 +52,7 @@ def test_nothing_below_the_critical_stress():
     vel = np.array([[1.0, 0.0, 0.0]])
     none = ShearStressErosion(vt, ShearStressParams(tau_c=11.2, radius=0.02), support=H_SUPPORT)
     assert not none.rates(pos, vel, np.array([0.003])).any()
-    inc = none.increments(pos, vel, 10.0, np.array([0.003]))
+    inc = none.transfer(pos, vel, 10.0, np.array([0.003]))
     assert not inc.dz.any() and inc.carried_off == 0.0 and not none.pending.any()
     some = ShearStressErosion(vt, ShearStressParams(tau_c=11.1, radius=0.02), support=H_SUPPORT)
     assert some.rates(pos, vel, np.array([0.003])).max() == pytest.approx(math.sqrt(1 / 0.008) - 11.1)
@@ -79,7 +79,7 @@ def test_quantised_transfer_keeps_the_total():
     for call in range(400):
         # the rates of this call (the eroded field's gradient turns the wall normals, so they change)
         asked += e.rates(pos, vel, wl).sum() * p.k_eps * 1e-3 * vt.cell_size**3
-        inc = e.increments(pos, vel, 1e-3, wl)
+        inc = e.transfer(pos, vel, 1e-3, wl)
         check_budget(inc, vt.shape, vt.volume_per_unit, "shear stress")
         vt.density[...] = vt.density + inc.dz  # the caller's step (float64 sum, exact back in float32)
         if first is None and inc.carried_off > 0:
@@ -100,7 +100,7 @@ def test_non_erodible_base_and_empty_nodes():
     vel = np.array([[3.0, 0.0, 0.0]])
     p = ShearStressParams(k_eps=100.0, tau_c=0.0, radius=0.03, non_erodible_below=0.035)
     e = ShearStressErosion(vt, p, support=H_SUPPORT)
-    inc = e.increments(pos, vel, 1.0, np.array([0.0]))
+    inc = e.transfer(pos, vel, 1.0, np.array([0.0]))
     z = vt.axes()[2]
     below = z < 0.035
     assert not inc.dz[below].any() and inc.dz[~below].min() < 0
@@ -118,11 +118,11 @@ def test_state_dict_resumes_identically():
     p = ShearStressParams(k_eps=0.05, tau_c=2.0)
     a = ShearStressErosion(vt1, p, support=H_SUPPORT)
     for _ in range(3):
-        vt1.density += a.increments(pos, vel, 0.01).dz.astype(np.float32)
+        vt1.density += a.transfer(pos, vel, 0.01).dz.astype(np.float32)
     b = ShearStressErosion(vt2, p, support=H_SUPPORT)
     vt2.density[...] = vt1.density
     b.load_state_dict(a.state_dict())
-    assert np.array_equal(a.increments(pos, vel, 0.01).dz, b.increments(pos, vel, 0.01).dz)
+    assert np.array_equal(a.transfer(pos, vel, 0.01).dz, b.transfer(pos, vel, 0.01).dz)
 
 
 def test_water_scours_a_voxel_floor_through_the_wall_and_the_contract():
@@ -149,7 +149,7 @@ def test_water_scours_a_voxel_floor_through_the_wall_and_the_contract():
     while s.t < 0.1:
         s.step()
         if s.steps % e.params.every == 0:
-            inc = e.step(s, s.t - t_last)
+            inc = e.increments(e.terrain, s, s.t - t_last)
             t_last = s.t
             check_budget(inc, vt.shape, vt.volume_per_unit, "shear stress")
             vt.density[...] = vt.density + inc.dz

@@ -35,10 +35,11 @@ def run(particles: int = 100_000, steps: int | None = None, *, every: int = 20, 
     import numba
 
     from erosim.bench.sph import box_reference
+    from erosim.core.schedules import IterationInterval
     from erosim.coupling.coupler import Coupler
     from erosim.coupling.raster import Raster
+    from erosim.coupling.terrains import HeightfieldTerrain
     from erosim.erosion.transport_capacity_mei2007 import TransportCapacity, TransportCapacityParams
-    from erosim.simulation.schedules import IterationInterval
     from erosim.sph.boundaries.heightfield import HeightfieldGround
     from erosim.sph.boundaries.planes import PlaneWalls
     from erosim.sph.params import SPHParams
@@ -61,7 +62,8 @@ def run(particles: int = 100_000, steps: int | None = None, *, every: int = 20, 
     solver = SPHSolver(params, fluid, domain_lo=lo - 0.1, domain_hi=hi, boundaries=[HeightfieldGround(raster, terrain),
                        planes])  # fmt: skip
     eroder = TransportCapacity(TransportCapacityParams(), raster, solver)
-    coupler = Coupler(IterationInterval(every), solver, eroder, raster, terrain, near_bed=2.0 * solver.h)
+    coupler = Coupler(IterationInterval(every), solver, eroder,
+                      HeightfieldTerrain(raster, terrain, solver.dim, near_bed=2.0 * solver.h))
     for k in range(warmup):
         solver.step()
         if k % every == 0:
@@ -91,7 +93,7 @@ def run(particles: int = 100_000, steps: int | None = None, *, every: int = 20, 
         "heightfield_overhead": step_only / box_wall - 1.0,
         "boundary_particles": {"terrain": int(solver.n_boundary), "box": int(box.n_boundary)},
         "terrain_nodes": int(raster.nx * raster.ny),
-        "eroded_m3": coupler.sediment_budget()["eroded"],
+        "eroded_m3": coupler.budget()["eroded"],
         "rebuilds": int(solver.rebuilds - r0),
         "threads": int(numba.get_num_threads()),
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),

@@ -9,7 +9,7 @@ and then timed over the same ``steps``:
 * **voxel**: the tank as a voxel field (floor and four walls, 1 cm voxels, the wall-weight ramp) felt
   through :class:`~erosim.sph.boundaries.voxel_wall.VoxelWall` — no boundary particles;
 * **voxel + erosion**: the same with Krištof et al.'s shear-stress erosion of the field applied every
-  ``every`` steps (default 50) by the :class:`~erosim.coupling.voxel_coupler.VoxelCoupler` (τ_c = 0, so
+  ``every`` steps (default 50) by the :class:`~erosim.coupling.coupler.Coupler` (τ_c = 0, so
   every moving particle erodes: the erosion's largest cost); with ``sediment = "suspended"`` the ground
   removed is carried by the particles and settles (:mod:`erosim.erosion.settling_voxel`, w_s = 0.02 m/s);
   with ``law = "excess_shear"`` the law is :mod:`erosim.erosion.excess_shear_partheniades1965` (τ_c = 0:
@@ -76,8 +76,9 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
     import numba
 
     from erosim.bench.sph import box_reference, timed_steps
-    from erosim.coupling.voxel_coupler import VoxelCoupler
-    from erosim.simulation.schedules import IterationInterval
+    from erosim.core.schedules import IterationInterval
+    from erosim.coupling.coupler import Coupler
+    from erosim.coupling.terrains import VoxelFieldTerrain
 
     dx = 0.01
     fluid, lo, hi, box, steps, box_wall = box_reference(particles, dx, warmup=warmup, steps=steps,
@@ -88,7 +89,7 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
         coupler = None
         if erode:
             eroder = eroder_at_zero_threshold(terrain, solver, dx, law, sediment)
-            coupler = VoxelCoupler(IterationInterval(every), solver, eroder, terrain)
+            coupler = Coupler(IterationInterval(every), solver, eroder, VoxelFieldTerrain(terrain))
         timed_steps(solver.step, warmup, every, coupler)
         if coupler is not None:
             coupler()  # compiled and warm before the timing

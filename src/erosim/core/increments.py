@@ -18,7 +18,7 @@ through an :class:`IncrementView`: Δz since the last look.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,11 +27,14 @@ from erosim.core.errors import BudgetError
 
 @dataclass
 class Increment:
-    """Δz (m) per node, the change of sediment held in the water ΔS (m³), sediment carried off C (m³)."""
+    """Δz (m) per node, the change of sediment held in the water ΔS (m³), sediment carried off C (m³), and
+    ``particles``: the new values of per-particle fields of the fluid (name → the first n fluid
+    particles' values, in the state's order; the sediment each carries), which the caller writes with Δz."""
 
     dz: np.ndarray
     suspended: float = 0.0
     carried_off: float = 0.0
+    particles: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def check_budget(inc: Increment, shape: tuple[int, ...], cell_area: float, who: str, rtol: float = 1e-9) -> dict:

@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit
 
 from erosim.coupling.raster import Raster
+from erosim.kernels.raster import nearest_node
 
 
 @njit(cache=True)
@@ -44,11 +45,11 @@ def bin_particles(pos, vel, rho, n_fluid, m, x0, y0, inv_dx, inv_dy, nx, ny, inv
     bed_velocity[:] = 0.0
     outside = 0
     for i in range(n_fluid):
-        ix = int(math.floor((pos[i, 0] - x0) * inv_dx + 0.5))
-        iy = int(math.floor((pos[i, 1] - y0) * inv_dy + 0.5)) if d == 3 else 0
-        if ix < 0 or ix >= nx or iy < 0 or iy >= ny:
+        k = nearest_node(pos, i, x0, y0, inv_dx, inv_dy, nx, ny)
+        if k < 0:
             outside += 1
             continue
+        iy, ix = k // nx, k % nx
         count[iy, ix] += 1
         depth[iy, ix] += m / rho[i]
         for a in range(d):

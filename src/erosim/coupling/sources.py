@@ -6,8 +6,9 @@ sink is counted by name in the fluid's :class:`~erosim.sph.state.ParticleState`,
 budget closes exactly: initial + rained + inflow − left through edges = in the fluid.
 
 They live in the coupling layer because they place water relative to the terrain. They are callbacks
-of a :class:`~erosim.simulation.simulation.Simulation` (``schedule``, ``name``, ``__call__(sim)``,
-checkpoint state), acting between steps.
+of a :class:`~erosim.simulation.simulation.Simulation` (subclasses of
+:class:`~erosim.core.callbacks.Callback`: ``schedule``, ``name``, ``__call__(sim)``, checkpoint state),
+acting between steps.
 
 * :func:`lake_particles` — a lattice of particles filling the cells connected to a seed point (or all
   cells) below a water level, top layer half a spacing under the level;
@@ -34,6 +35,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from erosim.core.callbacks import Callback
 from erosim.core.errors import ConfigError
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
@@ -95,12 +97,11 @@ def lake_particles(raster: Raster, ground: np.ndarray, level: float, spacing: fl
     return np.concatenate(out)
 
 
-class _Source:
+class _Source(Callback):
     """Common checkpoint state: the fraction of a particle carried to the next event, the event count."""
 
     def __init__(self, schedule, name: str):
-        self.schedule = schedule
-        self.name = name
+        super().__init__(schedule, name=name)
         self.carry = 0.0
         self.events = 0
         self.last_t = 0.0
@@ -112,12 +113,6 @@ class _Source:
         self.carry = float(state.get("carry", 0.0))
         self.events = int(state.get("events", 0))
         self.last_t = float(state.get("last_t", 0.0))
-
-    def flush(self, sim) -> None:
-        """Nothing to write."""
-
-    def finalize(self, sim) -> dict[str, Any]:
-        return {}
 
 
 class Rain(_Source):
@@ -238,12 +233,11 @@ class PointInflow(_Source):
         return out
 
 
-class EdgeOutflow:
+class EdgeOutflow(Callback):
     """Removes fluid particles that crossed an open edge of the map (``edges`` ⊆ west, east, south, north)."""
 
     def __init__(self, schedule, solver, raster: Raster, edges):
-        self.schedule = schedule
-        self.name = "outflow"
+        super().__init__(schedule, name="outflow")
         self.solver = solver
         self.edges = tuple(edges)
         unknown = set(self.edges) - set(EDGES)
@@ -268,20 +262,8 @@ class EdgeOutflow:
                 self.solver.remove_fluid(out, sink=f"edge:{e}")
                 pos = st.pos[: st.n_fluid]
 
-    def state_dict(self) -> dict[str, Any]:
-        return {}
 
-    def load_state_dict(self, state) -> None:
-        """Stateless."""
-
-    def flush(self, sim) -> None:
-        """Nothing to write."""
-
-    def finalize(self, sim) -> dict[str, Any]:
-        return {}
-
-
-class OutsideOutflow:
+class OutsideOutflow(Callback):
     """Removes fluid particles over the nodes ``outside`` the terrain (raster.shape: a DEM's nodata),
     those whose nearest node is outside, as an open edge would (sink ``outside``); adds up the water and
     the mud they carried (registered fields ``water`` and ``mud`` where the solver has them, in V_p)."""
@@ -289,8 +271,7 @@ class OutsideOutflow:
     def __init__(self, schedule, solver, raster: Raster, outside: np.ndarray):
         if np.shape(outside) != raster.shape:
             raise ValueError(f"outside mask {np.shape(outside)} does not match the raster {raster.shape}")
-        self.schedule = schedule
-        self.name = "outside"
+        super().__init__(schedule, name="outside")
         self.solver, self.raster = solver, raster
         self.outside = np.asarray(outside, bool)
         self.left = {"water": 0.0, "mud": 0.0}
@@ -312,9 +293,3 @@ class OutsideOutflow:
 
     def load_state_dict(self, state) -> None:
         self.left = {"water": float(state.get("left_water", 0.0)), "mud": float(state.get("left_mud", 0.0))}
-
-    def flush(self, sim) -> None:
-        """Nothing to write."""
-
-    def finalize(self, sim) -> dict[str, Any]:
-        return {}

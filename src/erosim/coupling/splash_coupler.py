@@ -67,6 +67,7 @@ from typing import Any
 
 import numpy as np
 
+from erosim.core.callbacks import Callback
 from erosim.core.config import Section, param
 from erosim.core.increments import Increment, check_budget
 from erosim.coupling.porous_ground import PorousGround
@@ -77,7 +78,6 @@ from erosim.erosion.shear_stress_kristof2009 import excess_stresses
 from erosim.erosion.wet_strength import strength
 from erosim.hydrology.seepage_darcy import absorb, conductivity, drain, evaporate, harmonic
 from erosim.kernels.sph_diffusion import diffuse
-from erosim.sph.boundaries.distance_wall import walls_follow
 from erosim.sph.boundaries.heightfield import node_slopes
 from erosim.sph.mud import MudParams, diffuse_concentration, mixture_density
 
@@ -117,7 +117,7 @@ def _scatter(raster: Raster, xy: np.ndarray, volume: np.ndarray, valid: np.ndarr
     return dz
 
 
-class WetGround:
+class WetGround(Callback):
     """The callback of the module docstring (``schedule``: every N fluid steps)."""
 
     def __init__(self, schedule, solver, raster: Raster, terrain: np.ndarray, ground: PorousGround, *,
@@ -126,7 +126,7 @@ class WetGround:
                  outside: np.ndarray | None = None, name: str = "wet_ground"):  # fmt: skip
         """``outside``: None or the nodes outside the terrain (a DEM's nodata; raster.shape), which no
         crater, scour or settling mud changes."""
-        self.schedule, self.name = schedule, name
+        super().__init__(schedule, name=name)
         self.solver, self.raster, self.terrain, self.ground = solver, raster, terrain, ground
         self.splash, self.mud, self.scour = splash, mud, scour
         self.outside = None if outside is None or not np.any(outside) else np.asarray(outside, bool)
@@ -267,11 +267,9 @@ class WetGround:
             s.remove_fluid(spent, sink="seepage")
         changed = dz != 0
         if changed.any():
-            with walls_follow(s):
+            with s.ground_moving(self.terrain, changed):
                 self.terrain += dz
                 self.sx[...], self.sy[...] = node_slopes(self.terrain, r.dx, r.dy)
-                for b in s.boundaries:
-                    b.refresh(s, terrain=self.terrain, changed=changed)
             moved = self.ground.follow()
             if moved is None:
                 self._w = self.ground.weights(self.diffusivity)
@@ -390,9 +388,3 @@ class WetGround:
         self.sx[...], self.sy[...] = node_slopes(self.terrain, self.raster.dx, self.raster.dy)
         self.ground.load_state_dict({k[7:]: v for k, v in state.items() if k.startswith("ground_")})
         self._w = self.ground.weights(self.diffusivity)
-
-    def flush(self, sim) -> None:
-        """Nothing to write between checkpoints."""
-
-    def finalize(self, sim) -> dict[str, Any]:
-        return {}

@@ -121,7 +121,7 @@ def settle(dens, ox, oy, oz, inv, hi, vpu, pos, wall_l, wall_n, n, reach, l_min,
 class SuspendedSediment:
     """``eroder`` (a :class:`~erosim.erosion.shear_stress_kristof2009.ShearStressErosion`) with its removed
     ground carried by the particles of ``solver`` and settling at ``settling_velocity`` (m/s); the
-    coupler calls :meth:`step` as it would the eroder's (module docstring)."""
+    coupler calls :meth:`increments` as it would the eroder's (module docstring)."""
 
     def __init__(self, eroder, solver, settling_velocity: float, max_concentration: float = 0.2):
         self.eroder = eroder
@@ -140,6 +140,7 @@ class SuspendedSediment:
         self.deposited_total = 0.0
 
     # the eroder's own figures, for the coupler and the report
+    needs = property(lambda self: self.eroder.needs)
     params = property(lambda self: self.eroder.params)
     l_min = property(lambda self: self.eroder.l_min)
     strength = property(lambda self: self.eroder.strength)
@@ -168,39 +169,43 @@ class SuspendedSediment:
         vol = s.m / np.asarray(st.rho[: st.n_fluid], np.float64)
         return float(np.max(st.sediment[: st.n_fluid] / vol))
 
-    def step(self, solver, dt: float) -> Increment:
-        """The eroder's transfer, picked up by the particles of ``solver`` (the one given at construction),
+    def increments(self, terrain, fluid, dt: float) -> Increment:
+        """The eroder's transfer, picked up by the particles of ``fluid`` (the solver given at construction),
         and what settles in ``dt`` seconds; the particles are read in the state's own order, as
-        ``sediment`` is kept."""
-        t, st = self.terrain, solver.state
+        ``sediment`` is kept, and their new loads travel in the increment."""
+        if fluid is not self.solver or terrain is not self.terrain:
+            raise ValueError("this eroder was built for another solver or terrain")
+        t, st, solver = self.terrain, fluid.state, fluid
         n = st.n_fluid
+        sediment = st.sediment[:n].copy()  # the particles' loads, written back by the coupler
         here = np.ascontiguousarray(st.pos[:n], np.float64)
         wl, wn = self.eroder.wall_distances(here)  # once, for the erosion and the settling
-        inc = self.eroder.increments(here, np.asarray(st.vel[:n], np.float64), dt, wl, wn)
+        inc = self.eroder.transfer(here, np.asarray(st.vel[:n], np.float64), dt, wl, wn)
         vpu = t.volume_per_unit
         dd = np.asarray(inc.dz, np.float64)
         ox, oy, oz = t.origin
         inv = 1.0 / t.cell_size
         volume = np.where(dd < 0, -dd * vpu, 0.0).reshape(-1)
-        room = self.c_max * solver.m / np.asarray(st.rho[:n], np.float64) - st.sediment[:n]
+        room = self.c_max * solver.m / np.asarray(st.rho[:n], np.float64) - sediment
         returned = np.zeros(t.shape)
-        picked = share_pickup(volume, ox, oy, oz, inv, here, n, self.eroder.radius, room, self.count, st.sediment,
+        picked = share_pickup(volume, ox, oy, oz, inv, here, n, self.eroder.radius, room, self.count, sediment,
                               returned.reshape(-1))  # fmt: skip
         self.bound += returned / vpu  # what full water cannot take stays where it was
         self.returned_total += float(returned.sum())
         eroded = t.density + dd  # float32 values, exactly (the eroder's differences are)
         lo, hi = t.value_range
         settle(eroded, ox, oy, oz, inv, hi, vpu, here, wl, wn, n, solver.h, self.l_min, self.w_s * float(dt),
-               st.sediment, self.bound)  # fmt: skip
+               sediment, self.bound)  # fmt: skip
         new = np.clip(eroded + self.bound, lo, hi).astype(np.float32).astype(np.float64)
         moved = np.where(self.bound > 0, new - eroded, 0.0)  # a rounding left below zero waits for more
         self.bound -= moved
         left = self.left()
-        suspended = self.held() + float(self.bound.sum() * vpu)
+        suspended = float(sediment.sum()) + float(self.bound.sum() * vpu)
         self.picked_total += picked
         self.deposited_total += float(moved.sum() * vpu)
         off = inc.carried_off - picked - float(returned.sum()) + left - self.left_last
-        out = Increment(dz=dd + moved, suspended=suspended - self.suspended_last, carried_off=off)
+        out = Increment(dz=dd + moved, suspended=suspended - self.suspended_last, carried_off=off,
+                        particles={"sediment": sediment})
         self.suspended_last, self.left_last = suspended, left
         return out
 

@@ -179,6 +179,7 @@ class ShearStressErosion:
     particles; ``support`` is the SPH kernel's support h (m). See the module docstring."""
 
     name = "shear_stress"
+    needs = ("positions", "velocities")
     #: the field of the parameters that scales the erosion rate (named by the run's warnings)
     strength = "k_eps"
 
@@ -256,7 +257,7 @@ class ShearStressErosion:
         self._sums(pos, vel, wall_l, 1.0, out)
         return out
 
-    def increments(self, pos, vel, dt: float, wall_l=None, normals=None) -> Increment:
+    def transfer(self, pos, vel, dt: float, wall_l=None, normals=None) -> Increment:
         """Accumulate the erosion of ``dt`` seconds by particles at ``pos`` with ``vel`` (and wall distances
         ``wall_l``, with their ``normals`` or else from the field) and return the quantised transfer as
         an :class:`Increment` (density change per node, removed volume in ``carried_off``); the terrain is
@@ -272,9 +273,13 @@ class ShearStressErosion:
         self.unmet_total += float(unmet * vpu)
         return Increment(dz=dd, suspended=0.0, carried_off=removed)
 
-    def step(self, solver, dt: float) -> Increment:
-        """:meth:`increments` for the fluid particles of an :class:`~erosim.sph.solver.SPHSolver` (3-D)."""
-        return self.increments(solver.fluid_positions(), solver.fluid_velocities(), dt)
+    def increments(self, terrain, fluid, dt: float) -> Increment:
+        """The coupler's contract (:mod:`erosim.coupling.coupler`): :meth:`transfer` for the fluid particles
+        of ``fluid``, an :class:`~erosim.sph.solver.SPHSolver` (3-D), over ``terrain`` (the field this
+        eroder was built for)."""
+        if terrain is not self.terrain:
+            raise ValueError("this eroder was built for another voxel terrain")
+        return self.transfer(fluid.fluid_positions(), fluid.fluid_velocities(), dt)
 
     def pending_volume(self) -> float:
         """Erosion accumulated but not yet transferred (m³)."""

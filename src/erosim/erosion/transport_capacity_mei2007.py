@@ -37,7 +37,8 @@ Transport of the sediment (ER-3), two options:
 * ``"particles"`` (default, mass-conserving): the sediment rides on the fluid particles (a
   registered per-particle field ``sediment``, m³). A node's s is the sediment of its particles over
   the node's area; dissolved sediment is shared equally among them, deposited sediment is taken from
-  each in proportion to what it carries. The particles' motion is the advection; a particle leaving
+  each in proportion to what it carries (the particles' new loads travel in the increment, which the
+  coupler applies). The particles' motion is the advection; a particle leaving
   through an open edge takes its sediment with it (counted as carried off). Terrain + suspended +
   carried off is constant to rounding.
 * ``"semi-lagrangian"`` (the seed's): s on the grid, advected by s(x) ← s(x − ⟨u⟩Δt) with Q4
@@ -56,7 +57,7 @@ from numba import njit
 from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.core.increments import Increment
-from erosim.kernels.raster import bilinear
+from erosim.kernels.raster import bilinear, nearest_node
 
 
 class TransportCapacityParams(Section):
@@ -73,15 +74,12 @@ class TransportCapacityParams(Section):
         "particles", doc="how suspended sediment moves: 'particles' (conserving) or 'semi-lagrangian' (seed's ER-3)"
     )
 
-
-@njit(cache=True)
-def _node_of(pos, i, x0, y0, inv_dx, inv_dy, nx, ny):
-    d = pos.shape[1]
-    ix = int(math.floor((pos[i, 0] - x0) * inv_dx + 0.5))
-    iy = int(math.floor((pos[i, 1] - y0) * inv_dy + 0.5)) if d == 3 else 0
-    if ix < 0 or ix >= nx or iy < 0 or iy >= ny:
-        return -1
-    return iy * nx + ix
+    def check(self) -> None:
+        """Refuse (one sentence) a transport that is not one of the two."""
+        if self.transport not in ("particles", "semi-lagrangian"):
+            raise ConfigError(
+                f"erosion.transport = '{self.transport}' is not known; use 'particles' or 'semi-lagrangian'."
+            )
 
 
 @njit(cache=True)
@@ -89,7 +87,7 @@ def held_per_node(pos, sed, n_fluid, x0, y0, inv_dx, inv_dy, nx, ny, out):
     """out[k] = sediment (m³) carried by the fluid particles in node k's cell."""
     out[:] = 0.0
     for i in range(n_fluid):
-        k = _node_of(pos, i, x0, y0, inv_dx, inv_dy, nx, ny)
+        k = nearest_node(pos, i, x0, y0, inv_dx, inv_dy, nx, ny)
         if k >= 0:
             out[k] += sed[i]
 
@@ -99,7 +97,7 @@ def exchange_with_particles(pos, sed, n_fluid, x0, y0, inv_dx, inv_dy, nx, ny, e
     """Give each particle its share of node k's exchange (m³; > 0 taken up by the water): an equal
     share of a pick-up, a fraction exchange/held of its own load for a deposit."""
     for i in range(n_fluid):
-        k = _node_of(pos, i, x0, y0, inv_dx, inv_dy, nx, ny)
+        k = nearest_node(pos, i, x0, y0, inv_dx, inv_dy, nx, ny)
         if k < 0:
             continue
         e = exchange[k]
@@ -206,10 +204,7 @@ class TransportCapacity:
                  outflow=(), terrain: np.ndarray | None = None):  # fmt: skip
         """``outflow``: the open edges (west, east, south, north); beyond them the bed is ``terrain`` (the
         initial one) extrapolated linearly and held."""
-        if params.transport not in ("particles", "semi-lagrangian"):
-            raise ConfigError(
-                f"erosion.transport = '{params.transport}' is not known; use 'particles' or 'semi-lagrangian'."
-            )
+        params.check()
         self.p = params
         self.raster = raster
         self.solver = solver
@@ -259,8 +254,10 @@ class TransportCapacity:
                           p.min_depth, self.dz, self.e_area)  # fmt: skip
         exchange = self.e_area * wet_area  # m³ per node: the wet part of the cell
         self.dz *= self.wet  # the cell's mean change (its dry part beyond the map keeps its height)
+        carried = {}
         if p.transport == "particles":
-            exchange_with_particles(st.pos, st.sediment, st.n_fluid, r.x0, r.y0, 1.0 / r.dx, 1.0 / r.dy, r.nx, r.ny,
+            carried["sediment"] = sed = st.sediment[: st.n_fluid].copy()  # the coupler writes it back
+            exchange_with_particles(st.pos, sed, st.n_fluid, r.x0, r.y0, 1.0 / r.dx, 1.0 / r.dy, r.nx, r.ny,
                                     exchange.reshape(-1), grid.count.reshape(-1), self.held.reshape(-1))  # fmt: skip
         else:
             s1 = self.s_area + self.e_area
@@ -268,7 +265,7 @@ class TransportCapacity:
             advect_semi_lagrangian(s1, grid.velocity, dt, 1.0 / r.dx, 1.0 / r.dy, out)
             self.transport_error += float(((out - s1) * self.wet).sum() * area)
             self.s_area[...] = out
-        return Increment(self.dz.copy(), suspended=float(exchange.sum()))
+        return Increment(self.dz.copy(), suspended=float(exchange.sum()), particles=carried)
 
     # ---------------------------------------------------------------- reporting and checkpoints
     def held_total(self) -> float:

@@ -170,3 +170,16 @@ def bilinear_points(z, xs, ys):
     for k in prange(xs.shape[0]):
         out[k] = bilinear(z, xs[k], ys[k])
     return out
+
+
+@njit(cache=True, inline="always")
+def nearest_node(pos, i, x0, y0, inv_dx, inv_dy, nx, ny):
+    """Flat index iy·nx + ix of the raster node nearest particle i (a raster with origin (x0, y0) in the
+    particles' frame, 1/Δx and 1/Δy given; a 2-D particle's raster is one row), or −1 outside it: the
+    node whose cell [x − Δx/2, x + Δx/2) holds the particle, as the fluid is binned and its sediment held."""
+    ix = int(math.floor((pos[i, 0] - x0) * inv_dx + 0.5))
+    iy = int(math.floor((pos[i, 1] - y0) * inv_dy + 0.5)) if pos.shape[1] == 3 else 0
+    if ix < 0 or ix >= nx or iy < 0 or iy >= ny:
+        return -1
+    return iy * nx + ix
+

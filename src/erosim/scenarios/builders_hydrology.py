@@ -23,11 +23,12 @@ from typing import Any
 
 import numpy as np
 
+from erosim.core.callbacks import Callback
 from erosim.core.errors import ConfigError
+from erosim.core.schedules import IterationInterval, Schedule, TimeInterval
 from erosim.scenarios.schema_common import build_terrain, terrain_facts
 from erosim.scenarios.setup import Setup
-from erosim.simulation.callbacks import Animation, BudgetCheck, Callback, MapFrames
-from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
+from erosim.simulation.callbacks import Animation, BudgetCheck, MapFrames
 
 MAPS = ("height_initial", "height", "lake_depth", "stream", "erosion", "deposition", "vegetation")
 

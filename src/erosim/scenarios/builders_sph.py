@@ -20,10 +20,10 @@ from typing import Any
 import numpy as np
 
 from erosim.core.errors import ConfigError
+from erosim.core.schedules import TimeInterval
 from erosim.scenarios.schema_sph import SPHScenario
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
-from erosim.simulation.schedules import TimeInterval
 
 THESIS = {"h": 0.2, "mass": 30.0, "dt": 0.1}  # SC-1/SC-2 as printed in seed 000 (ch. 3)
 
@@ -165,6 +165,23 @@ def column_width(cfg: SPHScenario) -> float:
     return float(cfg.fluid[0].hi[0] - cfg.fluid[0].lo[0])
 
 
+def martin_moyce_figure(path, width: float, g: float, spacing: float, title: str):
+    """The end-of-run figure of a front: the front against Martin & Moyce (1952), n² = 2, non-dimensional
+    (Z = x/a, T = t√(2g/a), a = ``width``), as ``figure(rows)`` for
+    :class:`~erosim.simulation.callbacks.FrontTracker`."""
+
+    def figure(rows: np.ndarray) -> None:
+        from erosim.analysis.front import nondimensional_front
+        from erosim.data import MARTIN_MOYCE_SURGE, reference_csv
+        from erosim.viz.plots import front_vs_experiment
+
+        ref = reference_csv(MARTIN_MOYCE_SURGE)
+        T, Z = nondimensional_front(rows[:, 0], rows[:, 1], width, g)
+        front_vs_experiment(path, T, Z, ref["T"], ref["Z"], label=f"erosim (dx = a/{width / spacing:.0f})", title=title)
+
+    return figure
+
+
 def setup(scenario, out) -> Setup:
     """The solver and the callbacks of an ``sph`` run (what a run leaves: ``docs/sph.md``).
 
@@ -177,6 +194,8 @@ def setup(scenario, out) -> Setup:
       neighbours, throughput, particles outside the domain, the water budget (mass initial, added
       by each source, removed by each sink, in the fluid), the final front.
     """
+    from erosim.sph.wall_load import wall_pressures
+
     cfg: SPHScenario = scenario.config
     built = build(cfg)
     solver = built.solver
@@ -190,18 +209,19 @@ def setup(scenario, out) -> Setup:
                 TimeInterval(r.sample_interval), solver, out.path / "gauges.csv",
                 probes=[(q.name, q.position) for q in cfg.probes], gauges=[(g.name, g.position) for g in cfg.gauges],
                 support=p.support(), spacing=p.spacing, mass=p.rho0 * p.spacing**p.dim, floor=cfg.domain.lo[-1],
-                walls=[probe_wall(cfg, q.position) for q in cfg.probes],
+                walls=[probe_wall(cfg, q.position) for q in cfg.probes], wall_pressures=wall_pressures,
             )
         )  # fmt: skip
     front = None
     if cfg.measure.front:
         origin = cfg.measure.front_origin if cfg.measure.front_origin is not None else min(b.lo[0] for b in cfg.fluid)
         compare = cfg.measure.compare == "martin-moyce"
-        front = cb.FrontTracker(
-            TimeInterval(r.sample_interval), solver, out.path / "front.csv", spacing=p.spacing, origin=origin,
-            figure=out.path / "figures" / "front.png" if compare else None, width=column_width(cfg),
-            g=abs(p.gravity_vector()[-1]), title=f"{scenario.name}: surge front",
-        )  # fmt: skip
+        figure = None
+        if compare:
+            figure = martin_moyce_figure(out.path / "figures" / "front.png", column_width(cfg),
+                                         abs(p.gravity_vector()[-1]), p.spacing, f"{scenario.name}: surge front")
+        front = cb.FrontTracker(TimeInterval(r.sample_interval), solver, out.path / "front.csv", spacing=p.spacing,
+                                origin=origin, figure=figure)  # fmt: skip
         callbacks.append(front)
     if r.snapshots:
         callbacks.append(

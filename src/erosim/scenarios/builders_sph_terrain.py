@@ -27,23 +27,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from erosim.core.errors import ConfigError, InputError
 from erosim.core.heightmap import Heightmap
+from erosim.core.schedules import IterationInterval, Schedule, TimeInterval
 from erosim.coupling.coupler import Coupler
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.coupling.sources import EdgeOutflow, PointInflow, Rain, lake_particles
+from erosim.coupling.terrains import HeightfieldTerrain
 from erosim.scenarios.builders_sph import lattice
 from erosim.scenarios.schema_common import build_terrain
 from erosim.scenarios.schema_sph_terrain import SPHTerrainScenario
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
-from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
 
 #: a spacing wider than this many terrain cells cannot resolve the terrain the water runs on
 MAX_SPACING_CELLS = 2.0
@@ -276,17 +276,17 @@ class TerrainOutputs(cb.Callback):
         sediment = self.eroder.held_map() if self.eroder is not None else np.zeros_like(g.terrain)
         return {
             "height_initial": g.initial,
-            "height": c.terrain,
-            "water_depth": c.grid.depth,
-            "max_water_depth": c.grid.max_depth,
-            "erosion": np.maximum(g.initial - c.terrain, 0.0),
-            "deposition": np.maximum(c.terrain - g.initial, 0.0),
+            "height": c.terrain.z,
+            "water_depth": c.terrain.grid.depth,
+            "max_water_depth": c.terrain.grid.max_depth,
+            "erosion": np.maximum(g.initial - c.terrain.z, 0.0),
+            "deposition": np.maximum(c.terrain.z - g.initial, 0.0),
             "sediment": sediment,
         }
 
     def finalize(self, sim) -> dict[str, Any]:
         out, g = sim.out, self.geo
-        self.coupler.grid.bin(self.coupler.solver)  # the water as it is at the end
+        self.coupler.terrain.grid.bin(self.coupler.solver)  # the water as it is at the end
         fields = self.fields()
         from erosim.viz.maps import save_png
 
@@ -314,7 +314,7 @@ class TerrainOutputs(cb.Callback):
 
         north_up = g.initial[::-1]
         box = extent_of(g.dem.transform if g.dem is not None else None, north_up.shape, g.raster.dx)
-        after = self.coupler.terrain[::-1]
+        after = self.coupler.terrain.z[::-1]
         with out.picture(out.figures / "hillshade_before.png"):
             hillshade_figure(out.figures / "hillshade_before.png", north_up, g.raster.dx, "Terrain before", box)
         with out.picture(out.figures / "hillshade_after.png"):
@@ -350,43 +350,19 @@ def _panel_function(geo: Geometry, coupler: Coupler, title: str):
 
     def panel() -> np.ndarray:
         c = coupler
-        c.grid.bin(c.solver)
+        c.terrain.grid.bin(c.solver)
         t = f"{title}  t = {c.solver.t:.3g} s"
         if geo.dim == 2:
             x = np.arange(geo.raster.nx) * geo.raster.dx
-            return profile_panel(x, geo.initial[0], c.terrain[0], c.grid.depth[0], title=t)
+            return profile_panel(x, geo.initial[0], c.terrain.z[0], c.terrain.grid.depth[0], title=t)
         from scipy.ndimage import gaussian_filter
 
-        water = gaussian_filter(c.grid.depth, sigma, mode="constant")
-        return terrain_panels(c.terrain[::-1], np.where(water >= WATER_SHOWN_M, water, 0.0)[::-1],
-                              (c.terrain - geo.initial)[::-1], geo.raster.dx, title=t,
+        water = gaussian_filter(c.terrain.grid.depth, sigma, mode="constant")
+        return terrain_panels(c.terrain.z[::-1], np.where(water >= WATER_SHOWN_M, water, 0.0)[::-1],
+                              (c.terrain.z - geo.initial)[::-1], geo.raster.dx, title=t,
                               change_range=change_range)  # fmt: skip
 
     return panel
-
-
-class MapFrames(cb.Animation):
-    """``figures/maps_NNN.png`` on a schedule and ``figures/evolution.gif`` of them at the end."""
-
-    def __init__(self, schedule, panel, figures: Path):
-        super().__init__(schedule, lambda sim: self._frame(), figures / "evolution.gif", fps=4.0)
-        self.name = "map_frames"
-        self.panel, self.folder, self.count = panel, figures, 0
-
-    def _frame(self) -> np.ndarray:
-        from erosim.viz.maps import save_png
-
-        pic = self.panel()
-        save_png(self.folder / f"maps_{self.count:03d}.png", pic)
-        self.count += 1
-        return pic[::2, ::2]
-
-    def state_dict(self) -> dict[str, Any]:
-        return {**super().state_dict(), "count": self.count}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        super().load_state_dict(state)
-        self.count = int(state.get("count", 0))
 
 
 def setup(scenario, out) -> Setup:
@@ -402,8 +378,8 @@ def setup(scenario, out) -> Setup:
     eroder = None
     if e.enabled:  # the bed beyond an open edge: the initial terrain extrapolated (a free outflow, not a sink)
         eroder = TransportCapacity(e, r, solver, bedrock, outflow=cfg.edges.outflow, terrain=geo.terrain)
-    coupler = Coupler(IterationInterval(e.every), solver, eroder, r, geo.terrain, bedrock=bedrock,
-                      near_bed=2.0 * solver.h)  # fmt: skip
+    heights = HeightfieldTerrain(r, geo.terrain, solver.dim, bedrock=bedrock, near_bed=2.0 * solver.h)
+    coupler = Coupler(IterationInterval(e.every), solver, eroder, heights)
     callbacks: list = []
     if cfg.edges.outflow:
         callbacks.append(EdgeOutflow(IterationInterval(1), solver, r, cfg.edges.outflow))
@@ -411,7 +387,7 @@ def setup(scenario, out) -> Setup:
     if cfg.rain.rate > 0:
         chance = _rain_map(cfg, geo)
         callbacks.append(Rain(IterationInterval(cfg.rain.every), solver, r, geo.terrain, chance, cfg.rain.rate,
-                              cfg.rain.height, cfg.seed, grid=coupler.grid))  # fmt: skip
+                              cfg.rain.height, cfg.seed, grid=heights.grid))  # fmt: skip
     for name, inf in cfg.inflows.items():
         xy = geo.to_local(inf.position, f"inflows.{name}.position")
         callbacks.append(PointInflow(IterationInterval(1), solver, r, geo.terrain, xy, inf.discharge,
@@ -429,7 +405,18 @@ def setup(scenario, out) -> Setup:
         callbacks.append(front)
     panel = _panel_function(geo, coupler, scenario.name)
     if run.map_frames > 0:
-        callbacks.append(MapFrames(TimeInterval(run.t_end / run.map_frames), panel, out.path / "figures"))
+        figures = out.path / "figures"  # maps_NNN.png on a schedule and evolution.gif of them at the end
+        callbacks.append(
+            cb.Animation(
+                TimeInterval(run.t_end / run.map_frames),
+                lambda sim: panel(),
+                figures / "evolution.gif",
+                fps=4.0,
+                stills=str(figures / "maps_{:03d}.png"),
+                thumbnail=2,
+                name="map_frames",
+            )
+        )
     below = BelowGround(IterationInterval(e.every), solver, ground)
     rain = None if chance is None or geo.dim == 2 else chance * cfg.rain.rate
     callbacks += [below, TerrainOutputs(geo, coupler, eroder, panel, rain)]
@@ -477,9 +464,15 @@ def run_estimate(cfg: SPHTerrainScenario, geo: Geometry, solver, callbacks):
     cells = geo.raster.nx * (geo.raster.ny if geo.dim == 3 else 1)
     extra = TERRAIN_STEP_S[geo.dim] + COUPLING_CELL_S * cells / cfg.erosion.every
     what = f"{cells:,} map cells" if geo.dim == 3 else f"a 2-D flume of {cells:,} cells"
-    return estimate.from_solver(what, solver, cfg.run.t_end, added=flow * cfg.run.t_end / vp,
-                                extra_bytes=estimate.GRID_CELL_BYTES * cells, step_extra_s=extra,
-                                fix="lower rain.rate or the inflows, shorten run.t_end or raise sph.spacing")
+    return estimate.from_solver(
+        what,
+        solver,
+        cfg.run.t_end,
+        added=flow * cfg.run.t_end / vp,
+        extra_bytes=estimate.GRID_CELL_BYTES * cells,
+        step_extra_s=extra,
+        fix="lower rain.rate or the inflows, shorten run.t_end or raise sph.spacing",
+    )
 
 
 def terrain_report(cfg, geo: Geometry, solver, coupler: Coupler, eroder, below: BelowGround, front, derived, sim):
@@ -526,7 +519,7 @@ def terrain_report(cfg, geo: Geometry, solver, coupler: Coupler, eroder, below: 
         "coupling_fraction": coupler.wall / sim.wall_time if sim.wall_time > 0 else None,
     }
     if eroder is not None:
-        sb = coupler.sediment_budget()
+        sb = coupler.budget()
         held, carried, err = eroder.held_total(), eroder.carried_off(), eroder.transport_error
         eroded = sb["eroded"]
         rep["sediment_budget"] = {

@@ -39,6 +39,7 @@ import numpy as np
 
 from erosim.core.errors import ConfigError
 from erosim.core.heightmap import Heightmap, default_transform
+from erosim.core.schedules import IterationInterval, Schedule, TimeInterval
 from erosim.coupling.binning import FluidGrid
 from erosim.coupling.porous_ground import PorousGround
 from erosim.coupling.raster import Raster
@@ -51,7 +52,6 @@ from erosim.scenarios.schema_common import terrain_facts
 from erosim.scenarios.schema_splash import SplashScenario, ground_spacing
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
-from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
 from erosim.sph.mud import MudMixture
 
 #: the most porous ground particles a run lays (each holds about 1 kB with its diffusion pairs)

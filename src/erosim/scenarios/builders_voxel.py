@@ -5,7 +5,7 @@ trapezoidal embankment, :mod:`erosim.terrain.voxel`) felt by the fluid through t
 boundary :class:`~erosim.sph.boundaries.voxel_wall.VoxelWall`; the flume's side walls and upstream
 end are analytic planes; the reservoir fills by layers laid at rest on its surface (``[inflow]``); water leaving past
 the downstream end is removed and counted. Every
-``erosion.every`` steps the :class:`~erosim.coupling.voxel_coupler.VoxelCoupler` applies the
+``erosion.every`` steps the :class:`~erosim.coupling.coupler.Coupler` applies the
 shear-stress erosion of :mod:`erosim.erosion.shear_stress_kristof2009` to the field.
 
 A run leaves
@@ -24,7 +24,7 @@ A run leaves
   water_depth.tif on the DEM's grid with its CRS (:class:`VoxelMaps`);
 * ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y}: the first
   node, solid at the start, that the eroded surface has passed (density at or below the iso level),
-  ``first_transfer`` the same for the first quantum moved (:mod:`erosim.coupling.voxel_coupler`), the
+  ``first_transfer`` the same for the first quantum moved (:mod:`erosim.coupling.terrains`), the
   ``budget`` (m³: eroded = carried off;
   pending, unmet, the field's change, closure), ``particles_inside_solid`` (the most seen after any
   coupling; 0) and the timings.
@@ -39,14 +39,15 @@ from typing import Any
 import numpy as np
 
 from erosim.core.errors import ConfigError, InputError, InstabilityError
+from erosim.core.schedules import IterationInterval, Schedule, TimeInterval
+from erosim.coupling.coupler import Coupler
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.coupling.sources import EDGES, EdgeOutflow, PointInflow
-from erosim.coupling.voxel_coupler import VoxelCoupler
+from erosim.coupling.terrains import VoxelFieldTerrain
 from erosim.scenarios.schema_voxel import VoxelScenario, at_dem_scale, band_for, overflow_head
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
-from erosim.simulation.schedules import IterationInterval, Schedule, TimeInterval
 
 
 def build_terrain(cfg: VoxelScenario):
@@ -540,7 +541,7 @@ def setup(scenario, out) -> Setup:
         from erosim.erosion.settling_voxel import SuspendedSediment
 
         eroder = SuspendedSediment(eroder, solver, e.settling_velocity, e.max_concentration)
-    coupler = VoxelCoupler(IterationInterval(e.every), solver, eroder, terrain, start=e.start)
+    coupler = Coupler(IterationInterval(e.every), solver, eroder, VoxelFieldTerrain(terrain), start=e.start)
     callbacks: list = []
     if cfg.inflow.discharge > 0:
         i = cfg.inflow
@@ -651,7 +652,7 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
     def report(sim) -> dict[str, Any]:
         from erosim.terrain.voxel import memory_bytes
 
-        first, onset = coupler.first, coupler.onset
+        first, onset = coupler.terrain.first, coupler.terrain.onset
         frame = "from the embankment's upstream toe" if flume else "the terrain's frame (m from its south-west node)"
         steps = sim.iteration - sim.iteration_start
         st = solver.state
@@ -679,7 +680,7 @@ def _reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, 
                               "below the iso level)"},
             "first_transfer": None if math.isnan(first[0]) else {
                 "t": float(first[0]), "x": float(first[1]) - x0, "z": float(first[2]),
-                "y": float(coupler.first_y), "x_frame": frame,
+                "y": float(coupler.terrain.first_y), "x_frame": frame,
                 "definition": "the first quantum moved off a solid node (the node it lowered most)"},
             "budget": coupler.budget(),
             **({"sediment": {"on_particles_m3": eroder.held(), "picked_up_m3": eroder.picked_total,

@@ -158,8 +158,5 @@ class SPHTerrainScenario(Section):
                 raise ConfigError(f"fluid block {i + 1} needs lo < hi with {d} coordinates each.")
         if d == 2 and any(e in ("south", "north") for e in self.edges.outflow):
             raise ConfigError("A 2-D profile has only west and east edges; edges.outflow can name those.")
-        if self.erosion.transport not in ("particles", "semi-lagrangian"):
-            raise ConfigError(
-                f"erosion.transport = '{self.erosion.transport}' is not known; use 'particles' or 'semi-lagrangian'."
-            )
+        self.erosion.check()
         return self

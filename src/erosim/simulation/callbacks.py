@@ -1,6 +1,6 @@
 """Callbacks: small objects a :class:`~erosim.simulation.simulation.Simulation` calls on a schedule.
 
-Each callback has a ``schedule`` (:mod:`erosim.simulation.schedules`) and is called with the
+Each callback has a ``schedule`` (:mod:`erosim.core.schedules`) and is called with the
 simulation when it is due. It may keep state that belongs in checkpoints (``state_dict`` /
 ``load_state_dict``: arrays go into the checkpoint's arrays, other values into its JSON header), write
 what it gathered at checkpoints and at the end (``flush``), and add to the report when the run
@@ -15,7 +15,7 @@ completes (``finalize``). The fluid callbacks read a particle model through its 
 * :class:`Animation` — pictures of a map over time → an animated GIF;
 * :class:`MapFrames` — maps (height, water) over time → ``maps/frames/`` (``erosim view``'s slider);
 * :class:`BudgetCheck` — a terrain changed in place must change by what its model says it moved;
-* :class:`Callback` — any function of the simulation.
+* :class:`~erosim.core.callbacks.Callback` — the base (:mod:`erosim.core.callbacks`), any function of the simulation.
 """
 
 from __future__ import annotations
@@ -26,8 +26,9 @@ from typing import Any
 
 import numpy as np
 
+from erosim.core.callbacks import Callback
 from erosim.core.increments import Increment, IncrementView, check_budget
-from erosim.simulation.schedules import Schedule
+from erosim.core.schedules import Schedule
 
 
 def csv_text(header: list[str], rows) -> str:
@@ -35,32 +36,6 @@ def csv_text(header: list[str], rows) -> str:
     lines = [",".join(header)]
     lines += [",".join(repr(float(v)) for v in r) for r in rows]
     return "\n".join(lines) + "\n"
-
-
-class Callback:
-    """A function ``func(sim)`` called when ``schedule`` is due; the base of every callback."""
-
-    def __init__(self, schedule: Schedule, func: Callable | None = None, name: str | None = None):
-        self.schedule = schedule
-        self.func = func
-        self.name = name or getattr(func, "__name__", type(self).__name__.lower())
-
-    def __call__(self, sim) -> None:
-        if self.func is not None:
-            self.func(sim)
-
-    def state_dict(self) -> dict[str, Any]:
-        return {}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        """Restore :meth:`state_dict` (missing keys mean a callback added on resume: keep defaults)."""
-
-    def flush(self, sim) -> None:
-        """Write what was gathered so far (called at every checkpoint and at the end)."""
-
-    def finalize(self, sim) -> dict[str, Any]:
-        """When the run has completed: final files; returns entries for ``report.json``."""
-        return {}
 
 
 class Checkpointer(Callback):
@@ -140,14 +115,15 @@ class Probes(Callback):
     Columns: ``t`` (s), ``p_<probe>`` (Pa), ``depth_<gauge>`` (m above ``floor``: the continuous water
     column at the gauge line, :func:`~erosim.analysis.gauges.water_level`), ``wire_<gauge>`` (m: the
     line's wetted length, as a wire gauge reads it, :func:`~erosim.analysis.gauges.gauge_readings`). A probe with a wall
-    (``walls[k]`` = (normal, solid box)) reads the load the fluid puts on that wall's particles
-    (:func:`~erosim.sph.wall_load.wall_pressure`, over a patch one support wide each way); the others
+    (``walls[k]`` = (normal, solid box)) reads the load the fluid puts on that wall's particles with
+    ``wall_pressures(fluid, [(point, normal, box), …], support)`` (the builder passes
+    :func:`erosim.sph.wall_load.wall_pressures`: over a patch one support wide each way); the others
     the fluid's pressure interpolated at their point.
     """
 
     def __init__(
         self, schedule: Schedule, fluid, path: Path, *, probes, gauges, support: float, spacing: float,
-        mass: float, floor: float, walls=None,
+        mass: float, floor: float, walls=None, wall_pressures: Callable | None = None,
     ):  # fmt: skip
         super().__init__(schedule, name="probes")
         self.fluid = fluid
@@ -156,6 +132,9 @@ class Probes(Callback):
         self.gauge_points = np.array([g for _, g in gauges], dtype=np.float64)
         self.h, self.dx, self.mass, self.floor = support, spacing, mass, floor
         self.walls = list(walls) if walls is not None else [None] * len(probes)
+        if wall_pressures is None and any(w is not None for w in self.walls):
+            raise ValueError("probes on walls need the wall_pressures function that reads them")
+        self.wall_pressures = wall_pressures
         self.header = (["t"] + [f"p_{n}" for n, _ in probes] + [f"depth_{n}" for n, _ in gauges]
                        + [f"wire_{n}" for n, _ in gauges])  # fmt: skip
         self.rows: list[list[float]] = []
@@ -168,8 +147,6 @@ class Probes(Callback):
         row = [float(s.t)]
         vol = self.mass / s.fluid_density()
         if len(self.probe_points):
-            from erosim.sph.wall_load import wall_pressures
-
             values = np.zeros(len(self.probe_points))
             inside = [k for k, wall in enumerate(self.walls) if wall is None]
             on_walls = [k for k, wall in enumerate(self.walls) if wall is not None]
@@ -179,7 +156,8 @@ class Probes(Callback):
                     density=s.fluid_density(), gravity=s.params.gravity_vector(),
                 )  # fmt: skip
             if on_walls:
-                values[on_walls] = wall_pressures(s, [(self.probe_points[k], *self.walls[k]) for k in on_walls], self.h)
+                values[on_walls] = self.wall_pressures(s, [(self.probe_points[k], *self.walls[k]) for k in on_walls],
+                                                       self.h)  # fmt: skip
             row += values.tolist()
         if len(self.gauge_points):
             kernel = s.params.kernel
@@ -201,17 +179,16 @@ class Probes(Callback):
 
 
 class FrontTracker(Callback):
-    """The surge front (:func:`erosim.analysis.front.front_position`) into ``front.csv`` (``t,x_front``)."""
+    """The surge front (:func:`erosim.analysis.front.front_position`) into ``front.csv`` (``t,x_front``);
+    at the end ``figure(rows)`` (given by the builder: the front against an experiment) draws it."""
 
-    def __init__(
-        self, schedule: Schedule, fluid, path: Path, *, spacing: float, origin: float, figure: Path | None = None,
-        width: float = 1.0, g: float = 9.81, title: str = "",
-    ):  # fmt: skip
+    def __init__(self, schedule: Schedule, fluid, path: Path, *, spacing: float, origin: float,
+                 figure: Callable | None = None):  # fmt: skip
         super().__init__(schedule, name="front")
         self.fluid = fluid
         self.path = Path(path)
         self.spacing, self.origin = spacing, origin
-        self.figure, self.width, self.g, self.title = figure, width, g, title
+        self.figure = figure
         self.rows: list[list[float]] = []
 
     def __call__(self, sim) -> None:
@@ -233,51 +210,57 @@ class FrontTracker(Callback):
         write_text(self.path, csv_text(["t", "x_front"], self.rows))
 
     def finalize(self, sim) -> dict[str, Any]:
-        """With ``figure``: the front against Martin & Moyce (1952), n² = 2, non-dimensional
-        (Z = x/a, T = t√(2g/a), a = ``width``)."""
-        if self.figure is None or not self.rows:
-            return {}
-        from erosim.analysis.front import nondimensional_front
-        from erosim.data import MARTIN_MOYCE_SURGE, reference_csv
-        from erosim.viz.plots import front_vs_experiment
-
-        ref = reference_csv(MARTIN_MOYCE_SURGE)
-        rows = np.asarray(self.rows)
-        T, Z = nondimensional_front(rows[:, 0], rows[:, 1], self.width, self.g)
-        label = f"erosim (dx = a/{self.width / self.spacing:.0f})"
-        front_vs_experiment(self.figure, T, Z, ref["T"], ref["Z"], label=label, title=self.title)
+        if self.figure is not None and self.rows:
+            self.figure(np.asarray(self.rows))
         return {}
 
 
 class Animation(Callback):
     """Pictures (``picture(sim)`` → RGB array) gathered over the run and saved as a GIF at the end.
 
+    With ``stills`` (a file name pattern such as ``figures/maps_{:03d}.png``) every picture is also saved
+    whole as a PNG, numbered on, and the GIF is made of its thumbnails (every ``thumbnail``-th pixel).
     The pictures gathered so far travel in the checkpoint (thumbnails: a few MB), so a resumed run's
     animation is the uninterrupted run's.
     """
 
-    def __init__(self, schedule: Schedule, picture: Callable, path: Path, *, fps: float = 8.0):
-        super().__init__(schedule, name="animation")
+    def __init__(self, schedule: Schedule, picture: Callable, path: Path, *, fps: float = 8.0,
+                 stills: str | None = None, thumbnail: int = 1, name: str = "animation"):  # fmt: skip
+        super().__init__(schedule, name=name)
         self.picture = picture
         self.path = Path(path)
         self.fps = fps
+        self.stills, self.thumbnail, self.count = stills, int(thumbnail), 0
         self.frames: list[np.ndarray] = []
 
+    def _take(self, sim) -> np.ndarray:
+        pic = self.picture(sim)
+        if self.stills is not None:
+            from erosim.viz.maps import save_png
+
+            save_png(Path(self.stills.format(self.count)), pic)
+            self.count += 1
+        return pic[:: self.thumbnail, :: self.thumbnail]
+
     def __call__(self, sim) -> None:
-        self.frames.append(self.picture(sim))
+        self.frames.append(self._take(sim))
 
     def state_dict(self) -> dict[str, Any]:
-        return {"frames": np.stack(self.frames)} if self.frames else {}
+        out: dict[str, Any] = {"frames": np.stack(self.frames)} if self.frames else {}
+        if self.stills is not None:
+            out["count"] = self.count
+        return out
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.frames = list(state["frames"]) if "frames" in state else []
+        self.count = int(state.get("count", 0))
 
     def finalize(self, sim) -> dict[str, Any]:
         if not self.frames:
             return {}
         from erosim.viz.animate import save_animation
 
-        save_animation(self.path, [*self.frames, self.picture(sim)], fps=self.fps)  # the state stays as it was
+        save_animation(self.path, [*self.frames, self._take(sim)], fps=self.fps)  # the state stays as it was
         return {"animation": str(self.path.relative_to(sim.out.path))}
 
 

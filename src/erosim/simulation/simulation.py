@@ -7,7 +7,7 @@ A :class:`Simulation` holds
   (everything the next ``advance`` reads, so a resume is bit-identical); all are advanced once per
   iteration, in order; the first one's ``time`` is the simulation's clock;
 * **callbacks** (:mod:`erosim.simulation.callbacks`) with **schedules**
-  (:mod:`erosim.simulation.schedules`) — frames, probes, couplers, checkpoints;
+  (:mod:`erosim.core.schedules`) — frames, probes, couplers, checkpoints;
 * a **stop rule** — ``stop_time`` on the clock, or a model whose ``finished`` is true;
 * the **run folder** (:class:`~erosim.io.runfolder.RunFolder`) it checkpoints into and reports to.
 
@@ -36,11 +36,12 @@ from typing import Any
 
 import numpy as np
 
+from erosim.core.callbacks import Callback
 from erosim.core.errors import ConfigError, ErosimError, InputError, InstabilityError, Interrupted
+from erosim.core.schedules import WallTimeInterval
 from erosim.io import checkpoint as ckpt
-from erosim.simulation.callbacks import Callback, Checkpointer
+from erosim.simulation.callbacks import Checkpointer
 from erosim.simulation.progress import ProgressBar
-from erosim.simulation.schedules import WallTimeInterval
 
 MODEL = "model."
 CALLBACK = "callback."

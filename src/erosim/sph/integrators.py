@@ -43,17 +43,39 @@ def _chunk(n, c):
     return c * cs, min(n, (c + 1) * cs)
 
 
+@njit(inline="always", cache=True)
+def kick_drift_particle(pos, vel, acc, rho, rho_old, drho, p, i, dt_kick, dt, rho0, b, gamma, pmin, rho_min):
+    """Fluid particle i: v += dt_kick·a; r += dt·v; predictor ρ* = max(ρ + dt·D, ρ_min) (ρ kept in rho_old);
+    p = EOS(ρ*). The CPU loop and the device kernel (:mod:`erosim.sph.kernels_cuda`) both call it."""
+    for a in range(pos.shape[1]):
+        vel[i, a] += dt_kick * acc[i, a]
+        pos[i, a] += dt * vel[i, a]
+    rho_old[i] = rho[i]
+    rho[i] = max(rho[i] + dt * drho[i], rho_min)
+    p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
+
+
+@njit(inline="always", cache=True)
+def correct_particle(vel, acc, rho, rho_old, drho, p, i, dt_kick, dt, rho0, b, gamma, pmin, rho_min):
+    """Fluid particle i after the force pass: v += dt_kick·a (leapfrog's second half kick); corrector
+    ρ = max(ρ_old + dt·D_new, ρ_min); p = EOS(ρ). Returns (|v|², |a|²). The CPU loop and the device
+    kernel both call it."""
+    sv = 0.0
+    sa = 0.0
+    for a in range(vel.shape[1]):
+        vel[i, a] += dt_kick * acc[i, a]
+        sv += vel[i, a] * vel[i, a]
+        sa += acc[i, a] * acc[i, a]
+    rho[i] = max(rho_old[i] + dt * drho[i], rho_min)
+    p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
+    return sv, sa
+
+
 @njit(parallel=True, cache=True)
 def kick_drift(pos, vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin, rho_min):
-    """Fluid: v += dt_kick·a; r += dt·v; predictor ρ* = max(ρ + dt·D, ρ_min) (ρ kept in rho_old); p = EOS(ρ*)."""
-    d = pos.shape[1]
+    """Fluid: :func:`kick_drift_particle` for every particle."""
     for i in prange(n_fluid):
-        for a in range(d):
-            vel[i, a] += dt_kick * acc[i, a]
-            pos[i, a] += dt * vel[i, a]
-        rho_old[i] = rho[i]
-        rho[i] = max(rho[i] + dt * drho[i], rho_min)
-        p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
+        kick_drift_particle(pos, vel, acc, rho, rho_old, drho, p, i, dt_kick, dt, rho0, b, gamma, pmin, rho_min)
 
 
 @njit(parallel=True, cache=True)
@@ -76,22 +98,14 @@ def max_displacement(pos, ref, n_fluid, out_disp2):
 def correct(vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin, rho_min, out_v2, out_a2):
     """After the force pass: v += dt_kick·a (leapfrog's second half kick; 0 for symplectic Euler);
     corrector ρ = max(ρ_old + dt·D_new, ρ_min); p = EOS(ρ). out_v2[c], out_a2[c]: chunk maxima of |v|², |a|²
-    (+inf if any is NaN).
+    (+inf if any is NaN). Each particle is :func:`correct_particle`.
     """
-    d = vel.shape[1]
     for c in prange(NCHUNK):
         mv = 0.0
         ma = 0.0
         i0, i1 = _chunk(n_fluid, c)
         for i in range(i0, i1):
-            sv = 0.0
-            sa = 0.0
-            for a in range(d):
-                vel[i, a] += dt_kick * acc[i, a]
-                sv += vel[i, a] * vel[i, a]
-                sa += acc[i, a] * acc[i, a]
-            rho[i] = max(rho_old[i] + dt * drho[i], rho_min)
-            p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
+            sv, sa = correct_particle(vel, acc, rho, rho_old, drho, p, i, dt_kick, dt, rho0, b, gamma, pmin, rho_min)
             if sv != sv or sa != sa:
                 mv = math.inf
                 ma = math.inf

@@ -7,8 +7,9 @@ writing both in numba-cuda keeps one GPU dependency (``numba-cuda``, an optional
 exact order the CPU path sums in. The physics is *not* rewritten: the kernels below call the CPU
 path's own per-particle functions (:func:`erosim.sph.forces.fluid_particle_3d`,
 :func:`erosim.sph.boundaries.particles.density_rate_particle`, :func:`erosim.sph.boundaries.box.enforce`,
-:func:`erosim.sph.eos.tait`, the kernels of :mod:`erosim.kernels.sph_kernels`), which numba-cuda
-compiles for the device; the integration bodies are the CPU loops' bodies line for line.
+:func:`erosim.sph.eos.tait`, the kernels of :mod:`erosim.kernels.sph_kernels`, the integrator's
+:func:`~erosim.sph.integrators.kick_drift_particle` and :func:`~erosim.sph.integrators.correct_particle`),
+which numba-cuda compiles for the device.
 
 Neighbour search (the CPU's method, :mod:`erosim.kernels.neighbours`, on a dense grid)
 ------------------------------------------------------------------------------------
@@ -45,11 +46,10 @@ import numpy as np
 from numba import config, cuda, int64, njit
 
 from erosim.kernels import sph_kernels as K
-from erosim.sph import forces
+from erosim.sph import forces, integrators
 from erosim.sph.boundaries import box as _box
 from erosim.sph.boundaries import particles as _bparticles
 from erosim.sph.boundaries import pressure_extrapolation_adami2012 as _adami
-from erosim.sph.eos import tait
 
 SIMULATOR = bool(config.ENABLE_CUDASIM)
 # threads per block of every kernel (a power of two: the block reductions halve it); the simulator
@@ -70,6 +70,9 @@ def _dev(fn):
 _enforce = _dev(_box.enforce)
 _density_rate_particle = _dev(_bparticles.density_rate_particle)
 _extrapolate_particle = _dev(_adami.extrapolate_particle)
+_kick_drift_particle = _dev(integrators.kick_drift_particle)
+_correct_particle = _dev(integrators.correct_particle)
+_update_density_particle = _dev(_bparticles.update_density_particle)
 
 
 def _helper(fn):
@@ -437,17 +440,10 @@ def sort_boundary_lists(start, n_fluid, n, nbr):
 
 @cuda.jit
 def kick_drift(pos, vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamma, pmin, rho_min):
-    """Fluid: v += dt_kick·a; r += dt·v; predictor ρ* = max(ρ + dt·D, ρ_min) (ρ kept in rho_old); p = EOS(ρ*)."""
+    """Fluid: :func:`erosim.sph.integrators.kick_drift_particle`, one thread per particle."""
     i = cuda.grid(1)
-    if i >= n_fluid:
-        return
-    d = pos.shape[1]
-    for a in range(d):
-        vel[i, a] += dt_kick * acc[i, a]
-        pos[i, a] += dt * vel[i, a]
-    rho_old[i] = rho[i]
-    rho[i] = max(rho[i] + dt * drho[i], rho_min)
-    p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
+    if i < n_fluid:
+        _kick_drift_particle(pos, vel, acc, rho, rho_old, drho, p, i, dt_kick, dt, rho0, b, gamma, pmin, rho_min)
 
 
 @cuda.jit
@@ -455,18 +451,10 @@ def correct(vel, acc, rho, rho_old, drho, p, n_fluid, dt_kick, dt, rho0, b, gamm
     """Second kick, corrector ρ = max(ρ_old + dt·D, ρ_min), p = EOS(ρ); out[0], out[1] = max |v|², |a|² (inf on NaN).
     Threads stride over the particles (launch with :func:`red_blocks`)."""
     sh = cuda.shared.array(TPB, np.float64)
-    d = vel.shape[1]
     mv = 0.0
     ma = 0.0
     for i in range(cuda.grid(1), n_fluid, cuda.gridsize(1)):
-        sv = 0.0
-        sa = 0.0
-        for a in range(d):
-            vel[i, a] += dt_kick * acc[i, a]
-            sv += vel[i, a] * vel[i, a]
-            sa += acc[i, a] * acc[i, a]
-        rho[i] = max(rho_old[i] + dt * drho[i], rho_min)
-        p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
+        sv, sa = _correct_particle(vel, acc, rho, rho_old, drho, p, i, dt_kick, dt, rho0, b, gamma, pmin, rho_min)
         if sv != sv or sa != sa:
             mv = math.inf
             ma = math.inf
@@ -495,12 +483,8 @@ def boundary_update_density(rho, rho_old, drho, p, start, n_fluid, n, dt, rho0, 
     """Active boundary particles (a non-empty list): ρ = max(ρ₀, ρ_old + dt·dρ/dt), p = EOS(ρ)
     (:func:`erosim.sph.boundaries.particles.update_density`)."""
     i = cuda.grid(1) + n_fluid
-    if i >= n or start[i + 1] == start[i]:
-        return
-    if predictor:
-        rho_old[i] = rho[i]
-    rho[i] = max(rho0, rho_old[i] + dt * drho[i])
-    p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
+    if i < n and start[i + 1] != start[i]:
+        _update_density_particle(rho, rho_old, drho, p, i, dt, rho0, b, gamma, pmin, predictor)
 
 
 @functools.cache

@@ -19,6 +19,7 @@ into the functions the step calls (no flags in the hot loops).
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 
 import numba
 import numpy as np
@@ -32,6 +33,7 @@ from erosim.sph import forces, integrators
 from erosim.sph.boundaries import particles as bparticles
 from erosim.sph.boundaries.base import Boundary
 from erosim.sph.boundaries.box import BoxWalls
+from erosim.sph.boundaries.distance_wall import walls_follow
 from erosim.sph.params import SPHParams
 from erosim.sph.shifting_lind2012 import FickianShifting
 from erosim.sph.state import ParticleState
@@ -439,6 +441,17 @@ class SPHSolver:
         if k:
             self._particles_changed()
         return k
+
+    @contextmanager
+    def ground_moving(self, terrain, changed):
+        """Around a change of the ground under the fluid (a coupler applying its increment): the distance
+        walls' share of the densities is taken before, and after the body has written the new ground
+        every boundary is refreshed with ``terrain`` (its ``changed`` nodes) and the walls follow
+        (:func:`~erosim.sph.boundaries.distance_wall.walls_follow`)."""
+        with walls_follow(self):
+            yield
+            for b in self.boundaries:
+                b.refresh(self, terrain=terrain, changed=changed)
 
     def replace_boundary(self, positions) -> None:
         """New fixed boundary particles (a refreshed terrain); densities restart at ρ₀."""

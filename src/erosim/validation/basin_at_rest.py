@@ -85,10 +85,10 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
         coupler = next(c for c in sim.callbacks if c.name == "coupler")
         level = cfg.water.level
         g = abs(cfg.sph.gravity_vector()[-1])
-        depth = level - float(coupler.terrain.min())
+        depth = level - float(coupler.terrain.z.min())
         pos, p = solver.fluid_positions(), solver.fluid_pressure()
-        e = errors(pos, p, rho0=cfg.sph.rho0, g=g, level=level, depth=depth, raster=coupler.raster,
-                   ground=coupler.terrain, spacing=spacing)  # fmt: skip
+        e = errors(pos, p, rho0=cfg.sph.rho0, g=g, level=level, depth=depth, raster=coupler.terrain.raster,
+                   ground=coupler.terrain.z, spacing=spacing)  # fmt: skip
         below = sim.out.path / "report.json"
         import json
 

@@ -15,7 +15,7 @@ reproduces, and the criteria checked here:
   end has lived at least ``t_end``); passed when partial's life exceeds full's.
 
 "Where erosion begins" is the report's ``first_erosion``: the onset, the first node solid at the start
-that the eroded surface has passed (:mod:`erosim.coupling.voxel_coupler`) — a local retreat of the
+that the eroded surface has passed (:mod:`erosim.coupling.terrains`) — a local retreat of the
 surface by up to one cell, the counterpart of the laboratory's first visible scour. The first quantum
 moved (``first_transfer``) is reported beside it and not judged: at K_ε = 2 a single particle of the
 overflow's thin front moves one as soon as it passes the threshold speed, wherever that happens to be.

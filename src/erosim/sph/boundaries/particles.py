@@ -120,11 +120,16 @@ def update_density(rho, rho_old, drho, p, active, dt, rho0, b, gamma, pmin, pred
     wall no water reached yet (its hydrostatic start counts depth below the fluid's top, water above it
     or not; tests/unit/test_sph_boundaries.py, first-reached test)."""
     for k in prange(active.size):
-        i = active[k]
-        if predictor:
-            rho_old[i] = rho[i]
-        rho[i] = max(rho0, rho_old[i] + dt * drho[i])
-        p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
+        update_density_particle(rho, rho_old, drho, p, active[k], dt, rho0, b, gamma, pmin, predictor)
+
+
+@njit(inline="always", cache=True)
+def update_density_particle(rho, rho_old, drho, p, i, dt, rho0, b, gamma, pmin, predictor):
+    """Boundary particle i of :func:`update_density` (the CPU loop and the device kernel both call it)."""
+    if predictor:
+        rho_old[i] = rho[i]
+    rho[i] = max(rho0, rho_old[i] + dt * drho[i])
+    p[i] = max(tait(rho[i], rho0, b, gamma), pmin)
 
 
 # drivers, one per kernel and dimension (spelled out so Numba can cache each)
