@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-slow test-cuda test-browser bench mutation lint clean
+.PHONY: demo test test-slow test-cuda test-browser test-regression bench mutation lint clean
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -26,6 +26,9 @@ test-cuda: $(STAMP)
 
 test-browser: $(STAMP)
 	$(BIN)/python -m pytest -q -m browser
+
+test-regression: $(STAMP)
+	$(BIN)/python -m pytest -q -m regression -n 2 --dist load
 
 bench: $(STAMP)
 	$(BIN)/erosim bench sph --particles 100000
