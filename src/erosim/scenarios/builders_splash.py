@@ -371,6 +371,19 @@ def standing_water(wet: WetGround, raster, hollows: np.ndarray) -> np.ndarray:
     return pond(wet.terrain, hollows, volume, raster.cell_area)
 
 
+def water_depth(wet: WetGround, raster) -> np.ndarray:
+    """Depth (m) of the water the fluid particles hold (V_p times their ``water`` share), each spread over
+    its footprint, a square of the fluid spacing (:func:`footprint_volume`): Σ depth·A is the water in the
+    fluid, and one particle of a fine grid is not one cell's column of its whole volume."""
+    st = wet.solver.state
+    nf = st.n_fluid
+    if nf == 0:
+        return np.zeros(raster.shape)
+    pos = st.pos[:nf].astype(np.float64)
+    vol = footprint_volume(raster, pos[:, :2], st.water[:nf] * wet.vp, wet.solver.params.spacing)
+    return vol / raster.cell_area
+
+
 class SplashOutputs(cb.Callback):
     """The final maps (the DEM's grid) and figures."""
 
@@ -383,7 +396,6 @@ class SplashOutputs(cb.Callback):
         from erosim.viz import splash as vs
 
         out, g, w = sim.out, self.geo, self.wet
-        self.grid.bin(w.solver)
         z = w.terrain
         puddles = standing_water(w, g.raster, hollow_depth(z))
         if g.nodata is not None:
@@ -395,7 +407,7 @@ class SplashOutputs(cb.Callback):
             "deposition": np.maximum(z - g.initial, 0.0),
             "wetness": w.wetness(),
             "puddles": puddles,
-            "water_depth": self.grid.depth,
+            "water_depth": water_depth(w, g.raster),
         }
         written = {}
         for name, arr in fields.items():

@@ -71,3 +71,19 @@ def craters_side_by_side(path, sections: list[tuple[str, np.ndarray, np.ndarray]
     np.atleast_1d(axes)[0].set_ylabel("height (mm)")
     fig.suptitle(title, fontsize=10)
     return save_figure(fig, path)
+
+
+def energy_scaling_figure(path, energy, diameter, beta: float, published: dict[str, float], title: str):
+    """Crater diameter (mm) against kinetic energy (J), log–log, with the fitted and published slopes."""
+    e, d = np.asarray(energy, np.float64), np.asarray(diameter, np.float64) * 1e3
+    fig, ax = plt.subplots(figsize=(6.0, 4.2))
+    ax.loglog(e, d, "o", color="#6b3a1e", label=f"erosim (fitted β = {beta:.3f})")
+    mid_e, mid_d = float(np.exp(np.log(e).mean())), float(np.exp(np.log(d).mean()))
+    ee = np.geomspace(e.min() / 1.3, e.max() * 1.3, 50)
+    for (name, b), style in zip(sorted(published.items()), ("--", ":"), strict=False):
+        ax.loglog(ee, mid_d * (ee / mid_e) ** b, style, color="0.3", label=f"published, {name}: β = {b:g}")
+    ax.set_xlabel("drop kinetic energy E_K (J)")
+    ax.set_ylabel("crater diameter D_c (mm)")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+    return save_figure(fig, path)
