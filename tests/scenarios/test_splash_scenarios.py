@@ -226,7 +226,8 @@ def test_bad_input_is_one_sentence_and_leaves_no_folder(tmp_path, sets, words):
 
 @pytest.mark.slow  # seven drop runs, about 2 min on 2 shared cores
 def test_validate_splash_wetness_passes_and_draws_the_craters(tmp_path):
-    from erosim.validation.splash_wetness import TOLERANCE, run as validate
+    from erosim.validation.splash_wetness import TOLERANCE
+    from erosim.validation.splash_wetness import run as validate
 
     res = validate("coarse", tmp_path / "v", progress=False, radius=R)
     assert res["passed"] and res["ordered_dry_partly_saturated"]
