@@ -21,6 +21,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 
 
 def load(run: Path):
@@ -61,13 +62,15 @@ def jet(before: Path, after: Path, out: Path):
         ny, nx = z.shape
         zoom = 0.15
         j, i = np.unravel_index(int(np.argmin(c)), c.shape)
-        im = ax.imshow(c, origin="lower", cmap="BrBG", vmin=-10, vmax=10,
+        norm = TwoSlopeNorm(vmin=-12.0, vcenter=0.0, vmax=0.5)  # the crater's depth and the rim's height
+        im = ax.imshow(c, origin="lower", cmap="BrBG", norm=norm,
                        extent=[-cell / 2, (nx - 0.5) * cell, -cell / 2, (ny - 0.5) * cell])  # fmt: skip
         ax.set_xlim(i * cell - zoom, i * cell + zoom)
         ax.set_ylim(j * cell - zoom, j * cell + zoom)
         ax.set_title(f"water-jet {tag}: height change at {rep['t']:.2f} s\n"
-                     f"(cells of {cell * 100:g} cm; colours clipped at ±10 mm)", fontsize=10)  # fmt: skip
-        fig.colorbar(im, ax=ax, shrink=0.8, label="height change (mm): crater < 0 < rim")
+                     f"(cells of {cell * 100:g} cm; colours −12 mm … 0 … +0.5 mm)", fontsize=10)  # fmt: skip
+        fig.colorbar(im, ax=ax, shrink=0.8, label="height change (mm): crater < 0 < rim",
+                     ticks=[-12, -8, -4, 0, 0.25, 0.5])
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
         scalebar(ax, 0.05, "5 cm")

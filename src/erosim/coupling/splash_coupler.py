@@ -263,7 +263,8 @@ class WetGround:
             k = np.flatnonzero(spent)
             gained += np.bincount(cols[k], st.water[k] * self.vp, self.ground.n)
             mud_vol = st.mud[k] * self.vp
-            dz += _scatter(r, pos[k, :2], mud_vol, self.valid)
+            # on a round footprint of the particle's size (at least two cells): not a four-node square
+            dz += sp.settle(r, pos[k, :2], mud_vol, max(sp.SUBCELL * min(r.dx, r.dy), s.params.spacing), self.valid)
             settled = float(mud_vol.sum())
             st.water[k] = 0.0
             st.mud[k] = 0.0

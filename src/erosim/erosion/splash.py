@@ -144,6 +144,26 @@ def spread(raster, x: float, y: float, volume: float, support: float) -> np.ndar
     return dz
 
 
+def settle(raster, xy: np.ndarray, volumes: np.ndarray, support: float, valid: np.ndarray | None = None) -> np.ndarray:
+    """Δz (raster.shape) that lays each of ``volumes`` (m³) at points ``xy`` (k, 2) on the radial footprint of
+    :func:`spread` (``support`` m): mud settling where its water soaked away, round wherever it falls between
+    the nodes. With ``valid`` (raster.shape) only on those nodes, each footprint's share on the others given
+    to them in proportion (a settling particle stands over the terrain, so its nearest node is valid and
+    within reach of a support of two cells or more). Σ Δz·A = Σ ``volumes``."""
+    dz = np.zeros(raster.shape)
+    for (x, y), v in zip(np.asarray(xy, np.float64).reshape(-1, 2), np.asarray(volumes, np.float64).ravel(),
+                         strict=True):  # fmt: skip
+        if not v > 0:
+            continue
+        one = spread(raster, x, y, v, support)
+        if valid is not None:
+            kept = np.where(valid, one, 0.0)
+            if kept.sum() > 0:
+                one = kept * (one.sum() / kept.sum())
+        dz += one
+    return dz
+
+
 def rim_increment(raster, x: float, y: float, opening: float, volume: float, extent: float) -> np.ndarray:
     """Δz (raster.shape, ≥ 0) of a rim of ``volume`` m³ around a crater of opening radius ``opening`` at
     (x, y): thickness ∝ (r/a)⁻³ for a ≤ r ≤ ``extent``·a (McGetchin et al. 1973), on the nodes in that ring;
