@@ -259,3 +259,38 @@ def test_rain_splash_as_shipped_starts_wetting_its_hills(tmp_path):
     assert rep["status"] == "completed" and rep["froude_scale"] == 1.0
     assert rep["impacts"]["count"] > 0 and rep["water_budget"]["absorbed"] > 0
     assert rep["water_budget"]["closure_rel"] < 1e-9 and rep["solid_budget"]["closure_rel"] < 1e-9
+
+
+@pytest.mark.slow  # the scene as shipped: 0.6 s, 6 300 steps of up to 750 particles, 35–100 s
+def test_water_jet_as_shipped_wets_a_disk_and_digs_a_round_crater(tmp_path):
+    """Issue 36's bound: the wet patch's radius varies by < 10 % with direction (was 57 %: a star), and so does
+    the crater's edge (was 18 %: a 3 × 3-node square); the crater has a rim."""
+    from scipy.ndimage import map_coordinates
+
+    res = run("water-jet", tmp_path / "jet", set={"run.wetness_frames": 0})
+    rep = res.report
+    g = np.load(tmp_path / "jet" / "checkpoint" / "state.npz")
+    s, cell = rep["resolution"]["ground_spacing_m"], rep["terrain"]["cell_size_m"]
+    z = g["callback.wet_ground.terrain"]
+    ncx, ncy = (int(np.floor((n - 1) * cell / s + 1e-9)) for n in z.shape[::-1])
+    theta = g["callback.wet_ground.ground_theta"][: ncx * ncy].reshape(ncy, ncx)
+    bearings = np.radians(np.arange(0.0, 360.0, 22.5))
+
+    def radii(field, ic, jc, inside, reach):
+        steps = np.linspace(0.0, reach, 2001)
+        out = []
+        for a in bearings:
+            v = map_coordinates(field, [jc + steps * np.sin(a), ic + steps * np.cos(a)], order=1)
+            out.append(steps[np.flatnonzero(inside(v)).max()])
+        return np.array(out)
+
+    jj, ii = np.indices(theta.shape)
+    w = theta / theta.sum()
+    wet = radii(theta, (w * ii).sum(), (w * jj).sum(), lambda v: v >= 0.05, min(theta.shape) / 2 - 1) * s
+    assert (wet.max() - wet.min()) / wet.mean() < 0.10, wet  # measured 0.095
+    imp = g["callback.wet_ground.impacts"]
+    depth = -z.min()
+    edge = radii(z, imp[:, 1].mean() / cell, imp[:, 2].mean() / cell, lambda v: v < -0.1 * depth, 0.12 / cell) * cell
+    assert (edge.max() - edge.min()) / edge.mean() < 0.10, edge  # measured 0.04
+    # deposits: the rim (0.2–0.26 mm around the 11 mm pit) and the mud settled near the wet edge
+    assert rep["outputs"]["maps"]["deposition"]["max"] > 0.1e-3
