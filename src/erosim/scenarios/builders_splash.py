@@ -372,15 +372,19 @@ def standing_water(wet: WetGround, raster, hollows: np.ndarray) -> np.ndarray:
 
 
 def water_depth(wet: WetGround, raster) -> np.ndarray:
-    """Depth (m) of the water the fluid particles hold (V_p times their ``water`` share), each spread over
-    its footprint, a square of the fluid spacing (:func:`footprint_volume`): Σ depth·A is the water in the
-    fluid, and one particle of a fine grid is not one cell's column of its whole volume."""
+    """Depth (m) of the water on the ground: the water the fluid particles within two kernel supports of
+    the ground hold (V_p times their ``water`` share; those higher up are still falling), each spread over
+    its footprint, a square of the fluid spacing (:func:`footprint_volume`): Σ depth·A is that water, and
+    one particle on a fine grid is not one cell's column of its whole volume."""
+    from erosim.coupling.sampling import sample
+
     st = wet.solver.state
     nf = st.n_fluid
     if nf == 0:
         return np.zeros(raster.shape)
     pos = st.pos[:nf].astype(np.float64)
-    vol = footprint_volume(raster, pos[:, :2], st.water[:nf] * wet.vp, wet.solver.params.spacing)
+    near = pos[:, 2] - sample(raster, wet.terrain, pos) < 2.0 * wet.solver.h
+    vol = footprint_volume(raster, pos[near, :2], st.water[:nf][near] * wet.vp, wet.solver.params.spacing)
     return vol / raster.cell_area
 
 
