@@ -16,12 +16,15 @@ on a bed that keeps its surface dry therefore sinks at K; one on a closed surfac
 volume φV fills it as θ(t) = 1 − (1 − θ₀) e^{−KAt/(φV)}.
 
 **Footprint.** A fluid particle's water meets the ground over its footprint, not at the one column
-under its centre: it gives to the surface particles within the kernel support h of it (horizontal
-distance r) in the shares w_pc = W(r_pc/h)/Σ_c W(r_pc/h), W(q) = (1 − q)⁴(1 + 4q) the Wendland C2
-bump (Wendland 1995), so the water a particle offers is the same wherever it lies on the ground
-lattice, and is spread alike in every direction (a particle sliding over the ground wets a band, not
-a line of single columns, and a point source a disk, not the lattice's star). Modelling choice: the
-seed names no footprint; h is where the ground's wall acts on the particle.
+under its centre: it offers its water to the surface particles within the kernel support h of it
+(horizontal distance r) in the shares w_pc = W(r_pc/h)/Σ_c W(r_pc/h), W(q) = (1 − q)⁴(1 + 4q) the
+Wendland C2 bump (Wendland 1995), the same wherever it lies on the ground lattice and alike in every
+direction (a particle sliding over the ground wets a band, not a line of single columns, and a point
+source a disk, not the lattice's star). Each surface particle takes at most its Darcy demand from
+what is offered to it: where the water is short the shares decide, where it is ample every column
+of the footprint takes water at K(1 − θ) — a lone particle soaks into the disk of radius h under it
+(area πh², about 12.6 Δx² for h = 2Δx), as a film spread over that disk would. Modelling choice:
+the seed names no footprint; h is where the ground's wall acts on the particle.
 
 **Moisture diffusion.** Between ground particles, driven by saturation differences:
 d(φ_iV_iθ_i)/dt = Σ_j D_θ φ̄_ij V_i V_j L(r_ij)(θ_j − θ_i) (the conservative SPH diffusion of
