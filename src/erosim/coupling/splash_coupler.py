@@ -27,7 +27,8 @@ since the last one:
    ground and l the distance to it; τ_c scales with σ_s(θ)/σ₀ (wet ground scours more easily —
    the seed's erosion "considering wetness", a modelling choice); the solid joins the particle's mud;
 4. **seepage** (SP-3, :mod:`erosim.hydrology.seepage_darcy`): touching particles give water to the
-   surface particles of their footprint (within h, Wendland shares) at the Darcy rate; a particle
+   surface particles of their footprint (within h, Wendland shares; each covering one ground column's
+   area in the same shares) at the Darcy rate; a particle
    whose water is spent is removed (sink ``seepage``) and its solid settles on the ground where it was;
 5. the terrain change of 2–4 is one :class:`~erosim.core.increments.Increment` (craters, scour,
    settled mud; ΔS the mud taken up minus settled; C what was thrown clear), checked by
@@ -255,7 +256,7 @@ class WetGround:
         w /= np.bincount(pt, w, len(idx))[pt]
         taken = np.zeros(nf)
         taken[idx], gained = absorb_spread(st.water[idx] * self.vp, pt, pc, w, self.ground.theta, self.ground.pore,
-                                           self.ground.area, self.k, dt)  # fmt: skip
+                                           self.ground.area, self.k, dt, cover=self.ground.area)  # fmt: skip
         st.water[:nf] -= taken / self.vp
         spent = touch & (st.water[:nf] <= SPENT)
         settled = 0.0
