@@ -55,7 +55,7 @@ def test_splash_drop_as_shipped_has_a_rim_and_a_wet_spot(tmp_path):
     # the drop soaks into its footprint, not one column, at K·s² (measured θ ≤ 0.10, 15 % soaked by 50 ms;
     # before, θ ≤ 1.1e-4: the lone particle hovered at the edge of the contact distance over one column)
     assert maps["wetness"]["max"] > 0.05
-    assert rep["water_budget"]["absorbed"] > 0.1 * rep["water_budget"]["fluid_initial"]
+    assert rep["water_budget"]["absorbed"] > 0.05 * rep["water_budget"]["fluid_initial"]
     assert maps["water_depth"]["max"] <= 1.62 * 0.002  # one drop's water over its footprint (was 134 mm)
     assert rep["water_budget"]["closure_rel"] < 1e-9 and rep["solid_budget"]["closure_rel"] < 1e-9
 
