@@ -135,7 +135,7 @@ def drop(before: Path, after: Path, out: Path):
                      f"depth {rep['crater_depth_m'] * 1e3:.2f} mm, rim {rim:.3f} mm", fontsize=10)  # fmt: skip
         ax.legend(fontsize=8, loc="lower right")
         ax = axes[row, 1]
-        im = ax.imshow(theta, origin="lower", cmap="YlGnBu", vmin=0, vmax=0.5,
+        im = ax.imshow(theta, origin="lower", cmap="YlGnBu", vmin=0, vmax=0.12,
                        extent=[0, theta.shape[1] * s * 1e3, 0, theta.shape[0] * s * 1e3])  # fmt: skip
         wmax = rep["surface_wetness"]["max"]
         ax.set_title(f"splash-drop {tag}: surface saturation at {rep['t'] * 1e3:.0f} ms (max {wmax:.2g})\n"
