@@ -163,7 +163,7 @@ def test_rain_splash_through_the_cli_on_a_dem_with_nodata_and_a_60_degree_slope(
 
 
 def test_water_jet_splashes_and_soaks_in(tmp_path):
-    rep = run("water-jet", tmp_path / "jet", set={"run.t_end": 0.3, "run.wetness_frames": 0}).report
+    rep = run("water-jet", tmp_path / "jet", set={"run.t_end": 0.22, "run.wetness_frames": 0}).report
     assert rep["impacts"]["count"] > 0
     assert rep["solid_budget"]["eroded"] > 0 and rep["water_budget"]["absorbed"] > 0
     sb = rep["solid_budget"]
