@@ -570,6 +570,27 @@ MUTATIONS = (
         "moisture diffuses only between axis neighbours (a 5-point stencil in plan) instead of the kernel's support",
     ),
     Mutation(
+        "seepage-one-column",
+        "coupling/porous_ground.py",
+        (("        ok = (d < radius) & (i >= 0)", "        ok = (d < 0.0) & (i >= 0)"),),
+        ("tests/unit/test_splash_isotropy.py",),
+        "a touching particle gives water only to the column under its centre: the jet's rays wet a star",
+    ),
+    Mutation(
+        "subcell-crater-one-node",
+        "erosion/splash.py",
+        (("SUBCELL = 2.0", "SUBCELL = 0.75"),),
+        ("tests/unit/test_splash_physics.py",),
+        "a crater narrower than a cell is laid on its nearest node(s), not a radial footprint: a jet digs a square",
+    ),
+    Mutation(
+        "crater-without-rim",
+        "coupling/splash_coupler.py",
+        (("self.splash.rim * dug, self.splash.rim_extent", "0.0 * dug, self.splash.rim_extent"),),
+        ("tests/scenarios/test_splash_scenarios.py",),
+        "a crater's solid all goes into the water: no rim around a drop's crater",
+    ),
+    Mutation(
         "outflow-edge-digs",
         "erosion/transport_capacity_mei2007.py",
         (("sx, sy = node_gradient(terrain, r.dx, r.dy, self.ghost)", "sx, sy = node_gradient(terrain, r.dx, r.dy, {})"),

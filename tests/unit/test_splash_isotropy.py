@@ -4,6 +4,7 @@ no preferred horizontal axis (issue 36, seed 003 water-jet; SPEC SP-3)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.ndimage import map_coordinates
 
 from erosim.coupling.porous_ground import PorousGround
@@ -109,3 +110,30 @@ def test_a_single_impact_digs_a_round_crater():
     assert float(crater_radius(radius, depth)) < 0.3  # the crater lies within the map
     vol = -dz.sum() * r.cell_area
     assert abs(vol - float(crater_volume(radius, depth))) < 0.05 * vol  # midpoint sum of a smooth cap
+
+
+def test_a_touching_particle_wets_a_round_footprint():
+    """Seepage from one fluid particle goes to the surface particles of its footprint (radius h, Wendland
+    shares), not to the one column under its centre: a particle sliding along the ground then wets a band
+    rather than a line of single columns, and the rays of particles a jet throws out no longer wet the
+    ground in a star (water-jet: the wet front's spread with direction 0.56 → 0.15). The spot is round
+    (< 10 % spread of its edge's radius over 16 directions) wherever the particle lies on the lattice,
+    and the water it gives is what the ground gains."""
+    from erosim.hydrology.seepage_darcy import absorb_spread, footprint_weights
+
+    r = Raster(0.0, 0.0, 0.05, 0.05, 17, 17)
+    spots = ((0.4123, 0.3871), (0.4125, 0.4125), (0.4, 0.4))  # off the lattice, on a site, on a corner
+    for (x, y), cover in zip(spots * 2, (None,) * 3 + (0.05**2,) * 3, strict=True):  # the particle's Δx² or all
+        g = PorousGround(r, np.zeros(r.shape), 0.025, 2, 0.4, 0.0, 2650.0)
+        h = 0.1  # four ground spacings: the footprint spans enough columns for its edge to be measured
+        pt, pc, pr = g.columns_near(np.array([[x, y]]), h)
+        w = footprint_weights(pr, h)
+        w /= w.sum()
+        taken, gained = absorb_spread(np.array([2.0e-6]), pt, pc, w, g.theta, g.pore, g.area, 1.0e-2, 0.02, cover)
+        assert abs(taken.sum() - gained.sum()) <= 1e-15 * taken.sum()  # the same pair amounts, summed twice
+        assert (gained > 0).sum() > 20  # the column-only contact wetted exactly one
+        theta = (gained[: g.ncol] / g.pore[: g.ncol]).reshape(g.ncy, g.ncx)
+        radius = _front(theta, x / g.s - 0.5, y / g.s - 0.5, 0.05 * theta.max())
+        assert (radius.max() - radius.min()) / radius.mean() < 0.10, radius
+        if cover is not None:  # a lone particle soaks in at K·Δx², whatever the lattice under it
+            assert taken.sum() == pytest.approx(1.0e-2 * cover * 0.02, rel=1e-12)

@@ -159,6 +159,31 @@ class PorousGround:
         j = np.clip(np.floor((xy[:, 1] - r.y0) / self.s).astype(np.int64), 0, self.ncy - 1)
         return self.site_column[j * self.ncx + i]
 
+    def columns_near(self, xy: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The lattice's columns whose centres lie within ``radius`` of each point ``xy`` (k, 2): (point
+        index, column index, horizontal distance) per pair; a site without a column (nodata) counts as the
+        nearest kept column's, sites beyond the map are left out (every point keeps its own column)."""
+        xy = np.asarray(xy, np.float64).reshape(-1, 2)
+        r, s, m = self.raster, self.s, int(math.ceil(radius / self.s)) + 1
+        fi = (xy[:, 0] - r.x0) / s - 0.5
+        fj = (xy[:, 1] - r.y0) / s - 0.5
+        off = np.arange(-m, m + 1)
+        di, dj = (a.ravel() for a in np.meshgrid(off, off))
+        i = np.rint(fi).astype(np.int64)[:, None] + di[None, :]
+        j = np.rint(fj).astype(np.int64)[:, None] + dj[None, :]
+        d = np.hypot((i - fi[:, None]) * s, (j - fj[:, None]) * s)
+        ok = (d < radius) & (i >= 0) & (i < self.ncx) & (j >= 0) & (j < self.ncy)
+        own = self.column_of(xy)
+        pt = np.broadcast_to(np.arange(len(xy))[:, None], d.shape)[ok]
+        col = self.site_column[(j * self.ncx + i)[ok]]
+        dist = d[ok]
+        lone = np.bincount(pt, minlength=len(xy)) == 0  # a point farther than radius from every centre
+        if lone.any():
+            k = np.flatnonzero(lone)
+            pt, col = np.concatenate([pt, k]), np.concatenate([col, own[k]])
+            dist = np.concatenate([dist, np.zeros(len(k))])
+        return pt, col, dist
+
     def surface_map(self, values: np.ndarray | None = None) -> np.ndarray:
         """A surface particles' value (default θ) at every node of the raster (the column over the node)."""
         v = self.theta if values is None else values

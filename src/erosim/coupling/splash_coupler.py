@@ -15,8 +15,10 @@ since the last one:
    water cushions it and it strikes at the speed it has now;
 2. **splash** (SP-1, SP-2): each strike faster than ``splash.min_speed`` digs the crater of
    :mod:`erosim.erosion.splash` with the strength σ_s(θ) (:mod:`erosim.erosion.wet_strength`) of the
-   surface particle under it; the particle takes the crater's solid up as mud (concentration C, up to
-   ``splash.mud_max``), the rest is thrown clear (counted, ``splashed_away``). The strike's normal
+   surface particle under it; the share ``splash.rim`` of the crater's solid lands around it as its
+   rim (:func:`~erosim.erosion.splash.rim_increment`), the particle takes the rest up as mud
+   (concentration C, up to ``splash.mud_max``) and what it cannot take is thrown clear (counted,
+   ``splashed_away``). The strike's normal
    velocity is spent on the crater (the energy balance of the law): the particle keeps only its
    motion along the ground and does not rebound;
 3. **scour** (SP-5): particles touching the ground wear it by Krištof et al.'s shear-stress law,
@@ -25,8 +27,9 @@ since the last one:
    ground and l the distance to it; τ_c scales with σ_s(θ)/σ₀ (wet ground scours more easily —
    the seed's erosion "considering wetness", a modelling choice); the solid joins the particle's mud;
 4. **seepage** (SP-3, :mod:`erosim.hydrology.seepage_darcy`): touching particles give water to the
-   surface particle under them at the Darcy rate; a particle whose water is spent is removed (sink
-   ``seepage``) and its solid settles on the ground where it was;
+   surface particles of their footprint (within h, Wendland shares; each covering one ground column's
+   area in the same shares) at the Darcy rate; a particle
+   whose water is spent is removed (sink ``seepage``) and its solid settles on the ground where it was;
 5. the terrain change of 2–4 is one :class:`~erosim.core.increments.Increment` (craters, scour,
    settled mud; ΔS the mud taken up minus settled; C what was thrown clear), checked by
    :func:`~erosim.core.increments.check_budget` and applied once; the solver's boundaries are
@@ -76,7 +79,7 @@ from erosim.coupling.sampling import sample
 from erosim.erosion import splash as sp
 from erosim.erosion.shear_stress_kristof2009 import excess_stresses
 from erosim.erosion.wet_strength import strength
-from erosim.hydrology.seepage_darcy import absorb, conductivity, drain, evaporate, harmonic
+from erosim.hydrology.seepage_darcy import absorb_spread, conductivity, drain, evaporate, footprint_weights, harmonic
 from erosim.kernels.sph_diffusion import diffuse
 from erosim.sph.boundaries.heightfield import node_slopes
 from erosim.sph.mud import MudParams, diffuse_concentration, mixture_density
@@ -196,13 +199,20 @@ class WetGround(Callback):
             dzi = sp.crater_increment(r, pos[i : i + 1, :2], self.radius, np.array([d]))
             if self.outside is not None:
                 dzi[self.outside] = 0.0  # outside the terrain nothing is dug
-            vol = float(-dzi.sum() * r.cell_area)
+            dug = float(-dzi.sum() * r.cell_area)
+            rim = sp.rim_increment(r, pos[i, 0], pos[i, 1], float(sp.crater_radius(self.radius, d)),
+                                   self.splash.rim * dug, self.splash.rim_extent)  # fmt: skip
+            if self.outside is not None and rim[self.outside].any():  # the rim lands on the terrain only
+                kept = rim.sum()
+                rim[self.outside] = 0.0
+                rim *= kept / rim.sum() if rim.sum() > 0 else 0.0
+            vol = dug - float(rim.sum() * r.cell_area)  # what leaves the ground: mud, or thrown clear
             take = min(vol, max(self.splash.mud_max - st.mud[i], 0.0) * self.vp)
             st.mud[i] += take / self.vp
             taken_up += take
             thrown += vol - take
-            dz += dzi
-            self.totals["dug"] += vol
+            dz += dzi + rim
+            self.totals["dug"] += dug
             self.n_impacts += 1
             if len(self.impacts) < 1000:
                 a = float(sp.crater_radius(self.radius, d))
@@ -240,9 +250,13 @@ class WetGround(Callback):
         t1, c1 = time.perf_counter(), time.process_time()
 
         # ---- 4 seepage: Darcy absorption, spent particles settle their mud
-        contact = np.where(touch, cols, -1)
-        taken, gained = absorb(st.water[:nf] * self.vp, contact, self.ground.theta, self.ground.pore,
-                               self.ground.area, self.k, dt)  # fmt: skip
+        idx = np.flatnonzero(touch)
+        pt, pc, pr = self.ground.columns_near(pos[idx, :2], s.h)  # each particle's footprint (radius h)
+        w = footprint_weights(pr, s.h)
+        w /= np.bincount(pt, w, len(idx))[pt]
+        taken = np.zeros(nf)
+        taken[idx], gained = absorb_spread(st.water[idx] * self.vp, pt, pc, w, self.ground.theta, self.ground.pore,
+                                           self.ground.area, self.k, dt, cover=self.ground.area)  # fmt: skip
         st.water[:nf] -= taken / self.vp
         spent = touch & (st.water[:nf] <= SPENT)
         settled = 0.0
@@ -250,7 +264,8 @@ class WetGround(Callback):
             k = np.flatnonzero(spent)
             gained += np.bincount(cols[k], st.water[k] * self.vp, self.ground.n)
             mud_vol = st.mud[k] * self.vp
-            dz += _scatter(r, pos[k, :2], mud_vol, self.valid)
+            # on a round footprint of the particle's size (at least two cells): not a four-node square
+            dz += sp.settle(r, pos[k, :2], mud_vol, max(sp.SUBCELL * min(r.dx, r.dy), s.params.spacing), self.valid)
             settled = float(mud_vol.sum())
             st.water[k] = 0.0
             st.mud[k] = 0.0

@@ -20,7 +20,9 @@ MARTIN_MOYCE_COLUMN = "martin_moyce_1952_n2_2_a2.25in_column_height_Ocellaris.cs
 MARTIN_MOYCE_FIG3 = "martin_moyce_1952_n2_2_surge_front_PySPH_fig3.csv"
 KOSHIZUKA_OKA = "koshizuka_oka_1996_dam_break.csv"
 SPHERIC2 = "spheric2_kleefsman2005_marin.csv"
-REFERENCE_FILES = (MARTIN_MOYCE_SURGE, MARTIN_MOYCE_COLUMN, MARTIN_MOYCE_FIG3, KOSHIZUKA_OKA, SPHERIC2)
+DROP_CRATER_SCALING = "drop_impact_crater_scaling_exponents.csv"
+REFERENCE_FILES = (MARTIN_MOYCE_SURGE, MARTIN_MOYCE_COLUMN, MARTIN_MOYCE_FIG3, KOSHIZUKA_OKA, SPHERIC2,
+                   DROP_CRATER_SCALING)  # fmt: skip
 
 
 def reference_text(name: str) -> str:

@@ -15,6 +15,20 @@ saturation — a saturated surface takes water again only as moisture drains awa
 on a bed that keeps its surface dry therefore sinks at K; one on a closed surface layer of pore
 volume φV fills it as θ(t) = 1 − (1 − θ₀) e^{−KAt/(φV)}.
 
+**Footprint.** A fluid particle's water meets the ground over its footprint, not at the one column
+under its centre: it offers its water to the surface particles within the kernel support h of it
+(horizontal distance r) in the shares w_pc = W(r_pc/h)/Σ_c W(r_pc/h), W(q) = (1 − q)⁴(1 + 4q) the
+Wendland C2 bump (Wendland 1995), the same wherever it lies on the ground lattice and alike in every
+direction (a particle sliding over the ground wets a band, not a line of single columns, and a point
+source a disk, not the lattice's star). A particle's water covers the area a_p of one ground column,
+spread in the same shares: the surface particle c is covered over A_c' = min(A_c, Σ_p w_pc a_p) and
+takes at most K(1 − θ_c)A_c'Δt, so a lone particle soaks in at K·a_p, as when it met the one column
+under its centre, now over a round patch, and ground under overlapping footprints takes K(1 − θ) over
+its whole area. Modelling choice: the seed names no footprint; h is where the ground's wall acts on
+the particle. (Covering its own cross-section Δx² instead would soak water in (Δx/s)² times faster
+where the ground particles are finer than the fluid's: 4 times in rain-splash, whose puddles then
+mostly soak away — measured 0.026 l standing instead of 0.27 l.)
+
 **Moisture diffusion.** Between ground particles, driven by saturation differences:
 d(φ_iV_iθ_i)/dt = Σ_j D_θ φ̄_ij V_i V_j L(r_ij)(θ_j − θ_i) (the conservative SPH diffusion of
 :mod:`erosim.kernels.sph_diffusion`; φ̄ the mean porosity of the pair), so a step of wet over dry
@@ -81,6 +95,36 @@ def absorb(water: np.ndarray, contact: np.ndarray, theta: np.ndarray, pore: np.n
     taken[touching] = water[touching] * share[c]
     gained = np.bincount(contact[touching], taken[touching], n_g)
     return taken, gained
+
+
+def footprint_weights(r: np.ndarray, radius: float) -> np.ndarray:
+    """The Wendland C2 bump W = (1 − q)⁴(1 + 4q), q = r/``radius`` (0 beyond): un-normalised footprint weights."""
+    q = np.clip(np.asarray(r, dtype=np.float64) / radius, 0.0, 1.0)
+    return (1.0 - q) ** 4 * (1.0 + 4.0 * q)
+
+
+def absorb_spread(water: np.ndarray, p: np.ndarray, c: np.ndarray, w: np.ndarray, theta: np.ndarray,
+                  pore: np.ndarray, area: float, k: float, dt: float,
+                  cover: float | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """One Darcy absorption step over footprints: fluid particle ``p[m]`` offers the share ``w[m]`` of its
+    ``water`` (m³) to ground particle ``c[m]`` (each particle's shares sum to 1) and covers ``cover`` m² of
+    ground in the same shares (None: every footprint column wholly). Each ground particle takes at most
+    the Darcy demand min(K(1 − θ)A'Δt, (1 − θ)φV) of :func:`absorb` over its covered area
+    A' = min(A, Σ w·cover), every offer to it in the same proportion. Returns (taken (n_f,), gained
+    (n_g,)) m³: the bincounts of the same pair amounts, so Σ taken = Σ gained to rounding."""
+    n_g = len(theta)
+    taken = np.zeros(len(water))
+    if len(p) == 0 or dt <= 0:
+        return taken, np.zeros(n_g)
+    offer = w * water[p]
+    supply = np.bincount(c, offer, n_g)
+    covered = area if cover is None else np.minimum(area, np.bincount(c, w * cover, n_g))
+    deficit = np.clip(1.0 - theta, 0.0, 1.0)
+    take = np.minimum(np.minimum(k * deficit * covered * dt, deficit * pore), supply)
+    share = np.divide(take, supply, out=np.zeros(n_g), where=supply > 0)
+    amount = offer * share[c]
+    taken += np.bincount(p, amount, len(water))
+    return taken, np.bincount(c, amount, n_g)
 
 
 def evaporate(theta: np.ndarray, pore: np.ndarray, surface: np.ndarray, area: float, rate: float,

@@ -371,6 +371,23 @@ def standing_water(wet: WetGround, raster, hollows: np.ndarray) -> np.ndarray:
     return pond(wet.terrain, hollows, volume, raster.cell_area)
 
 
+def water_depth(wet: WetGround, raster) -> np.ndarray:
+    """Depth (m) of the water on the ground: the water the fluid particles within two kernel supports of
+    the ground hold (V_p times their ``water`` share; those higher up are still falling), each spread over
+    its footprint, a square of the fluid spacing (:func:`footprint_volume`): Σ depth·A is that water, and
+    one particle on a fine grid is not one cell's column of its whole volume."""
+    from erosim.coupling.sampling import sample
+
+    st = wet.solver.state
+    nf = st.n_fluid
+    if nf == 0:
+        return np.zeros(raster.shape)
+    pos = st.pos[:nf].astype(np.float64)
+    near = pos[:, 2] - sample(raster, wet.terrain, pos) < 2.0 * wet.solver.h
+    vol = footprint_volume(raster, pos[near, :2], st.water[:nf][near] * wet.vp, wet.solver.params.spacing)
+    return vol / raster.cell_area
+
+
 class SplashOutputs(cb.Callback):
     """The final maps (the DEM's grid) and figures."""
 
@@ -383,7 +400,6 @@ class SplashOutputs(cb.Callback):
         from erosim.viz import splash as vs
 
         out, g, w = sim.out, self.geo, self.wet
-        self.grid.bin(w.solver)
         z = w.terrain
         puddles = standing_water(w, g.raster, hollow_depth(z))
         if g.nodata is not None:
@@ -395,7 +411,7 @@ class SplashOutputs(cb.Callback):
             "deposition": np.maximum(z - g.initial, 0.0),
             "wetness": w.wetness(),
             "puddles": puddles,
-            "water_depth": self.grid.depth,
+            "water_depth": water_depth(w, g.raster),
         }
         written = {}
         for name, arr in fields.items():

@@ -52,8 +52,11 @@ def crater_profile_figure(path, geo, terrain: np.ndarray):
     ax.fill_between(x, terrain[j] * 1e3, terrain[j].min() * 1e3 - 1, color="#a0522d", alpha=0.6)
     ax.plot(x, terrain[j] * 1e3, color="#6b3a1e", label="after")
     ax.set_xlabel("distance from the crater's centre (mm)")
-    ax.set_ylabel("height (mm)")
+    ax.set_ylabel("height (mm, true scale)")
     ax.set_aspect("equal")
+    depth, rim = float((geo.initial - terrain).max()) * 1e3, float((terrain - geo.initial).max()) * 1e3
+    ax.set_title(f"Crater section through its deepest point (y = {j * r.dy * 1e3:.1f} mm): depth {depth:.2f} mm, "
+                 f"rim {rim:.2f} mm", fontsize=9)  # fmt: skip
     ax.legend(loc="lower right", fontsize=8)
     return save_figure(fig, path)
 
@@ -70,4 +73,29 @@ def craters_side_by_side(path, sections: list[tuple[str, np.ndarray, np.ndarray]
         ax.set_aspect("equal")
     np.atleast_1d(axes)[0].set_ylabel("height (mm)")
     fig.suptitle(title, fontsize=10)
+    return save_figure(fig, path)
+
+
+def energy_scaling_figure(path, energy, diameter, beta: float, published: dict[str, float], title: str):
+    """Crater diameter (mm) against kinetic energy (J), log–log, with the fitted and published slopes."""
+    e, d = np.asarray(energy, np.float64), np.asarray(diameter, np.float64) * 1e3
+    fig, ax = plt.subplots(figsize=(6.0, 4.2))
+    ax.loglog(e, d, "o", color="#6b3a1e", label=f"erosim (fitted β = {beta:.3f})")
+    mid_e, mid_d = float(np.exp(np.log(e).mean())), float(np.exp(np.log(d).mean()))
+    ee = np.geomspace(e.min() / 1.3, e.max() * 1.3, 50)
+    for (name, b), style in zip(sorted(published.items()), ("--", ":"), strict=False):
+        ax.loglog(ee, mid_d * (ee / mid_e) ** b, style, color="0.3",
+                  label=f"published slope, {name}: β = {b:g} (through the runs' mean)")  # fmt: skip
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
+
+    ticks = [t for t in (1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2) if ee[0] <= t <= ee[-1]]
+    ax.set_xticks(ticks, [f"{t:.0e}" for t in ticks])
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.yaxis.set_major_formatter(ScalarFormatter())
+    ax.yaxis.set_minor_formatter(ScalarFormatter())
+    ax.set_xlabel("drop kinetic energy E_K (J)")
+    ax.set_ylabel("crater diameter D_c (mm)")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
     return save_figure(fig, path)
