@@ -356,7 +356,12 @@ MUTATIONS = (
     Mutation(
         "animation-not-checkpointed",
         "simulation/callbacks.py",
-        (('out: dict[str, Any] = {"frames": np.stack(self.frames)} if self.frames else {}', "out: dict[str, Any] = {}"),),
+        (
+            (
+                'out: dict[str, Any] = {"frames": np.stack(self.frames)} if self.frames else {}',
+                "out: dict[str, Any] = {}",
+            ),
+        ),
         ("tests/scenarios/test_interrupt_resume.py",),
         "a resumed run's animation starts at the resume",
     ),
