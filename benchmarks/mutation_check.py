@@ -10,7 +10,7 @@ kernel of the unbroken code can hide a mutation.
 
 A mutation is *caught* when a test fails, *survives* when every test passes, and is *stale* when its
 text no longer occurs exactly once in today's sources (reported in the table; the rest still run;
-``tests/unit/test_mutation_table.py`` keeps the table in step with the code). Every mutation must be
+``tests/unit/package/test_mutation_table.py`` keeps the table in step with the code). Every mutation must be
 caught; the list grows with the physics (erosion laws, boundaries, budgets).
 
     .venv/bin/python benchmarks/mutation_check.py                 # all, a table on stdout
@@ -46,7 +46,7 @@ class Mutation:
     what: str
 
 
-SPH_CORE = ("tests/unit/test_sph_solver.py", "tests/verification/test_sph_viscosity.py",
+SPH_CORE = ("tests/unit/sph/test_sph_solver.py", "tests/verification/test_sph_viscosity.py",
             "tests/validation/test_hydrostatic.py", "tests/validation/test_martin_moyce.py")  # fmt: skip
 
 # the general descend's exit into a nodata cell (the demo's ℓ = 2 cells runs that kernel)
@@ -113,84 +113,84 @@ MUTATIONS = (
                 "                vel[i, a] = vel[i, a]",
             ),
         ),
-        ("tests/unit/test_sph_boundaries.py", "tests/unit/test_sph_solver.py"),
+        ("tests/unit/sph/test_sph_boundaries.py", "tests/unit/sph/test_sph_solver.py"),
         "a particle crossing a lower box wall keeps its outward velocity",
     ),  # fmt: skip
     Mutation(
         "boundary-particles-static-density",
         "sph/boundaries/particles.py",
         (("    drho[i] = m * dr\n", "    drho[i] = 0.0 * m * dr\n"),),
-        ("tests/unit/test_sph_boundaries.py", "tests/validation/test_hydrostatic.py"),
+        ("tests/unit/sph/test_sph_boundaries.py", "tests/validation/test_hydrostatic.py"),
         "boundary particles never compress",
     ),
     Mutation(
         "verlet-rebuild-late",
         "sph/solver.py",
         (("half = 0.5 * (self.rc - self.h)", "half = 5.0 * (self.rc - self.h)"),),
-        ("tests/unit/test_sph_solver.py", "tests/unit/test_sph_state.py"),
+        ("tests/unit/sph/test_sph_solver.py", "tests/unit/sph/test_sph_state.py"),
         "neighbour lists rebuilt only after particles moved ten times the safe distance",
     ),
     Mutation(
         "wall-hydrostatic-term-off",
         "sph/boundaries/wall_weight_harada2007.py",
         (("an = arep + m * chyd * gn * ch", "an = arep + 0.0 * m * chyd * gn * ch"),),
-        ("tests/unit/test_wall_weights.py", "tests/validation/test_basin_at_rest.py"),
+        ("tests/unit/sph/test_wall_weights.py", "tests/validation/test_basin_at_rest.py"),
         "particle-free walls without the hydrostatic pressure of their wall particles",
     ),
     Mutation(
         "wall-tangential-support-off",
         "sph/boundaries/wall_weight_harada2007.py",
         (("cgt = m * chyd * ctt", "cgt = 0.0 * m * chyd * ctt"),),
-        ("tests/unit/test_wall_weights.py", "tests/validation/test_basin_at_rest.py"),
+        ("tests/unit/sph/test_wall_weights.py", "tests/validation/test_basin_at_rest.py"),
         "steep walls do not hold water up (no tangential hydrostatic term)",
     ),
     Mutation(
         "heightfield-constraint-off",
         "sph/boundaries/heightfield.py",
         (("if pos[i, d - 1] >= bilinear(z, x, y):", "if pos[i, d - 1] >= bilinear(z, x, y) - 1e9:"),),
-        ("tests/unit/test_sph_terrain_parts.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
+        ("tests/unit/sph/test_sph_terrain_parts.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
         "no particle is ever lifted back above the ground",
     ),
     Mutation(
         "binning-mean-not-divided",
         "coupling/binning.py",
         (("u = velocity[iy, ix, a] / c", "u = velocity[iy, ix, a] / 1.0"),),
-        ("tests/unit/test_coupling.py",),
+        ("tests/unit/coupling/test_coupling.py",),
         "a node's mean velocity is the sum of its particles'",
     ),
     Mutation(
         "coupler-applies-twice",
         "coupling/terrains.py",
         (("self.z[...] = self.z + dz", "self.z[...] = self.z + 2.0 * dz"),),
-        ("tests/unit/test_coupling.py",),
+        ("tests/unit/coupling/test_coupling.py",),
         "the coupler applies each increment twice",
     ),
     Mutation(
         "voxel-coupler-applies-twice",
         "coupling/terrains.py",
         (("f.density += dd  #", "f.density += 2.0 * dd  #"),),
-        ("tests/unit/test_voxel_coupler.py",),
+        ("tests/unit/coupling/test_voxel_coupler.py",),
         "the coupler applies each density increment of a voxel field twice",
     ),
     Mutation(
         "coupler-drops-particle-loads",
         "coupling/coupler.py",
         (("getattr(s.state, field)[: len(values)] = values", "pass"),),
-        ("tests/unit/test_coupling.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
+        ("tests/unit/coupling/test_coupling.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
         "the particles' new sediment loads in an increment are never written: picked-up sediment vanishes",
     ),
     Mutation(
         "capacity-slope-clamp-off",
         "erosion/transport_capacity_mei2007.py",
         (("np.maximum(np.sin(np.arctan(np.hypot(sx, sy))), self.sin_min)", "np.sin(np.arctan(np.hypot(sx, sy)))"),),
-        ("tests/unit/test_sph_terrain_parts.py",),
+        ("tests/unit/sph/test_sph_terrain_parts.py",),
         "flat ground never erodes (ER-1's clamp lost)",
     ),
     Mutation(
         "bed-shear-at-the-wall-distance",
         "erosion/excess_shear_partheniades1965.py",
         (("max(wall_l[j], 0.5 * spacing), rho, roughness)", "max(wall_l[j], 0.01 * spacing), rho, roughness)"),),
-        ("tests/unit/test_excess_shear.py",),
+        ("tests/unit/erosion/test_excess_shear.py",),
         "the log law read at the particle's distance alone, not at least half a spacing up",
     ),
     Mutation(
@@ -202,7 +202,7 @@ MUTATIONS = (
                 "scale = self.params.erodibility * self.spacing * dt",
             ),
         ),
-        ("tests/unit/test_excess_shear.py",),
+        ("tests/unit/erosion/test_excess_shear.py",),
         "each particle on the bed removes k_d (τ_b − τ_c) Δx instead of over its area Δx²",
     ),
     Mutation(
@@ -214,14 +214,14 @@ MUTATIONS = (
                 "        if total < 0.0:\n            _ramp_weights(",
             ),
         ),
-        ("tests/unit/test_excess_shear.py",),
+        ("tests/unit/erosion/test_excess_shear.py",),
         "the ground taken from the foot's cell only, not along the ramp: the surface the wall reads lags",
     ),
     Mutation(
         "sediment-deposit-share-wrong",
         "erosion/transport_capacity_mei2007.py",
         (("sed[i] += sed[i] * (e / held[k])", "sed[i] += e / count[k]"),),
-        ("tests/unit/test_sph_terrain_parts.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
+        ("tests/unit/sph/test_sph_terrain_parts.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
         "deposits taken equally from every particle, not in proportion to its load",
     ),
     Mutation(
@@ -233,21 +233,21 @@ MUTATIONS = (
                 "node = (rng.random(k) * self.cdf.size).astype(np.int64)",
             ),
         ),
-        ("tests/unit/test_sph_terrain_parts.py",),
+        ("tests/unit/sph/test_sph_terrain_parts.py",),
         "rain falls uniformly whatever the rain map",
     ),  # fmt: skip
     Mutation(
         "sink-not-counted",
         "sph/state.py",
         (("self.removed[sink] = self.removed.get(sink, 0) + k", "self.removed[sink] = self.removed.get(sink, 0) + 0"),),
-        ("tests/unit/test_sph_state.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
+        ("tests/unit/sph/test_sph_state.py", "tests/scenarios/test_sph_terrain_scenarios.py"),
         "water leaving through a sink is not counted",
     ),
     Mutation(
         "seed-kernel-ignores-erodibility",
         "hydrology/droplets.py",
         (("khe = kh * erod[c]", "khe = kh"),),
-        ("tests/unit/test_hydrology_bite.py", "tests/unit/test_hydrology_descend.py"),
+        ("tests/unit/hydrology/test_hydrology_bite.py", "tests/unit/hydrology/test_hydrology_descend.py"),
         "the seed-case droplet kernel erodes hard rock like soft soil",
     ),
     Mutation(
@@ -257,7 +257,7 @@ MUTATIONS = (
             ("hold = 1.0 - root * roots[c]", "hold = 1.0 - 0.0 * root * roots[c]"),
             ("kh = kd * max(1.0 - root * roots[c], 0.0)", "kh = kd * max(1.0 - 0.0 * root * roots[c], 0.0)"),
         ),
-        ("tests/unit/test_hydrology_bite.py", "tests/unit/test_hydrology_descend.py"),
+        ("tests/unit/hydrology/test_hydrology_bite.py", "tests/unit/hydrology/test_hydrology_descend.py"),
         "roots hold no soil in either descend kernel (HY-5)",
     ),  # fmt: skip
     Mutation(
@@ -267,7 +267,7 @@ MUTATIONS = (
             ("hold = 1.0 - root * roots[c]", "hold = 1.0 - 0.0 * root * roots[c]"),
             ("            amt *= erod[c]", "            amt *= 1.0"),
         ),
-        ("tests/unit/test_hydrology_bite.py", "tests/unit/test_hydrology_batch.py"),
+        ("tests/unit/hydrology/test_hydrology_bite.py", "tests/unit/hydrology/test_hydrology_batch.py"),
         "the batch mode's parallel descents ignore erodibility and roots",
     ),  # fmt: skip
     Mutation(
@@ -285,14 +285,14 @@ MUTATIONS = (
                 "                h[j, i] -= dh\n                total += dh\n    return total\n",
             ),
         ),
-        ("tests/unit/test_stream_bite.py", "tests/unit/test_particle_stream.py"),
+        ("tests/unit/erosion/test_stream_bite.py", "tests/unit/erosion/test_particle_stream.py"),
         "a fixed hardness map does not slow the stream",
     ),  # fmt: skip
     Mutation(
         "heap-rebuild-loses-south-edge",
         "hydrology/pools.py",
         (("edge = ix == 0 or iy == 0 or ix == nx - 1 or iy == ny - 1", "edge = ix == 0 or iy == 0 or ix == nx - 1"),),
-        ("tests/unit/test_hydrology_bite.py", "tests/unit/test_hydrology_pools.py"),
+        ("tests/unit/hydrology/test_hydrology_bite.py", "tests/unit/hydrology/test_hydrology_pools.py"),
         "a rebuilt lake heap forgets the off-map exit of south-edge cells",
     ),
     Mutation(
@@ -310,7 +310,7 @@ MUTATIONS = (
                 "                h[j, i] -= dh\n                total += dh\n                if h[j, i] < floor[j, i]:",
             ),
         ),
-        ("tests/unit/test_stream_bite.py", "tests/unit/test_particle_stream.py"),
+        ("tests/unit/erosion/test_stream_bite.py", "tests/unit/erosion/test_particle_stream.py"),
         "strata of any hardness erode like soft rock (the stream scenario's default path)",
     ),  # fmt: skip
     Mutation(
@@ -322,35 +322,35 @@ MUTATIONS = (
                 "if self.interval <= 0:",
             ),
         ),
-        ("tests/unit/test_simulation.py",),
+        ("tests/unit/simulation/test_simulation.py",),
         "a time interval fires after every iteration",
     ),  # fmt: skip
     Mutation(
         "ctrl-c-not-held",
         "simulation/simulation.py",
         (("        pressed.append(signum)\n", "        raise KeyboardInterrupt\n"),),
-        ("tests/unit/test_simulation.py",),
+        ("tests/unit/simulation/test_simulation.py",),
         "Ctrl-C interrupts a step half-way (a checkpoint of half a step)",
     ),
     Mutation(
         "probe-without-wall-extrapolation",
         "analysis/gauges.py",
         (("        if gravity is not None:\n", "        if gravity is None:\n"),),
-        ("tests/unit/test_gauges_front.py",),
+        ("tests/unit/analysis/test_gauges_front.py",),
         "a probe on a wall reads the plain Shepard mean of its one-sided neighbours",
     ),
     Mutation(
         "level-gauge-without-floor-mirror",
         "analysis/gauges.py",
         (("for image in (near[:, -1], 2.0 * floor - near[:, -1]):", "for image in (near[:, -1],):"),),
-        ("tests/unit/test_gauges_front.py",),
+        ("tests/unit/analysis/test_gauges_front.py",),
         "the water-level gauge forgets the floor (φ = ½ on a wetted floor)",
     ),
     Mutation(
         "wall-load-without-wall-pressure",
         "sph/wall_load.py",
         (("pterm = p_a / rho_a**2 + p_b / rho_b**2\n", "pterm = p_a / rho_a**2 + 0.0 * p_b\n"),),
-        ("tests/unit/test_wall_load.py",),
+        ("tests/unit/sph/test_wall_load.py",),
         "a wall sensor forgets the wall particles' own pressure in the pair force",
     ),
     Mutation(
@@ -375,7 +375,7 @@ MUTATIONS = (
             ),
             ("                    q = c * w * (old[1 - a, i] - old[a, i])", "                    q = 0.0"),
         ),
-        ("tests/unit/test_hillslope_creep.py",),
+        ("tests/unit/hydrology/test_hillslope_creep.py",),
         "hillslope creep (Culling 1960) moves no soil",
     ),
     Mutation(
@@ -391,7 +391,7 @@ MUTATIONS = (
                 "                    w = max(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
             ),
         ),
-        ("tests/unit/test_hillslope_creep.py",),
+        ("tests/unit/hydrology/test_hillslope_creep.py",),
         "creep crosses into lakes and bedrock (face weight the larger mobility)",
     ),
     Mutation(
@@ -406,21 +406,21 @@ MUTATIONS = (
         "terrain/priority_flood_barnes2014.py",
         (("                floor = zf[c] + (rise_diag if dx != 0 and dy != 0 else rise)\n",
           "                floor = zf[c]\n"),),  # fmt: skip
-        ("tests/unit/test_priority_flood.py",),
+        ("tests/unit/terrain/test_priority_flood.py",),
         "closed basins filled flat (no ε slope toward the spill point)",
     ),
     Mutation(
         "fill-diagonal-as-straight",
         "terrain/priority_flood_barnes2014.py",
         (("    _fill(out.reshape(-1), nx, ny, rise, SQRT2 * rise)", "    _fill(out.reshape(-1), nx, ny, rise, rise)"),),
-        ("tests/unit/test_priority_flood.py",),
+        ("tests/unit/terrain/test_priority_flood.py",),
         "the fill's rise over a diagonal step is Δx·s instead of √2·Δx·s",
     ),
     Mutation(
         "mei-deposition-off",
         "erosion/transport_capacity_mei2007.py",
         (("                e = -fd * (s - c)\n", "                e = 0.0 * fd * (s - c)\n"),),
-        ("tests/unit/test_sph_terrain_parts.py",),
+        ("tests/unit/sph/test_sph_terrain_parts.py",),
         "suspended sediment never settles (ER-2's deposition term zeroed)",
     ),
     Mutation(
@@ -439,7 +439,7 @@ MUTATIONS = (
         "heightfield-density-ignores-distance",
         "sph/boundaries/heightfield.py",
         (("rho[i] += wall_density(table, dl, (pos[i, d - 1] - hgt) * nz)", "rho[i] += wall_density(table, dl, 0.0)"),),
-        ("tests/unit/test_wall_weights.py",),
+        ("tests/unit/sph/test_wall_weights.py",),
         "the heightfield's share of the summation density is the same at any distance from the ground",
     ),
     Mutation(
@@ -447,7 +447,7 @@ MUTATIONS = (
         "kernels/swe_sph.py",
         (("den = 1.0 + dt * g * nn * nn * speed / d ** (4.0 / 3.0)",
           "den = 1.0 + dt * g * nn * speed / d ** (4.0 / 3.0)"),),  # fmt: skip
-        ("tests/unit/test_swe_sph.py",),
+        ("tests/unit/sph/test_swe_sph.py",),
         "the flood's Manning friction grows with n, not n² (g n u|u| / d^{4/3})",
     ),
     Mutation(
@@ -459,14 +459,14 @@ MUTATIONS = (
                 "for k in range(1, len(HAZARD_LIMITS) + 1):",
             ),
         ),
-        ("tests/unit/test_hazard.py",),
+        ("tests/unit/analysis/test_hazard.py",),
         "a cell gets the highest hazard class whose limits hold, not the lowest",
     ),
     Mutation(
         "kristof-tau-c-not-subtracted",
         "erosion/shear_stress_kristof2009.py",
         (("    return tau - tau_c if tau > tau_c else 0.0\n", "    return tau if tau > tau_c else 0.0\n"),),
-        ("tests/unit/test_voxel_erosion.py",),
+        ("tests/unit/erosion/test_voxel_erosion.py",),
         "the shear-stress law erodes at K θⁿ above τ_c instead of K θⁿ − τ_c",
     ),
     Mutation(
@@ -474,14 +474,14 @@ MUTATIONS = (
         "kernels/voxel.py",
         (("    return (iso - d) / g, -gx / g, -gy / g, -gz / g, d\n",
           "    return (iso - d) / (2.0 * g), -gx / g, -gy / g, -gz / g, d\n"),),  # fmt: skip
-        ("tests/unit/test_voxel_distance.py",),
+        ("tests/unit/terrain/test_voxel_distance.py",),
         "the voxel wall reads half the distance to the iso-surface",
     ),
     Mutation(
         "splash-crater-depth-factor",
         "erosion/splash.py",
         (("np.sqrt(2.0 * rho_fluid / (9.0 * np.asarray(sigma)))", "np.sqrt(rho_fluid / np.asarray(sigma))"),),
-        ("tests/unit/test_splash_physics.py",),
+        ("tests/unit/coupling/test_splash_physics.py",),
         "the crater depth law loses its factor √(2/9)",
     ),
     Mutation(
@@ -489,7 +489,7 @@ MUTATIONS = (
         "erosion/wet_strength.py",
         (("    return sigma_wet + (sigma_dry - sigma_wet) * weakening(theta)",
           "    return sigma_wet + (sigma_dry - sigma_wet) * weakening(0.0 * theta)"),),  # fmt: skip
-        ("tests/unit/test_splash_physics.py",),
+        ("tests/unit/coupling/test_splash_physics.py",),
         "wet ground is as strong as dry ground",
     ),
     Mutation(
@@ -503,7 +503,7 @@ MUTATIONS = (
         "settling-ignores-height",
         "erosion/settling_voxel.py",
         (("want = s * (1.0 - math.exp(-rate_dt / max(lj, l_min)))", "want = s * (1.0 - math.exp(-rate_dt / l_min))"),),
-        ("tests/unit/test_settling_voxel.py",),
+        ("tests/unit/erosion/test_settling_voxel.py",),
         "sediment settles at the same rate whatever the particle's height above the ground",
     ),
     Mutation(
@@ -516,7 +516,7 @@ MUTATIONS = (
                 "              else np.asarray(v) for k, v in state.items()}\n",
             ),
         ),
-        ("tests/unit/test_atomic_loop.py", "tests/unit/test_simulation.py"),
+        ("tests/unit/core/test_atomic_loop.py", "tests/unit/simulation/test_simulation.py"),
         "a checkpoint keeps the state arrays in single precision (a resume is no longer exact)",
     ),
     Mutation(
@@ -535,28 +535,28 @@ MUTATIONS = (
                 "                    sums[0, r - r_lo, c - c_lo] = max(sums[0, r - r_lo, c - c_lo], depth[j])\n",
             ),
         ),
-        ("tests/unit/test_swe_sph.py",),
+        ("tests/unit/sph/test_swe_sph.py",),
         "the flood's maps take the deepest particle's own depth in reach, not the SPH depth at the cell centre",
     ),
     Mutation(
         "flood-map-no-surface-cut",
         "kernels/swe_sph.py",
         (("    d = min(d, se / s - bed[r, c])\n", "    d = min(d, se / s - bed[r, c] + 1e9)\n"),),
-        ("tests/unit/test_swe_sph.py",),
+        ("tests/unit/sph/test_swe_sph.py",),
         "the flood's maps are wet up banks above the water surface, wherever the kernel reaches",
     ),
     Mutation(
         "flood-map-through-walls",
         "kernels/swe_sph.py",
         (("if wall_dist[r, c] <= h + cell_size and wall_between(", "if False and wall_between("),),
-        ("tests/unit/test_swe_sph.py",),
+        ("tests/unit/sph/test_swe_sph.py",),
         "the flood's maps see water through walls (a dam's downstream cells wet at t = 0)",
     ),
     Mutation(
         "stream-bed-not-graded",
         "erosion/particle_stream_warszawski.py",
         (("    return depth * (fall / (lam * s0)) ** n, hp - fall", "    return depth, -math.inf"),),
-        ("tests/unit/test_particle_stream_graded.py",),
+        ("tests/unit/erosion/test_particle_stream_graded.py",),
         "the particle stream's gradation ignores the fall ahead and cuts below it (a closed trough)",
     ),
     Mutation(
@@ -564,28 +564,28 @@ MUTATIONS = (
         "coupling/sources.py",
         (("s.add_fluid(self.turned(self.events), self.vel, source=self.name)",
           "s.add_fluid(self.layer, self.vel, source=self.name)"),),  # fmt: skip
-        ("tests/unit/test_splash_isotropy.py",),
+        ("tests/unit/coupling/test_splash_isotropy.py",),
         "a 3-D jet's lattice disc (a '+' at radius ~Δx) falls unturned: wet patch and crater '+'-shaped",
     ),
     Mutation(
         "ground-moisture-axis-neighbours-only",
         "coupling/porous_ground.py",
         (("i, j, _ = pairs_within(self.pos, 1.1 * self.h)", "i, j, _ = pairs_within(self.pos, 1.01 * self.s)"),),
-        ("tests/unit/test_splash_isotropy.py",),
+        ("tests/unit/coupling/test_splash_isotropy.py",),
         "moisture diffuses only between axis neighbours (a 5-point stencil in plan) instead of the kernel's support",
     ),
     Mutation(
         "seepage-one-column",
         "coupling/porous_ground.py",
         (("        ok = (d < radius) & (i >= 0)", "        ok = (d < 0.0) & (i >= 0)"),),
-        ("tests/unit/test_splash_isotropy.py",),
+        ("tests/unit/coupling/test_splash_isotropy.py",),
         "a touching particle gives water only to the column under its centre: the jet's rays wet a star",
     ),
     Mutation(
         "subcell-crater-one-node",
         "erosion/splash.py",
         (("SUBCELL = 2.0", "SUBCELL = 0.75"),),
-        ("tests/unit/test_splash_physics.py",),
+        ("tests/unit/coupling/test_splash_physics.py",),
         "a crater narrower than a cell is laid on its nearest node(s), not a radial footprint: a jet digs a square",
     ),
     Mutation(
@@ -601,7 +601,7 @@ MUTATIONS = (
         (("sx, sy = node_gradient(terrain, r.dx, r.dy, self.ghost)", "sx, sy = node_gradient(terrain, r.dx, r.dy, {})"),
          ("wet_area = area * self.wet", "wet_area = area * np.ones_like(self.wet)"),
          ("self.dz *= self.wet  #", "self.dz *= 1.0  #")),  # fmt: skip
-        ("tests/unit/test_outflow_edge_erosion.py", "tests/unit/test_sph_terrain_parts.py"),
+        ("tests/unit/coupling/test_outflow_edge_erosion.py", "tests/unit/sph/test_sph_terrain_parts.py"),
         "the open edge's slope one-sided and its sediment over the whole (half dry) cell: the edge row digs",
     ),
 )

@@ -1,5 +1,5 @@
 """The two pictures of docs/architecture.md, drawn from the code: the layers with the import edges between
-packages (read from the sources' imports, lazy ones too, as tests/unit/test_layering.py reads them), and
+packages (read from the sources' imports, lazy ones too, as tests/unit/package/test_layering.py reads them), and
 one coupled step. Also prints the package graph's size (modules, packages, edges).
 
     .venv/bin/python docs/architecture_figures.py [--src src] [--out docs/images]
@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import FancyArrowPatch, FancyBboxPatch  # noqa: E402
 
-# the layers, lowest first (tests/unit/test_layering.py's ranks, grouped as docs/architecture.md draws them)
+# the layers, lowest first (tests/unit/package/test_layering.py's ranks, grouped as docs/architecture.md draws them)
 LAYERS = [
     ("foundation", ["core"]),
     ("files, pictures, measurements, data, Numba kernels", ["io", "viz", "analysis", "data", "kernels"]),

@@ -17,7 +17,7 @@ physical terrain (friction 0.5 /s, evaporation 0.003 /s, sub-steps of at most on
 until it evaporates; trees: 10 seedlings per cycle, spread 0.03; hillslope creep, which the seed
 does not have: without it droplets leave cell-scale pits on the slopes). The ``simplehydrology-2020``
 preset restores the seed's. The defaults are the library ``hydrology`` scenario's: ``HydrologyParams()``
-is what a scenario that leaves ``[hydrology]`` out runs with (tests/unit/test_api.py checks it).
+is what a scenario that leaves ``[hydrology]`` out runs with (tests/unit/api/test_api.py checks it).
 
 By default (``length_scale`` unset) ℓ is two cells of the terrain: 40 m on the library's 20 m
 generated terrain, 2 m on a 1 m lidar tile, 166 m on an 83 m DEM, so every DEM runs at its own scale

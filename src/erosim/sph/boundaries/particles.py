@@ -118,7 +118,7 @@ def update_density(rho, rho_old, drho, p, active, dt, rho0, b, gamma, pmin, pred
     ρ in ρ_old (so it steps from the current ρ), the corrector steps from the kept one. A particle listed
     for the first time at a rebuild between the two has ρ_old = 0 and so steps from ρ₀: the density of a
     wall no water reached yet (its hydrostatic start counts depth below the fluid's top, water above it
-    or not; tests/unit/test_sph_boundaries.py, first-reached test)."""
+    or not; tests/unit/sph/test_sph_boundaries.py, first-reached test)."""
     for k in prange(active.size):
         update_density_particle(rho, rho_old, drho, p, active[k], dt, rho0, b, gamma, pmin, predictor)
 

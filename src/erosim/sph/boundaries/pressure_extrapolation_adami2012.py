@@ -14,7 +14,7 @@ back with the pressure of its own density, integrated from the fluid's approach 
 listed (from ρ₀), so a wall's answer lags the fluid's pressure wherever water arrives suddenly (an
 impact, a front on a dry floor). With the extrapolated pressure the wall answers at once with the
 fluid's own pressure carried to it, and holds no history. At rest the two agree (a tank at rest reads
-ρ₀g·depth at its walls with either, tests/unit/test_sph_boundaries.py). The fused pair pass is
+ρ₀g·depth at its walls with either, tests/unit/sph/test_sph_boundaries.py). The fused pair pass is
 unchanged: it reads the boundary particles' p and ρ as before (v_w = 0 in the continuity and viscous
 terms). What it gives on Martin & Moyce and SPHERIC Test 2: docs/sph.md.
 

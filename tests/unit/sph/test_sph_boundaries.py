@@ -12,7 +12,7 @@ from erosim.sph.boundaries.box import BoxWalls
 from erosim.sph.params import SPHParams
 from erosim.sph.solver import SPHSolver
 
-DATA = Path(__file__).resolve().parents[1] / "data" / "boundary_trajectories.npz"
+DATA = Path(__file__).resolve().parents[2] / "data" / "boundary_trajectories.npz"
 
 # The four cases of tests/data/boundary_trajectories.npz. The file holds the fluid state after 300
 # steps of each, written with exactly this set-up by the solver of commit d5792bb, whose walls were a
@@ -233,7 +233,7 @@ def test_extrapolated_walls_read_the_fluids_current_pressure_under_summation_den
 def test_extrapolated_walls_hold_a_tank_at_rest():
     """The 3-D tank of _case with no obstacle settles 0.3 s: no fluid particle in a wall, the fluid at rest
     (|v| < 1 % of √(gH)) with its lowest layer Δx/2 above the floor (within 2 %), as with the dynamic
-    walls (the device path: tests/unit/test_sph_cuda.py)."""
+    walls (the device path: tests/unit/sph/test_sph_cuda.py)."""
     dx = 0.02
     fluid = _block([0, 0, 0], [0.2, 0.2, 0.16], dx)
     prm = SPHParams(dim=3, spacing=dx, wall_pressure="extrapolated")

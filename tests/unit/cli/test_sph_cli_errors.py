@@ -7,7 +7,7 @@ from click.testing import CliRunner
 
 from erosim.cli import cli
 
-LIB = Path(__file__).resolve().parents[2] / "src" / "erosim" / "scenarios" / "library"
+LIB = Path(__file__).resolve().parents[3] / "src" / "erosim" / "scenarios" / "library"
 
 
 def _run(args):

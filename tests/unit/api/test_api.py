@@ -28,7 +28,7 @@ from erosim.scenarios import kinds, loader
 from erosim.sph.params import SPHParams
 from erosim.terrain.hardness import Strata
 
-DOC = Path(__file__).resolve().parents[2] / "docs" / "api.md"
+DOC = Path(__file__).resolve().parents[3] / "docs" / "api.md"
 BLOCKS = re.findall(r"^```python\n(.*?)^```", DOC.read_text(encoding="utf-8"), re.S | re.M)
 
 # small, fast versions of a library scenario of each kind

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-SRC = Path(__file__).resolve().parents[2] / "src"
+SRC = Path(__file__).resolve().parents[3] / "src"
 PKG = SRC / "erosim"
 
 # a package may import those of lower rank, itself, and (rank 2, the physics) its peers

@@ -1,6 +1,6 @@
 """The shallow-water SPH step on the CUDA device path, under Numba's CUDA simulator, against the CPU.
 
-As for the 3-D step (tests/unit/test_sph_cuda.py), the simulator runs in a subprocess and one script
+As for the 3-D step (tests/unit/sph/test_sph_cuda.py), the simulator runs in a subprocess and one script
 does every comparison. The case: a sheet of water thrown east at 1.5 m/s over a sloping, wavy bed
 with a block of wall cells and Manning friction, out through the open east edge — so every device
 kernel runs: the lists are rebuilt, particles leave (removed on the host, their water counted), the
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-SRC = Path(__file__).resolve().parents[2] / "src"
+SRC = Path(__file__).resolve().parents[3] / "src"
 needs_simulator = pytest.mark.skipif(
     __import__("importlib.util").util.find_spec("numba.cuda") is None,
     reason="numba.cuda (the CUDA simulator) is not installed",

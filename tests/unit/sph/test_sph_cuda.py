@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 
-SRC = Path(__file__).resolve().parents[2] / "src"
+SRC = Path(__file__).resolve().parents[3] / "src"
 
 
 def _numba_cuda_missing() -> bool:
@@ -158,7 +158,7 @@ from erosim.sph.params import SPHParams
 from erosim.sph.solver import SPHSolver
 from erosim.sph.solver_cuda import CudaSPHSolver
 
-# the clump of tests/unit/test_diffusion_limit.py in a reflecting box (the device has no voxel wall):
+# the clump of tests/unit/sph/test_diffusion_limit.py in a reflecting box (the device has no voxel wall):
 # a 3 × 3 layer on the floor and 16 particles within 1 mm of a point 2 mm above it, densities 900 ± 1
 DX = 0.02
 rng = np.random.default_rng(0)
