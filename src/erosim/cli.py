@@ -699,14 +699,16 @@ def bench_sweep(members, workers, cycles, as_json):
     show_default=True,
     help="Updates (move, collide, deform) a particle makes before it returns to the pool; 1 = the seed's reading.",
 )
+@_device_option("Where the stream's sweeps run: cpu or cuda")
 @click.option("--json", "as_json", is_flag=True)
-def bench_stream(particles, impacts_per_particle, as_json):
+def bench_stream(particles, impacts_per_particle, device, as_json):
     """Particle-stream erosion: particles and particle updates per second at several counts (shows O(n))."""
     from erosim.scenarios.kinds import resolve
 
+    _require_device(device)
     fn = _guard(resolve, "erosim.bench.stream:run")
     counts = list(particles) or [10_000, 100_000, 1_000_000]
-    _print_result(_guard(fn, counts, impacts_per_particle), as_json)
+    _print_result(_guard(fn, counts, impacts_per_particle, device=device or "cpu"), as_json)
 
 
 # ---------------------------------------------------------------------------------------- convert

@@ -38,9 +38,7 @@ was written; ``erosim bench hydrology --device cuda --json`` measures it where o
 from __future__ import annotations
 
 import math
-import types
 
-import numba
 import numpy as np
 from numba import njit
 
@@ -51,26 +49,14 @@ from erosim.hydrology.batch import NEW, NEXT, R_ROUNDS, R_S, R_STATUS, R_V, R_VX
 from erosim.hydrology.counter_rng import spawn_base, spawn_point
 from erosim.hydrology.params import P_FOOT, P_MAXSTEPS, P_SPILL, P_V0
 from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_RAINED, B_SIZE, B_STEPS
+from erosim.kernels.device_source import SIMULATOR, rebind
 
 devices.numpy_aliases()
 from numba import cuda  # noqa: E402  (after the numpy alias: erosim.core.devices)
 
-SIMULATOR = bool(numba.config.ENABLE_CUDASIM)
 TPB = 32 if SIMULATOR else 128  # threads per block (the simulator runs a block's threads as Python threads)
 
-
-def _python_module(mod):
-    """The module's jitted functions as plain Python functions calling each other (the simulator runs
-    kernels as Python and cannot pass its arrays to compiled functions); on a device, ``None``."""
-    g = dict(vars(mod))
-    for name, obj in vars(mod).items():
-        py = getattr(obj, "py_func", None)
-        if py is not None and getattr(py, "__module__", None) == mod.__name__:
-            g[name] = types.FunctionType(py.__code__, g, py.__name__, py.__defaults__, py.__closure__)
-    return types.SimpleNamespace(**g)
-
-
-_S = _python_module(droplet_step) if SIMULATOR else droplet_step
+_S = rebind(droplet_step)  # the CPU's sub-step and its helpers, from their source (erosim.kernels.device_source)
 _step = _S.step
 _constants = _S.constants
 _origin = _S.origin
