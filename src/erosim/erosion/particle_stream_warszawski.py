@@ -101,7 +101,9 @@ earlier ones cut (strata hardness too) — and is made of tiny per-particle oper
 library expresses; a jitted loop runs millions of impacts per second. It runs on one thread on
 purpose: the result then depends only on the seed, never on the thread count. Random numbers are
 counter-based (SplitMix64 of seed, emitter, particle serial and draw number), so a checkpoint needs
-no generator state and a resumed run reproduces the uninterrupted one exactly.
+no generator state and a resumed run reproduces the uninterrupted one exactly. ``device = "cuda"``
+runs the sweeps on a GPU with these same per-impact functions, the slots of a sweep at once
+(:mod:`erosim.erosion.particle_stream_cuda`; not repeatable bit for bit there).
 """
 
 from __future__ import annotations
