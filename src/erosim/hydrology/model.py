@@ -10,6 +10,8 @@ are applied and their lakes filled — independent of the thread count, not of t
 ``hydrology.batch = 0`` (the ``simplehydrology-2020`` preset) runs them one after another in a
 single-threaded Numba loop (:func:`run_droplets`): each droplet sees the terrain and lakes the
 previous one left, the seed's semantics.
+With ``device = "cuda"`` (``run.device``) the batches' descents run on a GPU
+(:mod:`erosim.hydrology.droplets_cuda`), the lakes and the per-cycle passes on the host.
 
 Random numbers: droplet i's spawn point comes from SplitMix64 hashing of (seed, i), vegetation's
 from NumPy's PCG64 seeded with (seed, cycle) (the seedling count and the key of the vegetation
