@@ -114,18 +114,18 @@ def _require_device(device: str | None) -> None:
 
 
 def _check_device_kind(scenario, resume, preset) -> None:
-    """--device is a setting of kind = "sph" and "flood" scenarios only: one sentence for the others."""
+    """--device is a setting of kind = "sph", "flood" and "hydrology" scenarios only: one sentence for the others."""
     from erosim.scenarios import loader
 
     try:
         sc = loader.load(Path(resume) / "scenario.toml", []) if resume else loader.load(scenario, [], preset)
     except ErosimError:
         return  # the run itself reports what is wrong with the scenario
-    if sc.kind not in ("sph", "flood"):
+    if sc.kind not in ("sph", "flood", "hydrology"):
         _fail(
             ErosimError(
-                f"--device applies to kind = \"sph\" and \"flood\" scenarios, not '{sc.name}' (kind '{sc.kind}'); "
-                "leave it out."
+                f'--device applies to kind = "sph", "flood" and "hydrology" scenarios, not \'{sc.name}\' '
+                f"(kind '{sc.kind}'); leave it out."
             )
         )
 
@@ -185,7 +185,10 @@ def cli(threads: int | None, quiet: bool, debug: bool) -> None:
     "--resume", type=click.Path(file_okay=False), default=None, help="Continue an interrupted run from its folder."
 )
 @click.option("--overwrite", is_flag=True, help="Allow writing into an existing, non-empty --out folder.")
-@_device_option('Where the SPH steps run, for kind = "sph" and "flood" scenarios: cpu or cuda; sets run.device')
+@_device_option(
+    'Where the SPH steps (kind = "sph", "flood") or the droplet batches (kind = "hydrology") run: cpu or cuda; '
+    "sets run.device"
+)
 @click.option(
     "--tile", type=int, default=None, metavar="N",
     help="Hydrology on a large GeoTIFF (terrain.file): erode it in tiles of at most N cells a side (tiles.size).",
@@ -654,13 +657,15 @@ def bench_flood(t_end, spacing, split, device, as_json):
     help="The seed's constants on the seed's 10.24 km world, or the library scenario as "
     "`erosim run hydrology` runs it.",
 )
+@_device_option("Where the droplet batches descend: cpu or cuda")
 @click.option("--json", "as_json", is_flag=True)
-def bench_hydrology(size, droplets, batch, preset, as_json):
+def bench_hydrology(size, droplets, batch, preset, device, as_json):
     """Hydrology (lakes on): droplets/s, device, threads and the share spent filling lakes."""
     from erosim.scenarios.kinds import resolve
 
+    _require_device(device)
     fn = _guard(resolve, "erosim.bench.hydrology:run")
-    _print_result(_guard(fn, size, droplets, batch=batch, preset=preset), as_json)
+    _print_result(_guard(fn, size, droplets, batch=batch, preset=preset, device=device or "cpu"), as_json)
 
 
 @bench.command(name="sweep")
@@ -694,14 +699,16 @@ def bench_sweep(members, workers, cycles, as_json):
     show_default=True,
     help="Updates (move, collide, deform) a particle makes before it returns to the pool; 1 = the seed's reading.",
 )
+@_device_option("Where the stream's sweeps run: cpu or cuda")
 @click.option("--json", "as_json", is_flag=True)
-def bench_stream(particles, impacts_per_particle, as_json):
+def bench_stream(particles, impacts_per_particle, device, as_json):
     """Particle-stream erosion: particles and particle updates per second at several counts (shows O(n))."""
     from erosim.scenarios.kinds import resolve
 
+    _require_device(device)
     fn = _guard(resolve, "erosim.bench.stream:run")
     counts = list(particles) or [10_000, 100_000, 1_000_000]
-    _print_result(_guard(fn, counts, impacts_per_particle), as_json)
+    _print_result(_guard(fn, counts, impacts_per_particle, device=device or "cpu"), as_json)
 
 
 # ---------------------------------------------------------------------------------------- convert

@@ -22,8 +22,14 @@ Reported:
   loop; ``None`` in batch mode, whose floods are not timed);
 * ``droplets_per_cpu_s`` — the same per second of this process's CPU time: on a shared, loaded
   machine it shows what the loop does when it has a core to itself (summed over threads);
-* ``device`` (``cpu``), ``threads`` (Numba's thread count in batch mode, 1 for the serial order),
-  ``batch`` (droplets per parallel batch, 0 = serial).
+* ``device`` (``cpu`` or ``cuda``), ``threads`` (Numba's thread count in batch mode, 1 for the
+  serial order; on ``cuda`` the host's, which runs the lake, stream, creep and vegetation passes),
+  ``batch`` (droplets per parallel batch, 0 = serial; on ``cuda`` the GPU threads of a launch),
+  and on ``cuda`` ``gpu`` (the device in words).
+
+``device = "cuda"`` (:mod:`erosim.hydrology.droplets_cuda`): the batches descend on the GPU; the
+seed preset's serial order cannot, so there its batches are an eighth of a cycle unless ``batch``
+is given.
 """
 
 from __future__ import annotations
@@ -40,11 +46,13 @@ def run(
     seed: int = 1,
     batch: int | None = None,
     preset: str = "simplehydrology-2020",
+    device: str = "cpu",
 ) -> dict:
     """Benchmark one map size; returns the JSON-able result."""
     import numba
     from numba import NumbaWarning
 
+    from erosim.core import devices
     from erosim.hydrology.pools import B_FLOOD_NS, B_STEPS
     from erosim.scenarios import loader
     from erosim.scenarios.builders_hydrology import build_model
@@ -55,10 +63,14 @@ def run(
     if seed_case:
         over.append(f"terrain.cell_size={10240.0 / size}")
     sc = loader.load("hydrology", over, preset="simplehydrology-2020" if seed_case else None)
-    cell = float(sc.config.terrain.cell_size)
+    cfg = sc.config
+    if device == "cuda":
+        hy = cfg.hydrology.model_copy(update={"batch": None}) if batch is None else cfg.hydrology
+        cfg = cfg.model_copy(update={"hydrology": hy, "run": cfg.run.model_copy(update={"device": "cuda"})})
+    cell = float(cfg.terrain.cell_size)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NumbaWarning)  # the timed build cannot be cached
-        _terrain, model = build_model(sc.config, timing=True)
+        _terrain, model = build_model(cfg, timing=True)
         n_cells = size * size
         if seed_case:
             spin = 2 * n_cells if spinup is None else int(spinup)
@@ -94,7 +106,8 @@ def run(
         "lake_fraction": round(model.stats()["lake_fraction"], 4),
         "mode": f"batch {nb}" if nb else "serial",
         "batch": nb,
-        "device": "cpu",
-        "threads": numba.get_num_threads() if nb else 1,
+        "device": device,
+        "threads": numba.get_num_threads() if nb and device == "cpu" else 1,
         "cpu_count": os.cpu_count(),
+        **({"gpu": devices.cuda_status()[1]} if device == "cuda" else {}),
     }

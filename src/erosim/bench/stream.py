@@ -18,6 +18,7 @@ import time
 
 import numpy as np
 
+from erosim.core.devices import cuda_status
 from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
 from erosim.terrain import hardness
 from erosim.terrain.generate import generate
@@ -60,13 +61,15 @@ def _spread(values: list) -> float | None:
     return max(v) / min(v) - 1.0 if v else None
 
 
-def run(particles: list[int], impacts_per_particle: int = STEPS) -> dict:
+def run(particles: list[int], impacts_per_particle: int = STEPS, device: str = "cpu") -> dict:
     """Time streams of each particle count; returns ``{"runs": [...], ...}`` (one JSON object).
 
     ``impacts_per_particle`` is how many times a particle acts (moves, collides, deforms) before it
     returns to the pool: 32 by default, like the library scenario's streams; 1 is the seed's
     reading (ST-2: after one deformation the particle goes back to the pool), where
-    ``particles_per_s`` equals ``updates_per_s``.
+    ``particles_per_s`` equals ``updates_per_s``. ``device = "cuda"``: the sweeps run on the GPU
+    (:mod:`erosim.erosion.particle_stream_cuda`, the same pool: 512 slots act at once), ``threads``
+    then counts the host's one thread and ``gpu`` names the device.
     """
     if impacts_per_particle < 1:
         from erosim.core.errors import ConfigError
@@ -75,12 +78,12 @@ def run(particles: list[int], impacts_per_particle: int = STEPS) -> dict:
     counts = [int(n) for n in particles]
     hm = generate("hills", SIZE, CELL, 0, relief=40.0)
     d0 = hardness.strata(hm.z, CELL, STRATA)
-    ParticleStream(hm.z, d0, CELL, _emitters(64), 0, STRATA, pool=POOL).run()  # JIT warm-up
+    ParticleStream(hm.z, d0, CELL, _emitters(64), 0, STRATA, pool=POOL, device=device).run()  # JIT warm-up
     runs = []
     for n in counts:
         walls, cpus, impacts = [], [], 0
         while not walls or (sum(walls) < MIN_TIME and len(walls) < 20):
-            s = ParticleStream(hm.z, d0, CELL, _emitters(n, impacts_per_particle), 0, STRATA, pool=POOL)
+            s = ParticleStream(hm.z, d0, CELL, _emitters(n, impacts_per_particle), 0, STRATA, pool=POOL, device=device)
             t0, c0 = time.perf_counter(), time.process_time()
             s.run(batch=4096)
             walls.append(time.perf_counter() - t0)
@@ -110,7 +113,8 @@ def run(particles: list[int], impacts_per_particle: int = STEPS) -> dict:
         "emitters": EMITTERS,
         "pool_per_emitter": POOL,
         "threads": 1,
-        "device": "cpu",
+        "device": device,
+        **({"gpu": cuda_status()[1]} if device == "cuda" else {}),
         "runs": runs,
         "updates_per_s": runs[-1]["updates_per_s"] if runs else None,  # the largest particle count's
         "us_per_particle_spread": spread,

@@ -101,7 +101,9 @@ earlier ones cut (strata hardness too) — and is made of tiny per-particle oper
 library expresses; a jitted loop runs millions of impacts per second. It runs on one thread on
 purpose: the result then depends only on the seed, never on the thread count. Random numbers are
 counter-based (SplitMix64 of seed, emitter, particle serial and draw number), so a checkpoint needs
-no generator state and a resumed run reproduces the uninterrupted one exactly.
+no generator state and a resumed run reproduces the uninterrupted one exactly. ``device = "cuda"``
+runs the sweeps on a GPU with these same per-impact functions, the slots of a sweep at once
+(:mod:`erosim.erosion.particle_stream_cuda`; not repeatable bit for bit there).
 """
 
 from __future__ import annotations
@@ -208,23 +210,42 @@ def _steer(d, px, py, alpha, v, cos_step, sin_step, nprobe, step, steer):
 
 
 @njit(cache=True, inline="always")
+def _rows(y0, lam, ny):
+    """Rows j0 … j1 of the disc of radius λ around y0, clipped to the map."""
+    return max(int(math.ceil(y0 - lam)), 0), min(int(math.floor(y0 + lam)), ny - 1)
+
+
+@njit(cache=True, inline="always")
+def _cols(x0, dy, lam2, nx):
+    """Columns i0 … i1 of the disc's row at offset dy (half-chord √(λ² − dy²)), clipped to the map."""
+    w = math.sqrt(max(lam2 - dy * dy, 0.0))
+    return max(int(math.ceil(x0 - w)), 0), min(int(math.floor(x0 + w)), nx - 1)
+
+
+@njit(cache=True, inline="always")
+def _cut(hv, dv, g, depth, zmin):
+    """ST-5 lowering of one cell of height ``hv``, hardness ``dv`` at gradation weight g = 1 − r²/λ² > 0:
+    e·m·g·(1 − d), never below ``zmin`` (graded bed: nothing cut below the ground ahead)."""
+    dh = depth * g * max(0.0, 1.0 - dv)  # nodata cells (OFF_MAP) are not cut
+    return min(dh, max(0.0, hv - zmin))
+
+
+@njit(cache=True, inline="always")
 def _stamp(h, d, x0, y0, lam, depth, zmin):
     """ST-5: h ← h − e·m·(1 − r²/λ²)·(1 − d) where positive; returns the summed lowering (m)."""
     ny, nx = h.shape
-    j0 = max(int(math.ceil(y0 - lam)), 0)
-    j1 = min(int(math.floor(y0 + lam)), ny - 1)
+    j0, j1 = _rows(y0, lam, ny)
     lam2 = lam * lam
     inv = 1.0 / lam2
     total = 0.0
     for j in range(j0, j1 + 1):
         dy = j - y0
-        w = math.sqrt(max(lam2 - dy * dy, 0.0))  # the disc's half-chord on this row
-        for i in range(max(int(math.ceil(x0 - w)), 0), min(int(math.floor(x0 + w)), nx - 1) + 1):
+        i0, i1 = _cols(x0, dy, lam2, nx)
+        for i in range(i0, i1 + 1):
             dx = i - x0
             g = 1.0 - (dx * dx + dy * dy) * inv
             if g > 0.0:
-                dh = depth * g * max(0.0, 1.0 - d[j, i])  # nodata cells (OFF_MAP) are not cut
-                dh = min(dh, max(0.0, h[j, i] - zmin))  # graded bed: nothing cut below the ground ahead
+                dh = _cut(h[j, i], d[j, i], g, depth, zmin)
                 h[j, i] -= dh
                 total += dh
     return total
@@ -259,21 +280,19 @@ def _stamp_strata(h, d, floor, x0, y0, lam, depth, zmin, strata, edges, values):
     """:func:`_stamp`, then each lowered cell takes the hardness of the band its new height is in
     (looked up only when the cell is cut below its stratum's ``floor``)."""
     ny, nx = h.shape
-    j0 = max(int(math.ceil(y0 - lam)), 0)
-    j1 = min(int(math.floor(y0 + lam)), ny - 1)
+    j0, j1 = _rows(y0, lam, ny)
     lam2 = lam * lam
     inv = 1.0 / lam2
     tx, ty, z0, period, inv_period = strata[0], strata[1], strata[2], strata[3], strata[4]
     total = 0.0
     for j in range(j0, j1 + 1):
         dy = j - y0
-        w = math.sqrt(max(lam2 - dy * dy, 0.0))
-        for i in range(max(int(math.ceil(x0 - w)), 0), min(int(math.floor(x0 + w)), nx - 1) + 1):
+        i0, i1 = _cols(x0, dy, lam2, nx)
+        for i in range(i0, i1 + 1):
             dx = i - x0
             g = 1.0 - (dx * dx + dy * dy) * inv
             if g > 0.0:
-                dh = depth * g * max(0.0, 1.0 - d[j, i])  # nodata cells (OFF_MAP) are not cut
-                dh = min(dh, max(0.0, h[j, i] - zmin))  # graded bed: nothing cut below the ground ahead
+                dh = _cut(h[j, i], d[j, i], g, depth, zmin)
                 h[j, i] -= dh
                 total += dh
                 if h[j, i] < floor[j, i]:
@@ -532,6 +551,7 @@ class ParticleStream:
         pool: int = 64,
         rounds: int = 1,
         outside: np.ndarray | None = None,
+        device: str = "cpu",
     ):
         h = np.asarray(h)
         if h.ndim != 2:
@@ -564,6 +584,14 @@ class ParticleStream:
             self.d[np.asarray(outside, dtype=bool)] = OFF_MAP
         self.finished = False
         self.rounds = max(1, int(rounds))
+        self.device = device
+        self._gpu = None
+        if device == "cuda":  # sweeps on the GPU, state kept there (erosim.erosion.particle_stream_cuda)
+            from erosim.erosion.particle_stream_cuda import DeviceStream
+
+            self._gpu = DeviceStream(self)
+        elif device != "cpu":
+            raise ConfigError(f"Unknown device '{device}' for the particle stream; use 'cpu' or 'cuda'.")
 
     @property
     def particles_total(self) -> int:
@@ -587,6 +615,12 @@ class ParticleStream:
     def advance(self, rounds: int | None = None) -> int:
         """Run ``rounds`` sweeps (each slot acts once per sweep); returns the impacts done."""
         rounds = self.rounds if rounds is None else rounds
+        if self._gpu is not None:
+            impacts, dry = self._gpu.advance(rounds)
+            self._gpu.sync()  # the host arrays (maps, checkpoints, callbacks) stay current
+            self.impacts += impacts
+            self.finished = dry
+            return impacts
         args = (
             self.h,
             self.d,
@@ -661,6 +695,8 @@ class ParticleStream:
         # a resumed run may ask for more particles (--set emitters.NAME.particles=...): it is only
         # finished if every emitter has emitted its (possibly new) total
         self.finished = bool(state["finished"]) and self.particles_emitted >= self.particles_total
+        if self._gpu is not None:
+            self._gpu.push()
 
 
 def erode(

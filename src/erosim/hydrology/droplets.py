@@ -22,11 +22,14 @@ eroded or filled by descent (their water level bookkeeping stays exact, see ``po
 
 Sediment is kept as an amount (m³) — the seed's ``sediment /= (1 − dt·evap)`` rescaling is left
 out so that the sediment budget closes. Written as a Numba kernel because the droplet loop is
-sequential and per-point (no library does it). Two variants, chosen in Python
-(:func:`descend_variant`): :func:`descend` (any footprint, sub-steps) and :func:`descend_cell`
-(the seed's case: one-cell footprint, whole steps), which is written for the short step-to-step
-dependency chain that bounds this loop's speed (~60 ns a step on the 2-core machine against
-~80 ns for the general kernel in the same case) and agrees with it to rounding.
+sequential and per-point (no library does it). Two serial loops, chosen in Python
+(:func:`descend_variant`): :func:`descend` (any footprint, sub-steps) repeats the one sub-step
+that the parallel batches and the GPU also call (:func:`erosim.hydrology.droplet_step.step`);
+:func:`descend_cell` (the seed's case: one-cell footprint, whole steps — the
+``simplehydrology-2020`` preset) is the same model written for the short step-to-step dependency
+chain that bounds this loop's speed (~60 ns a step on the 2-core machine against ~80 ns for the
+general loop in the same case) and agrees with it to rounding (tested); it is the one place the
+step is written a second time, kept so that the preset's results and speed stay as they were.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ import math
 
 from numba import njit
 
+from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, lower, origin, step
 from erosim.hydrology.params import (
     P_ACC,
     P_AMIN,
@@ -66,11 +70,6 @@ from erosim.hydrology.pools import (
     OUTSIDE,
     walk_down,
 )
-from erosim.kernels.raster import locate, q4_shape, upper_nodes
-
-ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
-LEFT = 1  # left the map or entered the sea: water and sediment accounted as gone
-STOP = 2  # stopped at a cell for HY-2 flood
 
 
 @njit(cache=True, inline="always")
@@ -82,213 +81,57 @@ def _settle_budget(B, steps, evap, eroded, deposited):
     B[B_DEPOSITED] += deposited
 
 
-@njit(cache=True, inline="always")
-def sample(z, x, y):
-    """Height and gradient (per cell) of the Q4 interpolant at (x, y) in one pass: the same
-    values as :func:`erosim.kernels.raster.bilinear` and :func:`~erosim.kernels.raster.gradient`
-    (clamped to the map), sharing the cell lookup and the four loads — the descend step's
-    innermost cost."""
-    ny, nx = z.shape
-    xc = min(max(x, 0.0), nx - 1.0)
-    yc = min(max(y, 0.0), ny - 1.0)
-    i0 = min(int(xc), nx - 2)
-    j0 = min(int(yc), ny - 2)
-    fx = xc - i0
-    fy = yc - j0
-    z1 = z[j0, i0]
-    z2 = z[j0, i0 + 1]
-    z3 = z[j0 + 1, i0 + 1]
-    z4 = z[j0 + 1, i0]
-    top = z1 + fx * (z2 - z1)
-    bot = z4 + fx * (z3 - z4)
-    gx = (1.0 - fy) * (z2 - z1) + fy * (z3 - z4)
-    gy = (1.0 - fx) * (z4 - z1) + fx * (z3 - z2)
-    return top + fy * (bot - top), gx, gy
-
-
-@njit(cache=True)
-def footprint_start(x, m):
-    """First index of the m-cell footprint centred on x (cell units): floor(x − (m−1)/2 + ½)."""
-    return int(math.floor(x - 0.5 * (m - 1) + 0.5))
-
-
-@njit(cache=True)
+@njit(inline="always")
 def mark(track, nx, ny, x, y, m):
-    if m == 1:  # the seed's case: the droplet's own cell
-        track[int(y + 0.5) * nx + int(x + 0.5)] = 1
-        return
-    i0 = footprint_start(x, m)
-    j0 = footprint_start(y, m)
-    for j in range(max(j0, 0), min(j0 + m, ny)):
-        for i in range(max(i0, 0), min(i0 + m, nx)):
+    """track = 1 on the m×m footprint at (x, y) (HY-4: the cells a droplet visited)."""
+    j_lo, j_hi, i_lo, i_hi = box(origin(x, y, m, nx), m, nx, ny)
+    for j in range(j_lo, j_hi):
+        for i in range(i_lo, i_hi):
             track[j * nx + i] = 1
-
-
-@njit(cache=True)
-def transfer(zf, lake_of, nx, ny, x, y, m, amount, cell_area):
-    """Remove ``amount`` m³ (negative: add) evenly from the dry cells of the footprint at (x, y).
-
-    Returns the amount actually moved (0 when every footprint cell is a lake cell).
-    """
-    if m == 1:
-        c = int(y + 0.5) * nx + int(x + 0.5)
-        if lake_of[c] != NO_LAKE:
-            return 0.0
-        zf[c] -= amount / cell_area
-        return amount
-    i0 = footprint_start(x, m)
-    j0 = footprint_start(y, m)
-    cnt = 0
-    for j in range(max(j0, 0), min(j0 + m, ny)):
-        for i in range(max(i0, 0), min(i0 + m, nx)):
-            if lake_of[j * nx + i] == NO_LAKE:
-                cnt += 1
-    if cnt == 0:
-        return 0.0
-    dz = amount / (cnt * cell_area)
-    for j in range(max(j0, 0), min(j0 + m, ny)):
-        for i in range(max(i0, 0), min(i0 + m, nx)):
-            c = j * nx + i
-            if lake_of[c] == NO_LAKE:
-                zf[c] -= dz
-    return amount
-
-
-@njit(cache=True, inline="always")
-def _height(z, x, y):
-    """Height of the Q4 interpolant at (x, y), the same operations as
-    :func:`erosim.kernels.raster.bilinear` (inlined here: the call cost more than the lookup)."""
-    ny, nx = z.shape
-    i0, xi = locate(nx, x)
-    j0, eta = locate(ny, y)
-    i1, j1 = upper_nodes(nx, ny, i0, j0)
-    n1, n2, n3, n4 = q4_shape(xi, eta)
-    return n1 * z[j0, i0] + n2 * z[j0, i1] + n3 * z[j1, i1] + n4 * z[j1, i0]
 
 
 @njit(cache=True, error_model="numpy")
 def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, track, B, P):
-    """Run one droplet until it ends, leaves or stops (see module docstring).
+    """Run one droplet until it ends, leaves or stops (see module docstring): the shared sub-step
+    (:func:`erosim.hydrology.droplet_step.step`) against the live terrain, its transfers applied
+    at once, each visited footprint marked in ``track``.
 
     Returns (status, x, y, vx, vy, V, S) with positions in cell units and V, S in m³.
     """
     ny, nx = z2.shape
-    dt = P[P_DT]
-    dx = P[P_DX]
-    ca = P[P_CA]
+    K = constants(P)
     m = int(P[P_FOOT])
-    maxstep = P[P_MAXSTEP]
-    v0 = P[P_V0]
-    vmin = P[P_VMIN]
-    sea = P[P_SEA]
-    fric = P[P_FRIC]
-    evp = P[P_EVAP]
-    cap = P[P_CAP]
-    root = P[P_ROOT]
-    pit = P[P_PIT]
-    steps = 0
     maxsteps = int(P[P_MAXSTEPS])
-    inv_dx = 1.0 / dx
-    inv_v0 = 1.0 / v0
-    acc_num = P[P_ACC] / P[P_DENS]
-    amin2 = P[P_AMIN] * P[P_AMIN]
-    kd = P[P_KD]
-    xmax = nx - 0.5
-    ymax = ny - 0.5
+    no_ov = zf[:1]  # the serial loop writes the terrain itself: no overlay
+    steps = 0
     evap = 0.0  # evaporated volume, added to the budget on exit
+    eroded = 0.0
+    deposited = 0.0
     speed = math.sqrt(vx * vx + vy * vy)
     while True:
-        ix = int(x + 0.5)
-        iy = int(y + 0.5)
-        c = iy * nx + ix
-        if m == 1:
-            track[c] = 1
-        else:
-            mark(track, nx, ny, x, y, m)
-        h0, gx, gy = sample(z2, x, y)
-        gx *= inv_dx
-        gy *= inv_dx
-        vrel = V * inv_v0
-        scale = acc_num / (vrel * math.sqrt(1.0 + gx * gx + gy * gy))
-        s = stream[c]
-        fe = fric * (1.0 - 0.5 * s)
-        ee = evp * (1.0 - 0.2 * s)
-        ax = -gx * scale
-        ay = -gy * scale
-        a2 = ax * ax + ay * ay  # |a|², compared with squares: no square root on the hot path
-        nsub = 1
-        h = dt
-        if maxstep > 0.0:
-            dist = (speed + dt * math.sqrt(a2)) * dt * inv_dx
-            if dist > maxstep:
-                nsub = min(int(math.ceil(dist / maxstep)), 1024)
-                if nsub > 1:
-                    h = dt / nsub
-        vx += h * ax
-        vy += h * ay
-        x0 = x
-        y0 = y
-        x += h * vx * inv_dx
-        y += h * vy * inv_dx
-        damp = 1.0 - h * fe
-        vx *= damp
-        vy *= damp
+        mark(track, nx, ny, x, y, m)
+        st, x, y, vx, vy, vn, S, speed, code, dz, moved = step(
+            x, y, vx, vy, V, S, speed, z2, zf, no_ov, False, stream, roots, erod, lake_of, level, K
+        )
         steps += 1
-        if x < -0.5 or y < -0.5 or x >= xmax or y >= ymax:
+        if st == LEFT:
             B[B_LEFT] += V
             B[B_CARRIED] += S
-            B[B_STEPS] += steps
-            B[B_EVAP] += evap
-            return LEFT, x0, y0, vx, vy, 0.0, 0.0
-        jx = int(x + 0.5)
-        jy = int(y + 0.5)
-        cn = jy * nx + jx
-        if zf[cn] < sea or lake_of[cn] == OUTSIDE:
-            B[B_LEFT] += V
-            B[B_CARRIED] += S
-            B[B_STEPS] += steps
-            B[B_EVAP] += evap
+            _settle_budget(B, steps, evap, eroded, deposited)
             return LEFT, x, y, vx, vy, 0.0, 0.0
-        if (stream[cn] > 0.5 and a2 < amin2) or lake_of[cn] >= 0:
-            B[B_STEPS] += steps
-            B[B_EVAP] += evap
+        if st == STOP:
+            _settle_budget(B, steps, evap, eroded, deposited)
             return STOP, x, y, vx, vy, V, S
-        speed = math.sqrt(vx * vx + vy * vy)
-        if speed * h < pit:
-            wc, at_min = walk_down(cn, 2 * m + 1, zf, lake_of, level, sea, nx, ny)
-            if at_min:
-                B[B_STEPS] += steps
-                B[B_EVAP] += evap
-                return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S
-        # mass transfer at the old position
-        drop = (h0 - _height(z2, x, y)) * nsub  # terrain unchanged since h0 was sampled
-        ceq = cap * vrel * speed * drop if drop > 0.0 else 0.0
-        hold = 1.0 - root * roots[c]
-        if hold < 0.0:
-            hold = 0.0
-        diff = ceq - S
-        amt = (kd if nsub == 1 else kd / nsub) * hold * diff
-        if diff > 0.0:
-            amt *= erod[c]
-        if amt != 0.0:
-            if m == 1:
-                moved = 0.0
-                if lake_of[c] == NO_LAKE:
-                    zf[c] -= amt / ca
-                    moved = amt
-            else:
-                moved = transfer(zf, lake_of, nx, ny, x0, y0, m, amt, ca)
+        if moved != 0.0:
+            lower(zf, lake_of, code, m, nx, ny, dz)
             if moved > 0.0:
-                B[B_ERODED] += moved
+                eroded += moved
             else:
-                B[B_DEPOSITED] -= moved
-            S += moved
-        vn = V * (1.0 - h * ee)
+                deposited -= moved
         evap += V - vn
         V = vn
-        if V < vmin or steps >= maxsteps:
-            B[B_STEPS] += steps
-            B[B_EVAP] += evap
+        if st == ENDED or steps >= maxsteps:
+            _settle_budget(B, steps, evap, eroded, deposited)
             return ENDED, x, y, vx, vy, V, S
 
 

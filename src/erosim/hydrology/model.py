@@ -10,6 +10,8 @@ are applied and their lakes filled — independent of the thread count, not of t
 ``hydrology.batch = 0`` (the ``simplehydrology-2020`` preset) runs them one after another in a
 single-threaded Numba loop (:func:`run_droplets`): each droplet sees the terrain and lakes the
 previous one left, the seed's semantics.
+With ``device = "cuda"`` (``run.device``) the batches' descents run on a GPU
+(:mod:`erosim.hydrology.droplets_cuda`), the lakes and the per-cycle passes on the host.
 
 Random numbers: droplet i's spawn point comes from SplitMix64 hashing of (seed, i), vegetation's
 from NumPy's PCG64 seeded with (seed, cycle) (the seedling count and the key of the vegetation
@@ -451,6 +453,7 @@ class HydrologyModel:
         rain: np.ndarray | None = None,
         erodibility: np.ndarray | None = None,
         timing: bool = False,
+        device: str = "cpu",
     ):
         self.p = params or HydrologyParams()
         self.veg = veg or VegetationParams()
@@ -507,7 +510,15 @@ class HydrologyModel:
         self._alloc_pool(3 * self.margin)
         self._built = False
         self.batch = batch_size(self.p, self.per_cycle)
-        self._work = work_arrays(self.batch, n) if self.batch > 0 else None
+        self.device = device
+        self._gpu = None
+        if device == "cuda":  # the batches' descents on the GPU (erosim.hydrology.droplets_cuda)
+            from erosim.hydrology.droplets_cuda import DeviceDroplets
+
+            self._gpu = DeviceDroplets(self)
+        elif device != "cpu":
+            raise InputError(f"Unknown device '{device}' for the hydrology model; use 'cpu' or 'cuda'.")
+        self._work = work_arrays(self.batch, n) if self.batch > 0 and self._gpu is None else None
 
     # ----------------------------------------------------------------------------- internals
     def _alloc_pool(self, size: int) -> None:
@@ -622,12 +633,20 @@ class HydrologyModel:
         if batch <= 0:
             self._run(self.droplets, self.per_cycle)
         else:
+            gpu = self._gpu
+            if gpu is not None:
+                gpu.push()  # the host passes of the last cycle (and any lake rebuild) changed the maps
             todo = self.per_cycle
             while todo > 0:
                 nb = min(batch, todo)
-                self._run_batch(self.droplets, nb)
+                if gpu is None:
+                    self._run_batch(self.droplets, nb)
+                else:
+                    gpu.run_batch(self.droplets, nb)
                 self.droplets += nb
                 todo -= nb
+            if gpu is not None:
+                gpu.pull_track()
         streams.update(self.stream, self.track, self.p.stream_rate)
         if self._creep > 0.0:
             moved = creep_step(self.z, self.erod, self._creep, self.lake_of)  # dry land only

@@ -47,12 +47,16 @@ def _inputs(cfg, shape):
 
 
 def build_model(cfg, *, timing: bool = False):
-    """The terrain and a fresh :class:`HydrologyModel` for a validated ``HydrologyScenario``."""
+    """The terrain and a fresh :class:`HydrologyModel` for a validated ``HydrologyScenario`` (on
+    ``run.device``: the droplet batches on the GPU with ``cuda``)."""
     from erosim.hydrology.model import HydrologyModel
 
     terrain = build_terrain(cfg.terrain, cfg.seed)
     rain, erod = _inputs(cfg, terrain.shape)
-    model = HydrologyModel(terrain, cfg.hydrology, cfg.vegetation, cfg.seed, rain=rain, erodibility=erod, timing=timing)
+    model = HydrologyModel(
+        terrain, cfg.hydrology, cfg.vegetation, cfg.seed, rain=rain, erodibility=erod, timing=timing,
+        device=cfg.run.device,
+    )  # fmt: skip
     return terrain, model
 
 

@@ -7,11 +7,13 @@
     [hydrology]    droplets, lakes, streams (erosim.hydrology.params.HydrologyParams), SI units
     [vegetation]   trees and roots (erosim.hydrology.params.VegetationParams)
     [inputs]       optional rain map (relative weights) and hardness map (0 = soft … 1 = rock)
-    [run]          cycles, animation frames, checkpoint interval
+    [run]          cycles, animation frames, checkpoint interval, device ("cpu" or "cuda")
     [tiles]        tiled builds of a large GeoTIFF (size 0 = one piece; docs/tiles.md)
 """
 
 from __future__ import annotations
+
+from typing import Literal
 
 from pydantic import model_validator
 
@@ -34,6 +36,11 @@ class HydrologyRun(Section):
     cycles: int = param(640, ge=1, unit="1", doc="hydrology cycles (droplet batches) to run")
     frames: int = param(24, ge=0, unit="1", doc="frames of figures/evolution.gif and maps/frames/ (0 = none)")
     checkpoint_interval: float = param(300.0, gt=0, unit="s", doc="wall time between checkpoints")
+    device: Literal["cpu", "cuda"] = param(
+        "cpu",
+        doc="where the droplet batches descend: 'cpu' (Numba threads) or 'cuda' (an NVIDIA GPU, needs `pip install "
+        "'erosim[cuda]'`; docs/hydrology.md); lakes, streams, creep and vegetation stay on the CPU",
+    )
 
 
 class Tiles(Section):

@@ -388,9 +388,9 @@ def test_device_on_a_kind_without_one_is_one_sentence(cli_runner, tmp_path, monk
 
     monkeypatch.setenv("NUMBA_ENABLE_CUDASIM", "1")
     out = tmp_path / "run"
-    res = cli_runner.invoke(cli, ["run", "hydrology", "--device", "cuda", "--out", str(out)])
+    res = cli_runner.invoke(cli, ["run", "particle-stream", "--device", "cuda", "--out", str(out)])
     assert res.exit_code == 2
-    assert "--device applies to kind = \"sph\" and \"flood\" scenarios, not 'hydrology'" in res.output
+    assert "\"hydrology\" scenarios, not 'particle-stream' (kind 'particle-stream')" in res.output
     assert not out.exists()
 
 

@@ -1,0 +1,249 @@
+"""HY-1 one droplet sub-step, written once: the serial loop, the parallel batches and the GPU call it.
+
+:func:`step` advances a droplet by one sub-step of the model of :mod:`erosim.hydrology.droplets`
+(its docstring has the equations: SimpleHydrology 2020's descent with sub-steps of at most
+``max_step`` cells and an ℓ×ℓ footprint)::
+
+    a = (ℓ/s²)·n_h/(V/V₀·ρ);  v += h·a;  x += h·v;  v *= 1 − h·f_eff
+    c_eq = cap·(V/V₀)·|v|·max(0, Δz·dt/h);  ΔS = (h/dt)·k_d·max(0, 1 − ρ_r)·(c_eq − S) (× erodibility if > 0)
+    V *= 1 − h·e_eff
+
+against the terrain ``z`` plus, where ``has_ov``, an overlay ``ov`` (the batches' private map of a
+droplet's own changes, :mod:`erosim.hydrology.batch`). It does not write the terrain: it returns
+the footprint (:func:`origin`, cells by :func:`box`) and the height ``dz`` each of its dry cells
+loses, and each caller applies that its own way — the serial loop and the batches with
+:func:`lower` (into the terrain, into the overlay), the GPU kernel with atomic adds
+(:mod:`erosim.hydrology.droplets_cuda`). The step tests the exits (map edge, sea or nodata:
+``LEFT``; a lake, or a slow droplet in a strong stream or in a pit: ``STOP``; volume below the
+minimum: ``ENDED``), otherwise returns ``MOVED``.
+
+The functions here take plain scalars, arrays and a tuple of constants (:func:`constants`) and
+are inlined where they are called; they are not cached on their own, so that numba-cuda can
+compile the same source as a device function (as the shallow-water kernels do with
+:mod:`erosim.kernels.swe_sph`). The seed preset's serial loop keeps its latency-tuned form of the
+same model for whole steps and a one-cell footprint
+(:func:`erosim.hydrology.droplets.descend_cell`, which agrees with this step to rounding, tested).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from erosim.hydrology.params import (
+    P_ACC,
+    P_AMIN,
+    P_CA,
+    P_CAP,
+    P_DENS,
+    P_DT,
+    P_DX,
+    P_EVAP,
+    P_FOOT,
+    P_FRIC,
+    P_KD,
+    P_MAXSTEP,
+    P_PIT,
+    P_ROOT,
+    P_SEA,
+    P_V0,
+    P_VMIN,
+)
+from erosim.hydrology.pools import NO_LAKE, OUTSIDE
+
+MOVED = -1  # the sub-step is done and the droplet goes on
+ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
+LEFT = 1  # left the map or entered the sea: water and sediment accounted as gone
+STOP = 2  # stopped at a cell for HY-2 flood
+
+
+@njit(inline="always")
+def constants(P):
+    """The step's constants from the kernel vector ``P`` (:func:`erosim.hydrology.params.kernel_constants`):
+    (dt, 1/Δx, Δx², footprint m, max_step, V_min, sea, friction, evaporation, cap, root, pit, k_d,
+    1/V₀, ℓ/(s²ρ), |a|²_min)."""
+    return (
+        P[P_DT], 1.0 / P[P_DX], P[P_CA], P[P_FOOT], P[P_MAXSTEP], P[P_VMIN], P[P_SEA], P[P_FRIC], P[P_EVAP],
+        P[P_CAP], P[P_ROOT], P[P_PIT], P[P_KD], 1.0 / P[P_V0], P[P_ACC] / P[P_DENS], P[P_AMIN] * P[P_AMIN],
+    )  # fmt: skip
+
+
+@njit(inline="always")
+def sample(z, ov, has_ov, x, y):
+    """Height and gradient (per cell) of the Q4 interpolant of z (+ ov where ``has_ov``) at (x, y),
+    clamped to the map: the four corners loaded once for all three."""
+    ny, nx = z.shape
+    xc = min(max(x, 0.0), nx - 1.0)
+    yc = min(max(y, 0.0), ny - 1.0)
+    i0 = min(int(xc), nx - 2)
+    j0 = min(int(yc), ny - 2)
+    fx = xc - i0
+    fy = yc - j0
+    z1 = z[j0, i0]
+    z2 = z[j0, i0 + 1]
+    z3 = z[j0 + 1, i0 + 1]
+    z4 = z[j0 + 1, i0]
+    if has_ov:
+        c = j0 * nx + i0
+        z1 = z1 + ov[c]
+        z2 = z2 + ov[c + 1]
+        z3 = z3 + ov[c + nx + 1]
+        z4 = z4 + ov[c + nx]
+    top = z1 + fx * (z2 - z1)
+    bot = z4 + fx * (z3 - z4)
+    gx = (1.0 - fy) * (z2 - z1) + fy * (z3 - z4)
+    gy = (1.0 - fx) * (z4 - z1) + fx * (z3 - z2)
+    return top + fy * (bot - top), gx, gy
+
+
+@njit(inline="always")
+def surface(c, zf, ov, has_ov, lake_of, level, sea_level):
+    """:func:`erosim.hydrology.pools.surface` of the terrain (+ overlay): lake level, sea, or height."""
+    j = lake_of[c]
+    if j >= 0:
+        return level[j]
+    h = zf[c] + ov[c] if has_ov else zf[c]
+    return sea_level if h < sea_level else h
+
+
+@njit(inline="always")
+def walk_down(c, max_walk, zf, ov, has_ov, lake_of, level, sea_level, nx, ny):
+    """:func:`erosim.hydrology.pools.walk_down` over the terrain (+ overlay: the pit test sees the
+    droplet's own deposits): steepest-descent D8 walk of the surface; (cell, at a minimum)."""
+    for _ in range(max_walk):
+        iy = c // nx
+        ix = c - iy * nx
+        best = c
+        hb = surface(c, zf, ov, has_ov, lake_of, level, sea_level)
+        for j in range(max(iy - 1, 0), min(iy + 2, ny)):
+            for i in range(max(ix - 1, 0), min(ix + 2, nx)):
+                n = j * nx + i
+                if lake_of[n] == OUTSIDE:
+                    continue
+                h = surface(n, zf, ov, has_ov, lake_of, level, sea_level)
+                if h < hb:
+                    hb = h
+                    best = n
+        if best == c:
+            return c, True
+        c = best
+    return c, False
+
+
+@njit(inline="always")
+def origin(x, y, m, nx):
+    """Code of the m×m footprint centred at (x, y): its cell (m = 1), else its first cell
+    (floor(x − (m−1)/2 + ½), the same in y) offset by m on a map widened by m on each side."""
+    if m == 1:
+        return int(y + 0.5) * nx + int(x + 0.5)
+    i0 = int(math.floor(x - 0.5 * (m - 1) + 0.5))
+    j0 = int(math.floor(y - 0.5 * (m - 1) + 0.5))
+    return (j0 + m) * (nx + 2 * m) + i0 + m
+
+
+@njit(inline="always")
+def box(code, m, nx, ny):
+    """Cells (j range, i range) of the footprint ``code`` (:func:`origin`), clipped to the map."""
+    if m == 1:
+        j = code // nx
+        i = code - j * nx
+        return j, j + 1, i, i + 1
+    w = nx + 2 * m
+    j0 = code // w - m
+    i0 = code - (j0 + m) * w - m
+    return max(j0, 0), min(j0 + m, ny), max(i0, 0), min(i0 + m, nx)
+
+
+@njit(inline="always")
+def lower(dst, lake_of, code, m, nx, ny, dz):
+    """dst −= dz on the dry (non-lake) cells of footprint ``code``: a step's transfer applied."""
+    j_lo, j_hi, i_lo, i_hi = box(code, m, nx, ny)
+    for j in range(j_lo, j_hi):
+        for i in range(i_lo, i_hi):
+            if lake_of[j * nx + i] == NO_LAKE:
+                dst[j * nx + i] -= dz
+
+
+@njit(inline="always")
+def step(x, y, vx, vy, V, S, speed, z2, zf, ov, has_ov, stream, roots, erod, lake_of, level, K):
+    """One sub-step of a droplet at (x, y) (cells) with velocity (vx, vy) (m/s), speed |v|, volume
+    V and sediment S (m³) over the terrain ``z2`` (``zf`` its flat view) + ``ov`` where ``has_ov``.
+
+    Returns (status, x, y, vx, vy, V, S, speed, code, dz, moved): ``code`` the footprint of the
+    old position (:func:`origin`), ``dz`` the height each of its dry cells loses (0 when nothing
+    moves; the caller applies it), ``moved`` the sediment taken up (m³, negative: deposited). On
+    ``LEFT`` (x, y) is the last position on the map and V, S are the water and sediment leaving.
+    ``K``: :func:`constants`."""
+    ny, nx = z2.shape
+    dt, inv_dx, ca, mf, maxstep, vmin, sea, fric, evp, cap, root, pit, kd, inv_v0, acc_num, amin2 = K
+    m = int(mf)
+    c = int(y + 0.5) * nx + int(x + 0.5)
+    code = origin(x, y, m, nx)
+    h0, gx, gy = sample(z2, ov, has_ov, x, y)
+    gx *= inv_dx
+    gy *= inv_dx
+    vrel = V * inv_v0
+    scale = acc_num / (vrel * math.sqrt(1.0 + gx * gx + gy * gy))
+    s = stream[c]
+    fe = fric * (1.0 - 0.5 * s)
+    ee = evp * (1.0 - 0.2 * s)
+    ax = -gx * scale
+    ay = -gy * scale
+    a2 = ax * ax + ay * ay  # |a|², compared with squares: no square root on the hot path
+    nsub = 1
+    h = dt
+    if maxstep > 0.0:
+        dist = (speed + dt * math.sqrt(a2)) * dt * inv_dx
+        if dist > maxstep:
+            nsub = min(int(math.ceil(dist / maxstep)), 1024)
+            if nsub > 1:
+                h = dt / nsub
+    vx += h * ax
+    vy += h * ay
+    x0 = x
+    y0 = y
+    x += h * vx * inv_dx
+    y += h * vy * inv_dx
+    damp = 1.0 - h * fe
+    vx *= damp
+    vy *= damp
+    if x < -0.5 or y < -0.5 or x >= nx - 0.5 or y >= ny - 0.5:
+        return LEFT, x0, y0, vx, vy, V, S, speed, code, 0.0, 0.0
+    cn = int(y + 0.5) * nx + int(x + 0.5)
+    zn = zf[cn] + ov[cn] if has_ov else zf[cn]
+    if zn < sea or lake_of[cn] == OUTSIDE:
+        return LEFT, x, y, vx, vy, V, S, speed, code, 0.0, 0.0
+    if (stream[cn] > 0.5 and a2 < amin2) or lake_of[cn] >= 0:
+        return STOP, x, y, vx, vy, V, S, speed, code, 0.0, 0.0
+    speed = math.sqrt(vx * vx + vy * vy)
+    if speed * h < pit:
+        wc, at_min = walk_down(cn, 2 * m + 1, zf, ov, has_ov, lake_of, level, sea, nx, ny)
+        if at_min:
+            return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S, speed, code, 0.0, 0.0
+    # mass transfer at the old position (its footprint's dry cells)
+    h1, _, _ = sample(z2, ov, has_ov, x, y)
+    drop = (h0 - h1) * nsub
+    ceq = cap * vrel * speed * drop if drop > 0.0 else 0.0
+    hold = 1.0 - root * roots[c]
+    if hold < 0.0:
+        hold = 0.0
+    diff = ceq - S
+    amt = (kd if nsub == 1 else kd / nsub) * hold * diff
+    if diff > 0.0:
+        amt *= erod[c]
+    dz = 0.0
+    moved = 0.0
+    if amt != 0.0:
+        j_lo, j_hi, i_lo, i_hi = box(code, m, nx, ny)
+        cnt = 0
+        for j in range(j_lo, j_hi):
+            for i in range(i_lo, i_hi):
+                if lake_of[j * nx + i] == NO_LAKE:
+                    cnt += 1
+        if cnt > 0:  # lake cells are never eroded or filled by descent
+            dz = amt / (cnt * ca)
+            moved = amt
+            S += amt
+    V = V * (1.0 - h * ee)
+    return (ENDED if V < vmin else MOVED), x, y, vx, vy, V, S, speed, code, dz, moved
