@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-SRC = Path(__file__).resolve().parents[2] / "src"
+SRC = Path(__file__).resolve().parents[3] / "src"
 needs_simulator = pytest.mark.skipif(
     __import__("importlib.util").util.find_spec("numba.cuda") is None,
     reason="numba.cuda (the CUDA simulator) is not installed",

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 
-SRC = Path(__file__).resolve().parents[2] / "src"
+SRC = Path(__file__).resolve().parents[3] / "src"
 needs_simulator = pytest.mark.skipif(
     __import__("importlib.util").util.find_spec("numba.cuda") is None,
     reason="numba.cuda (the CUDA simulator) is not installed",
@@ -86,7 +86,7 @@ def simulated():
 # order (float64, ~1e-16 of a ~30 m height per addition, a few hundred additions); 1e-12 leaves
 # room for that and is far below any difference in the model (a changed step moves centimetres).
 ROUNDING = 1e-12
-CLOSURE = 1e-9  # the project's bar for float64 budget sums (tests/unit/test_hydrology_batch.py)
+CLOSURE = 1e-9  # the project's bar for float64 budget sums (tests/unit/hydrology/test_hydrology_batch.py)
 
 
 @pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
