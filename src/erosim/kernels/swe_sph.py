@@ -24,6 +24,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from erosim.kernels.friction_manning import manning_divisor
 from erosim.kernels.sph_kernels import wendland_f_2d, wendland_w_2d
 
 
@@ -261,7 +262,8 @@ def pair_forces_particle(i, pos, vel, vol, hsup, depth, omega, start, nbr, g, al
 
 @njit(parallel=True, cache=True)
 def kick(vel, acc, depth, manning, inv_cell, pos, n, dt, g, d_floor):
-    """u ← (u + Δt a) / (1 + Δt g n² |u + Δt a| / d^{4/3}) — Manning friction, semi-implicit.
+    """u ← (u + Δt a) / (1 + Δt g n² |u + Δt a| / d^{4/3}) — Manning friction, semi-implicit
+    (:func:`erosim.kernels.friction_manning.manning_divisor`, the 3-D flood solver's law too).
 
     The friction factor only divides, so it can stop a particle but never reverse it, however thin
     the water (d is floored at ``d_floor`` only to avoid 0/0). ``manning`` is a map of n on the DEM
@@ -282,7 +284,7 @@ def kick_particle(i, vel, acc, depth, manning, inv_cell, pos, dt, g, d_floor):
     nn = manning[row, col]
     d = max(depth[i], d_floor)
     speed = math.sqrt(ux * ux + uy * uy)
-    den = 1.0 + dt * g * nn * nn * speed / d ** (4.0 / 3.0)
+    den = manning_divisor(nn, speed, d, dt, g)
     vel[i, 0] = ux / den
     vel[i, 1] = uy / den
 

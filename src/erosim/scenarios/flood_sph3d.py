@@ -36,8 +36,8 @@ class SPHFlood:
     def __init__(self, site, spacing: float, open_edges, *, manning=0.0, every: int = 5, seed: int = 1):
         from erosim.coupling.raster import Raster
         from erosim.sph.boundaries.heightfield import HeightfieldGround
-        from erosim.sph.boundaries.manning_columns import ManningColumns
         from erosim.sph.boundaries.planes import PlaneWalls
+        from erosim.sph.manning_columns import ManningColumns
         from erosim.sph.params import SPHParams
         from erosim.sph.solver import SPHSolver
 
