@@ -300,3 +300,21 @@ def test_the_maps_gather_and_scatter_agree():
     assert (scatter.max_depth > 0).sum() > 50
     for k in ("max_depth", "max_speed", "max_dv", "arrival"):
         assert np.allclose(getattr(scatter, k), getattr(gather, k), rtol=1e-12, atol=0.0), k
+
+
+def test_the_neighbour_lists_hold_exactly_the_pairs_within_the_larger_radius():
+    """The pruned bin search (bins a third of the largest radius, a bin skipped when out of reach of
+    both radii) lists every pair with r_ij < max(s_i, s_j) and no other, against all pairs by brute
+    force, where the radii span a factor 6 (thin water's supports beside deep water's)."""
+    rng = np.random.default_rng(3)
+    pos = np.concatenate([rng.uniform(0.0, 6.0, (300, 2)), rng.uniform(6.0, 30.0, (150, 2))])
+    m = ShallowWaterSPH(np.zeros((32, 32)), 1.0, pos, np.full(len(pos), 0.1), 0.3, ShallowWaterParams())
+    search = np.where(pos[:, 0] < 6.0, 0.6, 3.6) * rng.uniform(0.9, 1.0, len(pos))
+    m._build_lists(pos, search)
+    r = np.hypot(*(pos[:, None, :] - pos[None, :, :]).transpose(2, 0, 1))
+    want = (r < np.maximum(search[:, None], search[None, :])) & ~np.eye(len(pos), dtype=bool)
+    got = np.zeros_like(want)
+    for i in range(len(pos)):
+        got[i, m._nbr[m._start[i] : m._start[i + 1]]] = True
+    assert int(m._start[-1]) == int(want.sum()) > 0  # no pair listed twice
+    assert np.array_equal(got, want)

@@ -110,22 +110,55 @@ def bin_particles(pos, n, x0, y0, cell, ncx, ncy, cell_start, order):
         fill[c] += 1
 
 
+#: bins of the neighbour search per largest search radius: a particle scans ±LIST_BINS bins and skips
+#: those farther than its own radius and the bin's largest (:func:`pairs_particle`)
+LIST_BINS = 3
+
+
+@njit(cache=True)
+def bin_search_max(pos, search, n, x0, y0, cell, ncx, ncy, out):
+    """out[c] = the largest search radius s_j of the particles in bin c (0 where empty); bins as in
+    :func:`bin_particles`."""
+    out[:] = 0.0
+    for i in range(n):
+        cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
+        cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
+        c = cy * ncx + cx
+        if search[i] > out[c]:
+            out[c] = search[i]
+
+
 @njit(inline="always")
-def pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, k, nbr, fill):
-    """Particle i's pairs j ≠ i with r_ij < max(H_i, H_j), in cell order: written to nbr[k…] when
-    ``fill``; returns k plus their number."""
-    cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
-    cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
-    for gy in range(max(cy - 1, 0), min(cy + 2, ncy)):
-        for gx in range(max(cx - 1, 0), min(cx + 2, ncx)):
+def pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, bin_max, reach, k, nbr, fill):
+    """Particle i's pairs j ≠ i with r_ij < max(s_i, s_j) (s = ``hsup``, the search radii), in bin
+    order: written to nbr[k…] when ``fill``; returns k plus their number.
+
+    Bins of edge ``cell`` with ``reach`` · cell ≥ max s_j: i scans the bins within ``reach`` of its own
+    and skips a bin whose nearest point is at least max(s_i, ``bin_max``[bin]) away, as no particle
+    in it can pair with i. Where the radii differ (thin water's supports grow towards
+    ``flood.max_support`` × a deep particle's), bins sized by the largest radius would make every
+    particle scan an area of (3 max s)², most of it empty of partners.
+    """
+    ui = (pos[i, 0] - x0) / cell
+    vi = (pos[i, 1] - y0) / cell
+    cx = min(max(int(ui), 0), ncx - 1)
+    cy = min(max(int(vi), 0), ncy - 1)
+    si = hsup[i]
+    for gy in range(max(cy - reach, 0), min(cy + reach + 1, ncy)):
+        ey = max(gy - vi, vi - (gy + 1.0), 0.0) * cell
+        for gx in range(max(cx - reach, 0), min(cx + reach + 1, ncx)):
             c = gy * ncx + gx
+            ex = max(gx - ui, ui - (gx + 1.0), 0.0) * cell
+            lim = max(si, bin_max[c]) * (1.0 + 1e-9)  # a hair wide: rounding never drops a pair
+            if ex * ex + ey * ey >= lim * lim:
+                continue
             for q in range(cell_start[c], cell_start[c + 1]):
                 j = order[q]
                 if j == i:
                     continue
                 dx = pos[i, 0] - pos[j, 0]
                 dy = pos[i, 1] - pos[j, 1]
-                hm = max(hsup[i], hsup[j])
+                hm = max(si, hsup[j])
                 if dx * dx + dy * dy < hm * hm:
                     if fill:
                         nbr[k] = j
@@ -134,13 +167,15 @@ def pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, k, n
 
 
 @njit(parallel=True, cache=True)
-def scan_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, count, start, nbr, fill):
-    """The pairs j ≠ i with r_ij < max(H_i, H_j) (cells of edge ≥ max H): their number in ``count[i]``
+def scan_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, bin_max, reach, count, start, nbr, fill):
+    """The pairs j ≠ i with r_ij < max(s_i, s_j) (:func:`pairs_particle`): their number in ``count[i]``
     (``fill`` False), or, with the offsets ``start`` from those counts, the CSR lists
-    nbr[start[i]:start[i+1]] in cell order (``fill`` True)."""
+    nbr[start[i]:start[i+1]] in bin order (``fill`` True)."""
     for i in prange(n):
         k0 = start[i] if fill else 0
-        k = pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, k0, nbr, fill)
+        k = pairs_particle(
+            i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, bin_max, reach, k0, nbr, fill
+        )
         if not fill:
             count[i] = k
 

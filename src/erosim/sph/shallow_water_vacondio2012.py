@@ -277,17 +277,20 @@ class ShallowWaterSPH:
         self._build_lists(self.pos.copy(), self.hsup * margin)
 
     def _build_lists(self, at: np.ndarray, search: np.ndarray) -> None:
-        """The lists of the pairs of positions ``at`` closer than max(search_i, search_j)."""
+        """The lists of the pairs of positions ``at`` closer than max(search_i, search_j), found in bins
+        of a third of the largest radius, each skipped where out of reach (:func:`K.pairs_particle`)."""
         n = len(at)
-        cell = float(search.max()) if n else self.h0
+        cell = (float(search.max()) if n else self.h0) / K.LIST_BINS
         x0, y0 = at[:, 0].min() - cell, at[:, 1].min() - cell
         ncx = int((at[:, 0].max() - x0) / cell) + 2
         ncy = int((at[:, 1].max() - y0) / cell) + 2
         cell_start = np.empty(ncx * ncy + 1, np.int64)
         order = np.empty(n, np.int64)
         K.bin_particles(at, n, x0, y0, cell, ncx, ncy, cell_start, order)
+        bin_max = np.empty(ncx * ncy)
+        K.bin_search_max(at, search, n, x0, y0, cell, ncx, ncy, bin_max)
         count = np.empty(n, np.int64)
-        grid = (x0, y0, cell, ncx, ncy, cell_start, order)
+        grid = (x0, y0, cell, ncx, ncy, cell_start, order, bin_max, K.LIST_BINS)
         start = np.zeros(n + 1, np.int64)
         K.scan_pairs(at, search, n, *grid, count, start, np.empty(0, np.int64), False)
         np.cumsum(count, out=start[1:])
