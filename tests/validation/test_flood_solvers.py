@@ -11,8 +11,9 @@ from erosim.validation import flood_solvers
 def test_coarse_solvers_agree_on_the_flooded_extent(tmp_path):
     """Coarse: 2.5 m shallow-water particles against 1.0 m 3-D ones (26 s on 2 cores with the kernels
     compiled, at a load of 3.5; four minutes under a load of 10), so marked slow.
-    Measured IoU 0.97 (0.89 when the shallow-water maps took each particle's depth over its square; the
-    default resolution: see docs/flood.md); the issue's bound is 0.8. The extent
+    Measured IoU 0.90 with both solvers' maps the SPH depth at the cell centres (0.97 when the 3-D maps
+    marked each particle's square √(V/D) with its column's depth, 0.89 when both did; the default
+    resolution: see docs/flood.md); the issue's bound is 0.8. The extent
     is two or three cells wide below the dam, so one cell either side moves the IoU by about 0.03."""
     out = tmp_path / "v"
     r = flood_solvers.run("coarse", out=out, progress=False)
