@@ -68,9 +68,9 @@ def _sheet(d: float, slope: float = 0.02, froude: float = 0.5):
 def test_a_sheet_flow_maps_its_normal_depth(d):
     """With q = Σ V_j u_j / A over the undisturbed window (the particles' discharge per unit width),
     the mapped maximum depth of every window cell is Manning's normal depth (q n / √S)^(3/5) within
-    15 % (issue 37; measured 2.2 % at all three depths: the flow is 95 % of u_n at the end, as
+    15 % (issue 37; measured 2.4–2.5 % at the three depths: the flow is 95 % of u_n at the end, as
     tanh(2) = 0.96 gives, and (0.95)^(3/5) = 0.97), and the depth the sheet was laid at within 15 %
-    (measured 1.6 %: the lattice's interpolant between particle rows)."""
+    (measured 0.95 %: the lattice's interpolant between particle rows)."""
     m, maps, n, slope, depth, (x_lo, x_hi, y_lo, y_hi) = _sheet(d)
     assert depth.size >= 30  # a window of cells, not a point
     inside = (m.pos[:, 0] >= x_lo) & (m.pos[:, 0] <= x_hi) & (m.pos[:, 1] >= y_lo) & (m.pos[:, 1] <= y_hi)
@@ -109,8 +109,9 @@ def test_the_map_follows_ritters_fan_to_its_tip():
     channel's rows clear of the side walls (the flow is one-dimensional), is within 0.05 h₀ (issue 37).
 
     Δx = h₀/8 with splitting on: without it the tip particles keep the volume they left the reservoir
-    with and lag as a thick snout (measured 0.10 h₀), and a map of each particle's own depth over its
-    square shows the split daughters' bunching (0.18 h₀); the interpolant gives 0.018 h₀ (measured).
+    with and lag as a thick snout (measured 0.061 h₀), and a map of each particle's own depth over its
+    square shows the split daughters' bunching (0.18 h₀, H bounded at 1.5); the interpolant gives
+    0.029 h₀ (measured on the 24 particles' channel of the default bound 2.0).
     Marked slow: the splitting quadruples the particles (6 s on 2 cores)."""
     prm = ShallowWaterParams()  # a channel wide enough for rows clear of the side walls by H_max
     width = 12 + 2 * math.ceil(prm.max_support * prm.support)
@@ -149,11 +150,11 @@ def test_thackers_shoreline_recedes_as_the_analytic_one():
     """Over half a period the cap's east shoreline recedes by 2σ = 1 m (from 1.5 to 0.5 m) and its west
     one advances as far. Each, read from the map, stays within the kernel's largest support H_max of
     the analytic line: SPH spreads depth over H, so the 1 % h₀ contour cannot be placed closer than
-    that (measured at Δx = 0.05 m: 0.12 m = 0.53 H_max, the lagging wet/dry front of SWE-SPH at a
-    coarse spacing); and the east shore's recession over the half period is the analytic 1 m within
-    H_max. At Δx = 0.025 m the lag is the same 0.12 m (measured), above that spacing's H_max: the
-    front's lag does not shrink with the spacing (docs/flood.md, Thacker), so only the coarse case
-    is a test."""
+    that (measured at Δx = 0.05 m: 0.12 m = 0.40 H_max, 0.53 H_max with H bounded at 1.5, the lagging
+    wet/dry front of SWE-SPH at a coarse spacing); and the east shore's recession over the half period
+    is the analytic 1 m within H_max. At Δx = 0.025 m the lag was the same 0.12 m (measured with H
+    bounded at 1.5, above that spacing's H_max then): the front's lag does not shrink with the spacing
+    (docs/flood.md, Thacker), so only the coarse case is a test."""
     shores, h_max = _thacker_shores(0.05)
     right, right_exact, left, left_exact = shores.T
     assert np.abs(right - right_exact).max() < h_max, right - right_exact
