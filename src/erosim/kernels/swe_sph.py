@@ -1,6 +1,6 @@
 """Numba kernels of the shallow-water SPH solver (erosim.sph.shallow_water_vacondio2012).
 
-The per-particle functions (``*_particle``, ``cfl_scale``, ``footprint_cells``) are inlined into the
+The per-particle functions (``*_particle``, ``cfl_scale``) are inlined into the
 loops here and into the GPU kernels of :mod:`erosim.sph.kernels_swe_cuda`, which call them too; they
 and ``bed_c1`` are not cached on their own (numba-cuda would look for a GPU to key the cache).
 ``bed_c1`` is called, not inlined: inlined into a parallel loop, its tuples of weights trip Numba's
@@ -403,52 +403,6 @@ def bed_at(bed, pos, n, inv_cell, out):
 
 
 # ---------------------------------------------------------------- hazard maxima on the DEM grid
-
-
-@njit(cache=True)
-def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, max_dv, arrival, wall):
-    """Running maxima of depth, speed and depth·speed on the DEM's cells, and first wetting times.
-
-    Each particle stands for the square of side s_i = √(V_i/d_i) centred on it (the area whose water
-    it carries); every cell whose centre lies in that square records the particle's depth, speed
-    and their product if they exceed the cell's maxima. Particles drier than ``wet`` mark nothing,
-    and ``wall`` cells (nodata, a dam) are never marked: water does not stand on them.
-    """
-    ny, nx = max_d.shape
-    for i in range(n):
-        d = depth[i]
-        if d < wet:
-            continue
-        u = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2)
-        r_lo, r_hi, c_lo, c_hi = footprint_cells(i, pos, vol, depth, inv_cell, ny, nx)
-        for r in range(r_lo, r_hi + 1):
-            for c in range(c_lo, c_hi + 1):
-                if wall[r, c]:
-                    continue
-                if d > max_d[r, c]:
-                    max_d[r, c] = d
-                if u > max_v[r, c]:
-                    max_v[r, c] = u
-                if d * u > max_dv[r, c]:
-                    max_dv[r, c] = d * u
-                if t < arrival[r, c]:
-                    arrival[r, c] = t
-
-
-@njit(inline="always")
-def footprint_cells(i, pos, vol, depth, inv_cell, ny, nx):
-    """(first row, last row, first column, last column) of the cells under particle i's square."""
-    half = 0.5 * math.sqrt(vol[i] / depth[i]) * inv_cell
-    cx = pos[i, 0] * inv_cell
-    cy = pos[i, 1] * inv_cell
-    c_lo = max(int(math.ceil(cx - half)), 0)
-    c_hi = min(int(math.floor(cx + half)), nx - 1)
-    r_lo = max(int(math.ceil(cy - half)), 0)
-    r_hi = min(int(math.floor(cy + half)), ny - 1)
-    if c_lo > c_hi or r_lo > r_hi:  # a footprint smaller than a cell marks the cell it is in
-        c_lo = c_hi = min(max(int(math.floor(cx + 0.5)), 0), nx - 1)
-        r_lo = r_hi = min(max(int(math.floor(cy + 0.5)), 0), ny - 1)
-    return r_lo, r_hi, c_lo, c_hi
 
 
 @njit(cache=True)
