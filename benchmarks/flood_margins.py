@@ -49,7 +49,10 @@ def facts(folder: Path) -> tuple[dict, np.ndarray]:
     }, wet
 
 
-def picture(before: Path, after: Path, png: Path) -> None:
+BEFORE_AFTER = ("before: each cell the depth\nof the particles over it", "after: the SPH depth\nat the cell centre")
+
+
+def picture(before: Path, after: Path, png: Path, titles: tuple[str, str] = BEFORE_AFTER, suptitle: str = "") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -68,8 +71,7 @@ def picture(before: Path, after: Path, png: Path) -> None:
     cmap = ListedColormap(colours)
     norm = BoundaryNorm(np.arange(-0.5, 7.5), cmap.N)
     fig, axes = plt.subplots(1, 2, figsize=(5.4, 6.4), sharey=True)
-    for ax, m, title in zip(axes, maps, ("before: each cell the depth\nof the particles over it",
-                                         "after: the SPH depth\nat the cell centre"), strict=True):  # fmt: skip
+    for ax, m, title in zip(axes, maps, titles, strict=True):
         shown = np.where(m == 255, 0, m)[r0:r1, c0:c1]
         ax.imshow(shown, cmap=cmap, norm=norm, interpolation="nearest")
         flooded = (shown >= 1).sum()
@@ -79,7 +81,8 @@ def picture(before: Path, after: Path, png: Path) -> None:
         ax.set_yticks([])
     handles = [Patch(color=colours[k], label=name) for k, name in enumerate(CLASSES, start=1)]
     fig.legend(handles=handles, loc="lower center", ncol=6, fontsize=7, frameon=False)
-    fig.suptitle("erosim run flood --set flood.spacing=5:\nmaps/hazard.tif, cropped to the flood", fontsize=9)
+    default = "erosim run flood --set flood.spacing=5:\nmaps/hazard.tif, cropped to the flood"
+    fig.suptitle(suptitle or default, fontsize=9)
     fig.tight_layout(rect=(0, 0.06, 1, 0.95))
     png.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(png, dpi=110)
@@ -91,6 +94,8 @@ def main(argv=None) -> int:
     ap.add_argument("before", type=Path)
     ap.add_argument("after", type=Path)
     ap.add_argument("--png", type=Path, default=None)
+    ap.add_argument("--titles", nargs=2, default=None, help="the two panels' titles (\\n for a new line)")
+    ap.add_argument("--suptitle", default="", help="the figure's title (\\n for a new line)")
     args = ap.parse_args(argv)
     a, wa = facts(args.before)
     b, wb = facts(args.after)
@@ -102,7 +107,8 @@ def main(argv=None) -> int:
     }
     print(json.dumps(out, indent=1))
     if args.png is not None:
-        picture(args.before, args.after, args.png)
+        titles = tuple(t.replace("\\n", "\n") for t in args.titles) if args.titles else BEFORE_AFTER
+        picture(args.before, args.after, args.png, titles, args.suptitle.replace("\\n", "\n"))
     return 0
 
 

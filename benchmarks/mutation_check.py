@@ -444,11 +444,11 @@ MUTATIONS = (
     ),
     Mutation(
         "swe-manning-n-not-squared",
-        "kernels/swe_sph.py",
-        (("den = 1.0 + dt * g * nn * nn * speed / d ** (4.0 / 3.0)",
-          "den = 1.0 + dt * g * nn * speed / d ** (4.0 / 3.0)"),),  # fmt: skip
-        ("tests/unit/sph/test_swe_sph.py",),
-        "the flood's Manning friction grows with n, not n² (g n u|u| / d^{4/3})",
+        "kernels/friction_manning.py",
+        (("    return 1.0 + dt * g * n * n * speed / depth ** (4.0 / 3.0)",
+          "    return 1.0 + dt * g * n * speed / depth ** (4.0 / 3.0)"),),  # fmt: skip
+        ("tests/unit/sph/test_swe_sph.py", "tests/unit/sph/test_depth_columns.py"),
+        "the floods' Manning friction (both solvers) grows with n, not n² (g n u|u| / d^{4/3})",
     ),
     Mutation(
         "hazard-highest-class-wins",

@@ -1,6 +1,6 @@
 """Numba kernels of the shallow-water SPH solver (erosim.sph.shallow_water_vacondio2012).
 
-The per-particle functions (``*_particle``, ``cfl_scale``, ``footprint_cells``) are inlined into the
+The per-particle functions (``*_particle``, ``cfl_scale``) are inlined into the
 loops here and into the GPU kernels of :mod:`erosim.sph.kernels_swe_cuda`, which call them too; they
 and ``bed_c1`` are not cached on their own (numba-cuda would look for a GPU to key the cache).
 ``bed_c1`` is called, not inlined: inlined into a parallel loop, its tuples of weights trip Numba's
@@ -24,6 +24,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from erosim.kernels.friction_manning import manning_divisor
 from erosim.kernels.sph_kernels import wendland_f_2d, wendland_w_2d
 
 
@@ -109,22 +110,55 @@ def bin_particles(pos, n, x0, y0, cell, ncx, ncy, cell_start, order):
         fill[c] += 1
 
 
+#: bins of the neighbour search per largest search radius: a particle scans ±LIST_BINS bins and skips
+#: those farther than its own radius and the bin's largest (:func:`pairs_particle`)
+LIST_BINS = 3
+
+
+@njit(cache=True)
+def bin_search_max(pos, search, n, x0, y0, cell, ncx, ncy, out):
+    """out[c] = the largest search radius s_j of the particles in bin c (0 where empty); bins as in
+    :func:`bin_particles`."""
+    out[:] = 0.0
+    for i in range(n):
+        cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
+        cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
+        c = cy * ncx + cx
+        if search[i] > out[c]:
+            out[c] = search[i]
+
+
 @njit(inline="always")
-def pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, k, nbr, fill):
-    """Particle i's pairs j ≠ i with r_ij < max(H_i, H_j), in cell order: written to nbr[k…] when
-    ``fill``; returns k plus their number."""
-    cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)
-    cy = min(max(int((pos[i, 1] - y0) / cell), 0), ncy - 1)
-    for gy in range(max(cy - 1, 0), min(cy + 2, ncy)):
-        for gx in range(max(cx - 1, 0), min(cx + 2, ncx)):
+def pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, bin_max, reach, k, nbr, fill):
+    """Particle i's pairs j ≠ i with r_ij < max(s_i, s_j) (s = ``hsup``, the search radii), in bin
+    order: written to nbr[k…] when ``fill``; returns k plus their number.
+
+    Bins of edge ``cell`` with ``reach`` · cell ≥ max s_j: i scans the bins within ``reach`` of its own
+    and skips a bin whose nearest point is at least max(s_i, ``bin_max``[bin]) away, as no particle
+    in it can pair with i. Where the radii differ (thin water's supports grow towards
+    ``flood.max_support`` × a deep particle's), bins sized by the largest radius would make every
+    particle scan an area of (3 max s)², most of it empty of partners.
+    """
+    ui = (pos[i, 0] - x0) / cell
+    vi = (pos[i, 1] - y0) / cell
+    cx = min(max(int(ui), 0), ncx - 1)
+    cy = min(max(int(vi), 0), ncy - 1)
+    si = hsup[i]
+    for gy in range(max(cy - reach, 0), min(cy + reach + 1, ncy)):
+        ey = max(gy - vi, vi - (gy + 1.0), 0.0) * cell
+        for gx in range(max(cx - reach, 0), min(cx + reach + 1, ncx)):
             c = gy * ncx + gx
+            ex = max(gx - ui, ui - (gx + 1.0), 0.0) * cell
+            lim = max(si, bin_max[c]) * (1.0 + 1e-9)  # a hair wide: rounding never drops a pair
+            if ex * ex + ey * ey >= lim * lim:
+                continue
             for q in range(cell_start[c], cell_start[c + 1]):
                 j = order[q]
                 if j == i:
                     continue
                 dx = pos[i, 0] - pos[j, 0]
                 dy = pos[i, 1] - pos[j, 1]
-                hm = max(hsup[i], hsup[j])
+                hm = max(si, hsup[j])
                 if dx * dx + dy * dy < hm * hm:
                     if fill:
                         nbr[k] = j
@@ -133,13 +167,15 @@ def pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, k, n
 
 
 @njit(parallel=True, cache=True)
-def scan_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, count, start, nbr, fill):
-    """The pairs j ≠ i with r_ij < max(H_i, H_j) (cells of edge ≥ max H): their number in ``count[i]``
+def scan_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, bin_max, reach, count, start, nbr, fill):
+    """The pairs j ≠ i with r_ij < max(s_i, s_j) (:func:`pairs_particle`): their number in ``count[i]``
     (``fill`` False), or, with the offsets ``start`` from those counts, the CSR lists
-    nbr[start[i]:start[i+1]] in cell order (``fill`` True)."""
+    nbr[start[i]:start[i+1]] in bin order (``fill`` True)."""
     for i in prange(n):
         k0 = start[i] if fill else 0
-        k = pairs_particle(i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, k0, nbr, fill)
+        k = pairs_particle(
+            i, pos, hsup, x0, y0, cell, ncx, ncy, cell_start, order, bin_max, reach, k0, nbr, fill
+        )
         if not fill:
             count[i] = k
 
@@ -261,7 +297,8 @@ def pair_forces_particle(i, pos, vel, vol, hsup, depth, omega, start, nbr, g, al
 
 @njit(parallel=True, cache=True)
 def kick(vel, acc, depth, manning, inv_cell, pos, n, dt, g, d_floor):
-    """u ← (u + Δt a) / (1 + Δt g n² |u + Δt a| / d^{4/3}) — Manning friction, semi-implicit.
+    """u ← (u + Δt a) / (1 + Δt g n² |u + Δt a| / d^{4/3}) — Manning friction, semi-implicit
+    (:func:`erosim.kernels.friction_manning.manning_divisor`, the 3-D flood solver's law too).
 
     The friction factor only divides, so it can stop a particle but never reverse it, however thin
     the water (d is floored at ``d_floor`` only to avoid 0/0). ``manning`` is a map of n on the DEM
@@ -282,7 +319,7 @@ def kick_particle(i, vel, acc, depth, manning, inv_cell, pos, dt, g, d_floor):
     nn = manning[row, col]
     d = max(depth[i], d_floor)
     speed = math.sqrt(ux * ux + uy * uy)
-    den = 1.0 + dt * g * nn * nn * speed / d ** (4.0 / 3.0)
+    den = manning_divisor(nn, speed, d, dt, g)
     vel[i, 0] = ux / den
     vel[i, 1] = uy / den
 
@@ -366,52 +403,6 @@ def bed_at(bed, pos, n, inv_cell, out):
 
 
 # ---------------------------------------------------------------- hazard maxima on the DEM grid
-
-
-@njit(cache=True)
-def footprint_maxima(pos, vel, vol, depth, n, inv_cell, t, wet, max_d, max_v, max_dv, arrival, wall):
-    """Running maxima of depth, speed and depth·speed on the DEM's cells, and first wetting times.
-
-    Each particle stands for the square of side s_i = √(V_i/d_i) centred on it (the area whose water
-    it carries); every cell whose centre lies in that square records the particle's depth, speed
-    and their product if they exceed the cell's maxima. Particles drier than ``wet`` mark nothing,
-    and ``wall`` cells (nodata, a dam) are never marked: water does not stand on them.
-    """
-    ny, nx = max_d.shape
-    for i in range(n):
-        d = depth[i]
-        if d < wet:
-            continue
-        u = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2)
-        r_lo, r_hi, c_lo, c_hi = footprint_cells(i, pos, vol, depth, inv_cell, ny, nx)
-        for r in range(r_lo, r_hi + 1):
-            for c in range(c_lo, c_hi + 1):
-                if wall[r, c]:
-                    continue
-                if d > max_d[r, c]:
-                    max_d[r, c] = d
-                if u > max_v[r, c]:
-                    max_v[r, c] = u
-                if d * u > max_dv[r, c]:
-                    max_dv[r, c] = d * u
-                if t < arrival[r, c]:
-                    arrival[r, c] = t
-
-
-@njit(inline="always")
-def footprint_cells(i, pos, vol, depth, inv_cell, ny, nx):
-    """(first row, last row, first column, last column) of the cells under particle i's square."""
-    half = 0.5 * math.sqrt(vol[i] / depth[i]) * inv_cell
-    cx = pos[i, 0] * inv_cell
-    cy = pos[i, 1] * inv_cell
-    c_lo = max(int(math.ceil(cx - half)), 0)
-    c_hi = min(int(math.floor(cx + half)), nx - 1)
-    r_lo = max(int(math.ceil(cy - half)), 0)
-    r_hi = min(int(math.floor(cy + half)), ny - 1)
-    if c_lo > c_hi or r_lo > r_hi:  # a footprint smaller than a cell marks the cell it is in
-        c_lo = c_hi = min(max(int(math.floor(cx + 0.5)), 0), nx - 1)
-        r_lo = r_hi = min(max(int(math.floor(cy + 0.5)), 0), ny - 1)
-    return r_lo, r_hi, c_lo, c_hi
 
 
 @njit(cache=True)

@@ -9,9 +9,11 @@ crosses them. The reservoir is a lattice of spacing Δx over the set-up's reserv
 ground up to the level (so the dam holds it and nothing else connects it).
 
 :class:`SPHFlood` presents the solver to the flood kind as :class:`ShallowWaterSPH` does: the hazard
-maxima come from binning the particles onto the DEM's nodes every ``every`` steps (the depth of a
-column is Σ m/ρ over its cell, its speed the column's mean; :class:`erosim.coupling.binning.FluidGrid`),
-gauges read the same binning, and the water budget is the solver's mass budget in m³.
+maxima come from the shallow-water solver's reconstruction at the cell centres every ``every`` steps
+(:meth:`SPHFlood.update_maxima`: the particles' 2-D SPH sum seen from above, cut at their columns'
+surface), gauges read the particles binned into columns (the depth of a column is Σ m/ρ over its
+cell, its speed the column's mean; :mod:`erosim.sph.depth_columns`), and the water budget is the
+solver's mass budget in m³.
 
 The ``thesis`` preset reproduces the thesis's particle (m = 125 kg, so Δx = 0.5 m) with a time step
 from the CFL and viscous limits instead of its Δt = 0.1 s, which no stable SPH step reaches at that
@@ -36,8 +38,8 @@ class SPHFlood:
     def __init__(self, site, spacing: float, open_edges, *, manning=0.0, every: int = 5, seed: int = 1):
         from erosim.coupling.raster import Raster
         from erosim.sph.boundaries.heightfield import HeightfieldGround
-        from erosim.sph.boundaries.manning_columns import ManningColumns
         from erosim.sph.boundaries.planes import PlaneWalls
+        from erosim.sph.manning_columns import ManningColumns
         from erosim.sph.params import SPHParams
         from erosim.sph.solver import SPHSolver
 
@@ -80,6 +82,7 @@ class SPHFlood:
         self._outflow = EdgeOutflow(None, self.solver, self.raster, self.open_edges)
         self.volume_initial = self.budget()["volume_initial_m3"]
         self.settle_steps = 0
+        self._map_fixed = None  # (walls, their distance, ground, H) of the hazard maps, made at first use
 
     def _reservoir(self, ground: np.ndarray) -> np.ndarray:
         """Columns of particles over the reservoir, stacked from the ground up, holding its volume.
@@ -156,25 +159,48 @@ class SPHFlood:
         """The maxima are raised in ``maps``' own arrays (nothing to bring back)."""
 
     def update_maxima(self, maps, wet: float) -> None:
-        """Each particle marks the DEM cell under it with its column's depth and velocity
-        (:func:`erosim.kernels.swe_sph.footprint_maxima`: the cells under its square √(V/d); the
-        shallow-water solver maps the SPH depth at the cell centres instead, docs/flood.md)."""
+        """The hazard maxima from the shallow-water solver's map reconstruction
+        (:meth:`ShallowWaterSPH.update_maxima <erosim.sph.shallow_water_vacondio2012.ShallowWaterSPH.update_maxima>`):
+        at each cell centre the depth d(x) = Σ_j V_j W(|x − x_j|, H) of the particles seen from above
+        (x_j their plan positions, V_j = m/ρ_j), cut at the Shepard mean of their columns' surfaces
+        less the ground, with the Shepard mean of their columns' speeds; walls blind the sum. The 2-D
+        kernel's support is H = ``flood.support`` (3) × the spacing: the particles' columns stand a
+        spacing apart, so H spans the neighbouring columns as the shallow-water solver's spans its
+        neighbours, and water spread thinner than one layer of particles maps as thin as it is.
+        Every ``every`` steps."""
         if self.solver.steps % self.every:
             return
-        from erosim.kernels.swe_sph import footprint_maxima
+        from erosim.kernels import swe_sph as K
+        from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, wall_distance
 
         n = self.solver.n_fluid
+        if n == 0:
+            return
         d_i, u_i, _, _ = self._columns()
         st = self.solver.state
-        ny = self.site.terrain.shape[0]
+        ny, nx = self.site.terrain.shape
+        if self._map_fixed is None:
+            wall = np.ascontiguousarray(self.site.wall, dtype=np.bool_)
+            bed = np.ascontiguousarray(self.site.terrain.z, dtype=np.float64)
+            self._map_fixed = (wall, wall_distance(wall, self.cell), bed, ShallowWaterParams().support * self.spacing)
+        wall, wall_dist, bed, h = self._map_fixed
         # the SPH frame (y north from the south-west node) → the cell frame (y = row·Δ, row 0 north)
-        pos = np.column_stack([st.pos[:n, 0], (ny - 1) * self.cell - st.pos[:n, 1]])
-        vel = np.column_stack([u_i[:, 0], -u_i[:, 1]])
-        vol = self.solver.m / st.rho[:n]
-        footprint_maxima(
-            np.ascontiguousarray(pos), np.ascontiguousarray(vel), np.ascontiguousarray(vol), np.ascontiguousarray(d_i),
-            n, 1.0 / self.cell, self.solver.t, wet, maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
-            np.ascontiguousarray(self.site.wall),
+        pos = np.ascontiguousarray(np.column_stack([st.pos[:n, 0], (ny - 1) * self.cell - st.pos[:n, 1]]))
+        vel = np.ascontiguousarray(np.column_stack([u_i[:, 0], -u_i[:, 1]]))
+        vol = np.ascontiguousarray(self.solver.m / st.rho[:n])
+        depth = np.ascontiguousarray(d_i)
+        hsup = np.full(n, h)
+        inv = 1.0 / self.cell
+        eta = np.empty(n)
+        K.surfaces(pos, depth, bed, n, inv, eta)
+        (xmin, ymin), (xmax, ymax) = pos.min(axis=0), pos.max(axis=0)
+        c_lo, c_hi = max(int((xmin - h) * inv), 0), min(int((xmax + h) * inv) + 1, nx - 1)
+        r_lo, r_hi = max(int((ymin - h) * inv), 0), min(int((ymax + h) * inv) + 1, ny - 1)
+        sums = np.zeros((4, max(r_hi - r_lo + 1, 0), max(c_hi - c_lo + 1, 0)))
+        K.scatter_sums(pos, vel, vol, hsup, depth, eta, n, self.cell, r_lo, c_lo, wall, wall_dist, sums)
+        K.raise_maxima(
+            sums, r_lo, c_lo, bed, self.solver.t, wet, maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
+            wall,
         )  # fmt: skip
 
     def _at_nodes(self) -> tuple[np.ndarray, np.ndarray]:

@@ -9,7 +9,7 @@ particle spacing Δx and smoothed by a Gaussian G of σ = 0.79 Δx:
 shallow-water SPH's own depth summation (Rodriguez-Paz & Bonet 2005; ``flood.support`` = 3). So D is
 the depth the shallow-water solver gives the same water: a film one particle thick and sparse gets
 its mean depth, not one particle's height. The 3-D flood reads these columns for its hazard maps and
-for Manning's bed friction (:mod:`erosim.sph.boundaries.manning_columns`).
+for Manning's bed friction (:mod:`erosim.sph.manning_columns`).
 
 Frame: x, y horizontal from the grid's corner (0, 0); columns of ``spacing`` (row = ⌊y/Δx⌋,
 col = ⌊x/Δx⌋, particles outside are clamped onto the edge columns). Only the box around the

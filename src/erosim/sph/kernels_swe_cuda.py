@@ -74,12 +74,20 @@ def cell_ids(pos, n, x0, y0, cell, ncx, ncy, pcell, counts):
 
 
 @cuda.jit
-def pairs(pos, search, n, x0, y0, cell, ncx, ncy, cell_start, order, count, start, nbr, fill):
+def bin_search_max(pcell, search, n, out):
+    """out[c] = max s_i over the particles of bin c (``out`` zeroed first): the CPU's ``bin_search_max``."""
+    i = cuda.grid(1)
+    if i < n:
+        cuda.atomic.max(out, pcell[i], search[i])
+
+
+@cuda.jit
+def pairs(pos, search, n, x0, y0, cell, ncx, ncy, cell_start, order, bin_max, reach, count, start, nbr, fill):
     """The CPU's ``scan_pairs``: counts (``fill`` False) or the CSR lists (``fill`` True)."""
     i = cuda.grid(1)
     if i < n:
         k0 = start[i] if fill else 0
-        k = _pairs(i, pos, search, x0, y0, cell, ncx, ncy, cell_start, order, k0, nbr, fill)
+        k = _pairs(i, pos, search, x0, y0, cell, ncx, ncy, cell_start, order, bin_max, reach, k0, nbr, fill)
         if not fill:
             count[i] = k
 

@@ -27,6 +27,7 @@ import numpy as np
 
 from erosim.core import devices
 from erosim.core.errors import ConfigError, InstabilityError
+from erosim.kernels import swe_sph as K
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterSPH
 
 _FIELDS = ("pos", "vel", "hsup", "depth", "omega", "acc")  # what the device changes
@@ -114,6 +115,7 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         self._d["bounds"] = cuda.device_array((2, 2), np.float64)
         self._d["cells"] = cuda.device_array(0, np.int64)  # the grid's counts and starts, grown as needed
         self._d["cell_start"] = cuda.device_array(1, np.int64)
+        self._d["bin_max"] = cuda.device_array(0, np.float64)  # each bin's largest search radius
         self._d["map_pcell"] = cuda.device_array(n, np.int64)  # the hazard maps' bins (update_maxima)
         self._d["map_order"] = cuda.device_array(n, np.int64)
         self._d["eta"] = cuda.device_array(n, np.float64)
@@ -218,7 +220,7 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         bl, tpb = kc.blocks(n), kc.TPB
         ks.scaled_copy[bl, tpb](d["hsup"], d["search"], margin, n)
         kc.copy_rows[bl, tpb](d["pos"], d["at"], n)
-        # the CPU's grid: edge max s_i, origin at the minimum corner less one edge
+        # the CPU's grid: edge max s_i / LIST_BINS, origin at the minimum corner less one edge
         from numba import cuda
 
         d["bounds"].copy_to_device(np.array([[np.inf, np.inf], [-np.inf, -np.inf]]))
@@ -226,7 +228,7 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         d["scalar"].copy_to_device(np.zeros(1))
         ks.max1[kc.red_blocks(n), tpb](d["search"], n, d["scalar"])
         lo, hi = d["bounds"].copy_to_host()
-        cell = float(d["scalar"].copy_to_host()[0])
+        cell = float(d["scalar"].copy_to_host()[0]) / K.LIST_BINS
         x0, y0 = lo[0] - cell, lo[1] - cell
         ncx = int((hi[0] - x0) / cell) + 2
         ncy = int((hi[1] - y0) / cell) + 2
@@ -234,14 +236,18 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         if d["cells"].size < ncell:  # kept between rebuilds, grown by a quarter when outgrown
             d["cells"] = cuda.device_array(ncell + ncell // 4, np.int64)
             d["cell_start"] = cuda.device_array(ncell + ncell // 4 + 1, np.int64)
+            d["bin_max"] = cuda.device_array(ncell + ncell // 4, np.float64)
         counts, cell_start = d["cells"][:ncell], d["cell_start"][: ncell + 1]
+        bin_max = d["bin_max"][:ncell]
         kc.zero[kc.blocks(ncell), tpb](counts, ncell)
         ks.cell_ids[bl, tpb](d["at"], n, x0, y0, cell, ncx, ncy, d["pcell"], counts)
         kc.exclusive_scan(counts, ncell, cell_start)
         kc.zero[kc.blocks(ncell), tpb](counts, ncell)
         kc.scatter[bl, tpb](d["pcell"], n, cell_start, counts, d["order"])
         kc.sort_ranges[kc.blocks(ncell), tpb](cell_start, ncell, d["order"])
-        grid = (x0, y0, cell, ncx, ncy, cell_start, d["order"])
+        kc.zero[kc.blocks(ncell), tpb](bin_max, ncell)
+        ks.bin_search_max[bl, tpb](d["pcell"], d["search"], n, bin_max)
+        grid = (x0, y0, cell, ncx, ncy, cell_start, d["order"], bin_max, K.LIST_BINS)
         ks.pairs[bl, tpb](d["at"], d["search"], n, *grid, d["count"], d["start"], d["nbr"], False)
         kc.exclusive_scan(d["count"], n, d["start"])
         total = int(d["start"][n : n + 1].copy_to_host()[0])

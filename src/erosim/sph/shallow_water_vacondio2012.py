@@ -80,11 +80,13 @@ class ShallowWaterParams(Section):
         0.02, gt=0, le=1, unit="1", doc="never split particles lighter than this × the initial particle volume"
     )
     max_support: float = param(
-        1.5,
+        2.0,
         ge=1.2,
         unit="1",
         doc="H approaches this × the initial support as the water thins (H = k√(V/(d + δ)), δ = k²V/H_max²: a "
-        "smooth bound, so a shore comes to rest); 1.5 keeps the neighbour search 1.8× cheaper than 3.0",
+        "smooth bound, so a shore comes to rest); a lone particle's depth floor falls as 1/max_support². 2.0: "
+        "the flood's margins thin to the grid model's shallow share and both dam breaks improve; 3.0 thins "
+        "them further but its tip particles run ahead (docs/flood.md)",
     )
     bed_smoothing: float = param(
         1.0,
@@ -277,17 +279,20 @@ class ShallowWaterSPH:
         self._build_lists(self.pos.copy(), self.hsup * margin)
 
     def _build_lists(self, at: np.ndarray, search: np.ndarray) -> None:
-        """The lists of the pairs of positions ``at`` closer than max(search_i, search_j)."""
+        """The lists of the pairs of positions ``at`` closer than max(search_i, search_j), found in bins
+        of a third of the largest radius, each skipped where out of reach (:func:`K.pairs_particle`)."""
         n = len(at)
-        cell = float(search.max()) if n else self.h0
+        cell = (float(search.max()) if n else self.h0) / K.LIST_BINS
         x0, y0 = at[:, 0].min() - cell, at[:, 1].min() - cell
         ncx = int((at[:, 0].max() - x0) / cell) + 2
         ncy = int((at[:, 1].max() - y0) / cell) + 2
         cell_start = np.empty(ncx * ncy + 1, np.int64)
         order = np.empty(n, np.int64)
         K.bin_particles(at, n, x0, y0, cell, ncx, ncy, cell_start, order)
+        bin_max = np.empty(ncx * ncy)
+        K.bin_search_max(at, search, n, x0, y0, cell, ncx, ncy, bin_max)
         count = np.empty(n, np.int64)
-        grid = (x0, y0, cell, ncx, ncy, cell_start, order)
+        grid = (x0, y0, cell, ncx, ncy, cell_start, order, bin_max, K.LIST_BINS)
         start = np.zeros(n + 1, np.int64)
         K.scan_pairs(at, search, n, *grid, count, start, np.empty(0, np.int64), False)
         np.cumsum(count, out=start[1:])
@@ -405,10 +410,36 @@ class ShallowWaterSPH:
         return b + self.depth
 
     def depth_grid(self) -> np.ndarray:
-        """SPH depth on the DEM's nodes, Σ_j V_j W(|x − x_j|, H_j)."""
+        """The water's depth on the DEM's nodes now, as the hazard maps take it (:meth:`update_maxima`):
+        min(Σ_j V_j W(|x − x_j|, H_j), η̄ − b), walls blinding the sum, 0 on wall cells and where dry."""
         out = np.zeros_like(self.bed)
-        K.splat_depth(self.pos, self.vol, self.hsup, self.n, self.inv_cell, self.cell, out)
+        if self.n == 0:
+            return out
+        sums, r_lo, c_lo = self._map_sums()
+        nr, nc = sums.shape[1:]
+        d, s, se = sums[0], sums[2], sums[3]
+        bed = self.bed[r_lo : r_lo + nr, c_lo : c_lo + nc]
+        cut = np.divide(se, s, out=np.zeros_like(se), where=s > 0) - bed
+        out[r_lo : r_lo + nr, c_lo : c_lo + nc] = np.maximum(np.minimum(d, cut), 0.0)
+        out[self.wall] = 0.0
         return out
+
+    def _map_sums(self) -> tuple[np.ndarray, int, int]:
+        """The sums Σ V_j W, Σ V_j W |u_j|, Σ V_j W/d_j, Σ V_j W η_j/d_j over the window of cells within
+        reach of the particles (:func:`K.scatter_sums`), and the window's first row and column."""
+        n = self.n
+        (xmin, ymin), (xmax, ymax) = self.pos.min(axis=0), self.pos.max(axis=0)
+        _, _, _, _, _, r_lo, c_lo, nr, nc = self._maxima_window(xmin, ymin, xmax, ymax, self.hsup.max())
+        eta = np.empty(n)
+        K.surfaces(self.pos, self.depth, self.bed, n, self.inv_cell, eta)
+        # the sums particle by particle (each pair once), then the cells in parallel; the device gathers
+        # per cell (grid_maxima), the same sums in another order
+        sums = np.zeros((4, nr, nc))
+        K.scatter_sums(
+            self.pos, self.vel, self.vol, self.hsup, self.depth, eta, n, self.cell, r_lo, c_lo, self.wall,
+            self.wall_dist, sums,
+        )  # fmt: skip
+        return sums, r_lo, c_lo
 
     def sample(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(surface elevation, depth, speed) at points in the cell frame (m).
@@ -444,20 +475,9 @@ class ShallowWaterSPH:
         would never record water shallower than that, and a flood's edge would be a step of about a
         metre; the interpolant thins to zero over the supports at the water's edge, as the water does.
         """
-        n = self.n
-        if n == 0:
+        if self.n == 0:
             return
-        (xmin, ymin), (xmax, ymax) = self.pos.min(axis=0), self.pos.max(axis=0)
-        _, _, _, _, _, r_lo, c_lo, nr, nc = self._maxima_window(xmin, ymin, xmax, ymax, self.hsup.max())
-        eta = np.empty(n)
-        K.surfaces(self.pos, self.depth, self.bed, n, self.inv_cell, eta)
-        # the sums particle by particle (each pair once), then the cells in parallel; the device gathers
-        # per cell (grid_maxima), the same sums in another order
-        sums = np.zeros((4, nr, nc))
-        K.scatter_sums(
-            self.pos, self.vel, self.vol, self.hsup, self.depth, eta, n, self.cell, r_lo, c_lo, self.wall,
-            self.wall_dist, sums,
-        )  # fmt: skip
+        sums, r_lo, c_lo = self._map_sums()
         K.raise_maxima(
             sums, r_lo, c_lo, self.bed, self.t, wet, maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
             self.wall,
@@ -582,7 +602,7 @@ def equal_volumes(points: np.ndarray, depth: np.ndarray, total: float) -> tuple[
     return np.ascontiguousarray(points[kept]), np.full(count, float(total) / count)
 
 
-def lattice_volume(depth, spacing: float, support: float, max_support: float = 1.5) -> np.ndarray:
+def lattice_volume(depth, spacing: float, support: float, max_support: float = 2.0) -> np.ndarray:
     """Volumes V = κ·d·s² that give SPH depth d on a square lattice of spacing s.
 
     κ = 1/(s² Σ_lattice W(r, H)) with H = k√(V/(d + δ)), δ = V/(max_support·s)² (the solver's smooth

@@ -6,8 +6,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from erosim.sph.boundaries.manning_columns import ManningColumns
 from erosim.sph.depth_columns import column_fields
+from erosim.sph.manning_columns import ManningColumns
 
 DX = 0.5
 

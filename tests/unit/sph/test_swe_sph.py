@@ -232,6 +232,15 @@ def test_the_maps_hold_the_sph_interpolant_where_the_ground_is_level():
     assert maps.max_depth[7, 10] == pytest.approx(0.5, rel=0.03)  # inside: the lattice's depth
 
 
+def _interpolant(m):
+    """Σ_j V_j W(|x − x_j|, H_j) on the DEM's nodes, uncut and through walls."""
+    from erosim.kernels import swe_sph as K
+
+    out = np.zeros_like(m.bed)
+    K.splat_depth(m.pos, m.vol, m.hsup, m.n, m.inv_cell, m.cell, out)
+    return out
+
+
 def test_the_maps_are_dry_where_the_ground_stands_above_the_water():
     """Water resting against a bank (bed rising 0.5 m a cell east of x = 12 m): the mapped depth is
     min(d(x), η̄(x) − b(x)), so no cell whose bed is above the water's highest surface is wet, though
@@ -244,7 +253,8 @@ def test_the_maps_are_dry_where_the_ground_stands_above_the_water():
     maps = HazardMaps(bed.shape, 0.01)
     m.update_maxima(maps, maps.wet_depth)
     top = float(m.surface().max())
-    assert (m.depth_grid()[:, bed[0] > top] >= 0.01).any()  # the kernel reaches above the water...
+    assert (_interpolant(m)[:, bed[0] > top] >= 0.01).any()  # the kernel reaches above the water...
+    assert (m.depth_grid()[:, bed[0] > top] == 0).all()  # ...the depth frames do not
     assert (maps.max_depth[:, bed[0] > top] == 0).all()  # ...the map does not
     bank = maps.max_depth[7, 13:20]  # bed 0.5, 1.0, … m
     assert 0.0 < bank[0] < 0.5 and (bank[1:] == 0).all()
@@ -262,7 +272,8 @@ def test_the_maps_do_not_see_water_through_a_wall():
     m = _lattice(bed, 2.0, 1.0, wall=wall, x_max=20.0)
     maps = HazardMaps(bed.shape, 0.01)
     m.update_maxima(maps, maps.wet_depth)
-    assert (m.depth_grid()[:, 21:] >= 0.01).any()  # the kernel reaches past the wall
+    assert (_interpolant(m)[:, 21:] >= 0.01).any()  # the kernel reaches past the wall
+    assert (m.depth_grid()[:, 20:] == 0).all()  # the depth frames do not
     assert (maps.max_depth[:, 20:] == 0).all() and np.isinf(maps.arrival[:, 20:]).all()
     assert (maps.max_depth[1:-1, 19] > 0.1).all()
 
@@ -300,3 +311,21 @@ def test_the_maps_gather_and_scatter_agree():
     assert (scatter.max_depth > 0).sum() > 50
     for k in ("max_depth", "max_speed", "max_dv", "arrival"):
         assert np.allclose(getattr(scatter, k), getattr(gather, k), rtol=1e-12, atol=0.0), k
+
+
+def test_the_neighbour_lists_hold_exactly_the_pairs_within_the_larger_radius():
+    """The pruned bin search (bins a third of the largest radius, a bin skipped when out of reach of
+    both radii) lists every pair with r_ij < max(s_i, s_j) and no other, against all pairs by brute
+    force, where the radii span a factor 6 (thin water's supports beside deep water's)."""
+    rng = np.random.default_rng(3)
+    pos = np.concatenate([rng.uniform(0.0, 6.0, (300, 2)), rng.uniform(6.0, 30.0, (150, 2))])
+    m = ShallowWaterSPH(np.zeros((32, 32)), 1.0, pos, np.full(len(pos), 0.1), 0.3, ShallowWaterParams())
+    search = np.where(pos[:, 0] < 6.0, 0.6, 3.6) * rng.uniform(0.9, 1.0, len(pos))
+    m._build_lists(pos, search)
+    r = np.hypot(*(pos[:, None, :] - pos[None, :, :]).transpose(2, 0, 1))
+    want = (r < np.maximum(search[:, None], search[None, :])) & ~np.eye(len(pos), dtype=bool)
+    got = np.zeros_like(want)
+    for i in range(len(pos)):
+        got[i, m._nbr[m._start[i] : m._start[i + 1]]] = True
+    assert int(m._start[-1]) == int(want.sum()) > 0  # no pair listed twice
+    assert np.array_equal(got, want)
