@@ -50,10 +50,7 @@ SPH_CORE = ("tests/unit/sph/test_sph_solver.py", "tests/verification/test_sph_vi
             "tests/validation/test_hydrostatic.py", "tests/validation/test_martin_moyce.py")  # fmt: skip
 
 # the general descend's exit into a nodata cell (the demo's ℓ = 2 cells runs that kernel)
-NODATA_LEAVES = (
-    "        if zf[cn] < sea or lake_of[cn] == OUTSIDE:\n            B[B_LEFT] += V\n            B[B_CARRIED] += S\n"
-    "            B[B_STEPS] += steps"
-)
+NODATA_LEAVES = "    if zn < sea or lake_of[cn] == OUTSIDE:\n        return LEFT, x, y"
 
 MUTATIONS = (
     Mutation(
@@ -253,36 +250,29 @@ MUTATIONS = (
     Mutation(
         "roots-ignored",
         "hydrology/droplets.py",
-        (
-            ("hold = 1.0 - root * roots[c]", "hold = 1.0 - 0.0 * root * roots[c]"),
-            ("kh = kd * max(1.0 - root * roots[c], 0.0)", "kh = kd * max(1.0 - 0.0 * root * roots[c], 0.0)"),
-        ),
+        (("kh = kd * max(1.0 - root * roots[c], 0.0)", "kh = kd * max(1.0 - 0.0 * root * roots[c], 0.0)"),),
         ("tests/unit/hydrology/test_hydrology_bite.py", "tests/unit/hydrology/test_hydrology_descend.py"),
-        "roots hold no soil in either descend kernel (HY-5)",
-    ),  # fmt: skip
+        "roots hold no soil in the seed preset's descend loop (HY-5)",
+    ),
     Mutation(
         "batch-ignores-erodibility-and-roots",
-        "hydrology/batch.py",
+        "hydrology/droplet_step.py",
         (
             ("hold = 1.0 - root * roots[c]", "hold = 1.0 - 0.0 * root * roots[c]"),
-            ("            amt *= erod[c]", "            amt *= 1.0"),
+            ("        amt *= erod[c]", "        amt *= 1.0"),
         ),
         ("tests/unit/hydrology/test_hydrology_bite.py", "tests/unit/hydrology/test_hydrology_batch.py"),
-        "the batch mode's parallel descents ignore erodibility and roots",
+        "the shared droplet step (the batches' descents and the general serial loop) ignores erodibility and roots",
     ),  # fmt: skip
     Mutation(
         "fixed-hardness-ignored",
         "erosion/particle_stream_warszawski.py",
         (
             (
-                "                dh = depth * g * max(0.0, 1.0 - d[j, i])  # nodata cells (OFF_MAP) are not cut\n"
-                "                dh = min(dh, max(0.0, h[j, i] - zmin))"
-                "  # graded bed: nothing cut below the ground ahead\n"
-                "                h[j, i] -= dh\n                total += dh\n    return total\n",
-                "                dh = depth * g\n"
-                "                dh = min(dh, max(0.0, h[j, i] - zmin))"
-                "  # graded bed: nothing cut below the ground ahead\n"
-                "                h[j, i] -= dh\n                total += dh\n    return total\n",
+                "                dh = _cut(h[j, i], d[j, i], g, depth, zmin)\n                h[j, i] -= dh\n"
+                "                total += dh\n    return total\n",
+                "                dh = _cut(h[j, i], 0.0, g, depth, zmin)\n                h[j, i] -= dh\n"
+                "                total += dh\n    return total\n",
             ),
         ),
         ("tests/unit/erosion/test_stream_bite.py", "tests/unit/erosion/test_particle_stream.py"),
@@ -300,14 +290,10 @@ MUTATIONS = (
         "erosion/particle_stream_warszawski.py",
         (
             (
-                "                dh = depth * g * max(0.0, 1.0 - d[j, i])  # nodata cells (OFF_MAP) are not cut\n"
-                "                dh = min(dh, max(0.0, h[j, i] - zmin))"
-                "  # graded bed: nothing cut below the ground ahead\n"
-                "                h[j, i] -= dh\n                total += dh\n                if h[j, i] < floor[j, i]:",
-                "                dh = depth * g\n"
-                "                dh = min(dh, max(0.0, h[j, i] - zmin))"
-                "  # graded bed: nothing cut below the ground ahead\n"
-                "                h[j, i] -= dh\n                total += dh\n                if h[j, i] < floor[j, i]:",
+                "                dh = _cut(h[j, i], d[j, i], g, depth, zmin)\n                h[j, i] -= dh\n"
+                "                total += dh\n                if h[j, i] < floor[j, i]:",
+                "                dh = _cut(h[j, i], 0.0, g, depth, zmin)\n                h[j, i] -= dh\n"
+                "                total += dh\n                if h[j, i] < floor[j, i]:",
             ),
         ),
         ("tests/unit/erosion/test_stream_bite.py", "tests/unit/erosion/test_particle_stream.py"),
@@ -396,7 +382,7 @@ MUTATIONS = (
     ),
     Mutation(
         "nodata-does-not-drain",
-        "hydrology/droplets.py",
+        "hydrology/droplet_step.py",
         ((NODATA_LEAVES, NODATA_LEAVES.replace(" or lake_of[cn] == OUTSIDE", "")),),
         ("tests/scenarios/test_users_dems.py",),
         "a droplet reaching a nodata cell goes on over its filled height instead of leaving",

@@ -78,12 +78,15 @@ def run(particles: list[int], impacts_per_particle: int = STEPS, device: str = "
     counts = [int(n) for n in particles]
     hm = generate("hills", SIZE, CELL, 0, relief=40.0)
     d0 = hardness.strata(hm.z, CELL, STRATA)
-    ParticleStream(hm.z, d0, CELL, _emitters(64), 0, STRATA, pool=POOL, device=device).run()  # JIT warm-up
+    gpu = None
+    if device == "cuda":
+        from erosim.erosion.particle_stream_cuda import DeviceStream as gpu
+    ParticleStream(hm.z, d0, CELL, _emitters(64), 0, STRATA, pool=POOL, gpu=gpu).run()  # JIT warm-up
     runs = []
     for n in counts:
         walls, cpus, impacts = [], [], 0
         while not walls or (sum(walls) < MIN_TIME and len(walls) < 20):
-            s = ParticleStream(hm.z, d0, CELL, _emitters(n, impacts_per_particle), 0, STRATA, pool=POOL, device=device)
+            s = ParticleStream(hm.z, d0, CELL, _emitters(n, impacts_per_particle), 0, STRATA, pool=POOL, gpu=gpu)
             t0, c0 = time.perf_counter(), time.process_time()
             s.run(batch=4096)
             walls.append(time.perf_counter() - t0)

@@ -101,9 +101,10 @@ earlier ones cut (strata hardness too) — and is made of tiny per-particle oper
 library expresses; a jitted loop runs millions of impacts per second. It runs on one thread on
 purpose: the result then depends only on the seed, never on the thread count. Random numbers are
 counter-based (SplitMix64 of seed, emitter, particle serial and draw number), so a checkpoint needs
-no generator state and a resumed run reproduces the uninterrupted one exactly. ``device = "cuda"``
-runs the sweeps on a GPU with these same per-impact functions, the slots of a sweep at once
-(:mod:`erosim.erosion.particle_stream_cuda`; not repeatable bit for bit there).
+no generator state and a resumed run reproduces the uninterrupted one exactly. ``gpu =``
+:class:`erosim.erosion.particle_stream_cuda.DeviceStream` (given by the caller: that module builds on
+this one) runs the sweeps on a GPU with these same per-impact functions, the slots of a sweep at once
+(not repeatable bit for bit there).
 """
 
 from __future__ import annotations
@@ -551,7 +552,7 @@ class ParticleStream:
         pool: int = 64,
         rounds: int = 1,
         outside: np.ndarray | None = None,
-        device: str = "cpu",
+        gpu=None,
     ):
         h = np.asarray(h)
         if h.ndim != 2:
@@ -584,14 +585,8 @@ class ParticleStream:
             self.d[np.asarray(outside, dtype=bool)] = OFF_MAP
         self.finished = False
         self.rounds = max(1, int(rounds))
-        self.device = device
-        self._gpu = None
-        if device == "cuda":  # sweeps on the GPU, state kept there (erosim.erosion.particle_stream_cuda)
-            from erosim.erosion.particle_stream_cuda import DeviceStream
-
-            self._gpu = DeviceStream(self)
-        elif device != "cpu":
-            raise ConfigError(f"Unknown device '{device}' for the particle stream; use 'cpu' or 'cuda'.")
+        self.device = "cpu" if gpu is None else "cuda"
+        self._gpu = None if gpu is None else gpu(self)  # sweeps on the GPU, state kept there
 
     @property
     def particles_total(self) -> int:

@@ -10,8 +10,9 @@ are applied and their lakes filled — independent of the thread count, not of t
 ``hydrology.batch = 0`` (the ``simplehydrology-2020`` preset) runs them one after another in a
 single-threaded Numba loop (:func:`run_droplets`): each droplet sees the terrain and lakes the
 previous one left, the seed's semantics.
-With ``device = "cuda"`` (``run.device``) the batches' descents run on a GPU
-(:mod:`erosim.hydrology.droplets_cuda`), the lakes and the per-cycle passes on the host.
+With ``gpu =`` :class:`erosim.hydrology.droplets_cuda.DeviceDroplets` (``run.device = "cuda"``; the
+caller gives the class: that module builds on this one) the batches' descents run on a GPU, the lakes
+and the per-cycle passes on the host.
 
 Random numbers: droplet i's spawn point comes from SplitMix64 hashing of (seed, i), vegetation's
 from NumPy's PCG64 seeded with (seed, cycle) (the seedling count and the key of the vegetation
@@ -453,7 +454,7 @@ class HydrologyModel:
         rain: np.ndarray | None = None,
         erodibility: np.ndarray | None = None,
         timing: bool = False,
-        device: str = "cpu",
+        gpu=None,
     ):
         self.p = params or HydrologyParams()
         self.veg = veg or VegetationParams()
@@ -510,14 +511,8 @@ class HydrologyModel:
         self._alloc_pool(3 * self.margin)
         self._built = False
         self.batch = batch_size(self.p, self.per_cycle)
-        self.device = device
-        self._gpu = None
-        if device == "cuda":  # the batches' descents on the GPU (erosim.hydrology.droplets_cuda)
-            from erosim.hydrology.droplets_cuda import DeviceDroplets
-
-            self._gpu = DeviceDroplets(self)
-        elif device != "cpu":
-            raise InputError(f"Unknown device '{device}' for the hydrology model; use 'cpu' or 'cuda'.")
+        self.device = "cpu" if gpu is None else "cuda"
+        self._gpu = None if gpu is None else gpu(self)  # the batches' descents on the GPU
         self._work = work_arrays(self.batch, n) if self.batch > 0 and self._gpu is None else None
 
     # ----------------------------------------------------------------------------- internals

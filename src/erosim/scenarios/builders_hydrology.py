@@ -53,9 +53,11 @@ def build_model(cfg, *, timing: bool = False):
 
     terrain = build_terrain(cfg.terrain, cfg.seed)
     rain, erod = _inputs(cfg, terrain.shape)
+    gpu = None
+    if cfg.run.device == "cuda":
+        from erosim.hydrology.droplets_cuda import DeviceDroplets as gpu
     model = HydrologyModel(
-        terrain, cfg.hydrology, cfg.vegetation, cfg.seed, rain=rain, erodibility=erod, timing=timing,
-        device=cfg.run.device,
+        terrain, cfg.hydrology, cfg.vegetation, cfg.seed, rain=rain, erodibility=erod, timing=timing, gpu=gpu,
     )  # fmt: skip
     return terrain, model
 

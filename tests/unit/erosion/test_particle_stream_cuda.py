@@ -34,6 +34,7 @@ SCRIPT = r"""
 import json
 import numpy as np
 from erosim.bench.stream import _emitters, STRATA, CELL
+from erosim.erosion.particle_stream_cuda import DeviceStream
 from erosim.erosion.particle_stream_warszawski import ParticleStream
 from erosim.terrain import hardness
 from erosim.terrain.generate import generate
@@ -43,7 +44,8 @@ d0 = hardness.strata(hm.z, CELL, STRATA)
 ems = [e.model_copy(update={"radius_per_mass": 2 * CELL}) for e in _emitters(32, 6)]
 
 def run(device, pool, seed=3):
-    return ParticleStream(hm.z, d0, CELL, ems, seed, STRATA, pool=pool, device=device).run(batch=50)
+    gpu = DeviceStream if device == "cuda" else None
+    return ParticleStream(hm.z, d0, CELL, ems, seed, STRATA, pool=pool, gpu=gpu).run(batch=50)
 
 out = {}
 cpu, dev = run("cpu", 1), run("cuda", 1)

@@ -35,6 +35,7 @@ SCRIPT = r"""
 import json
 import numpy as np
 from erosim.core.heightmap import Heightmap
+from erosim.hydrology.droplets_cuda import DeviceDroplets
 from erosim.hydrology.model import HydrologyModel
 from erosim.hydrology.params import HydrologyParams, VegetationParams
 
@@ -44,7 +45,8 @@ z = 30.0 * np.hypot(xx - n / 2, yy - n / 2) / n + np.random.default_rng(1).rando
 
 def run(device, batch, seed=3, cycle_droplets=20000, cycles=3):
     p = HydrologyParams(length_scale=40.0, cycle_droplets=cycle_droplets, batch=batch)
-    m = HydrologyModel(Heightmap(z=z, cell_size=20.0), p, VegetationParams(spawn=5.0), seed, device=device)
+    gpu = DeviceDroplets if device == "cuda" else None
+    m = HydrologyModel(Heightmap(z=z, cell_size=20.0), p, VegetationParams(spawn=5.0), seed, gpu=gpu)
     m.run(cycles)
     return m
 
