@@ -31,7 +31,8 @@ RTOL = 1e-9
 #: absolute floor for values that are zero or cancel to round-off (m, m³, Pa of a few-metre scene)
 ATOL = 1e-12
 
-# name → (scenario, --set overrides, preset): each a few seconds on one core
+# name → (scenario, --set overrides, preset): each a few seconds on one core (the flood: the flood-solvers
+# validation's small valley, 10 s after the breach)
 CASES: dict[str, tuple[str, dict, str | None]] = {
     "sph-dam-break-2d": ("dam-break-2d", {"run.t_end": 0.05, "run.output_interval": 0.0, "run.snapshots": 0}, None),
     "sph-terrain-rain": ("rain-erosion", {
@@ -47,6 +48,12 @@ CASES: dict[str, tuple[str, dict, str | None]] = {
         "run.profile_interval": 0.05, "erosion.tau_c": 0.5, "erosion.k_eps": 2.0, "erosion.start": 0.05,
         "erosion.every": 10}, "full"),
     "splash-drop": ("splash-drop", {"run.t_end": 0.003}, None),
+    "flood": ("flood", {
+        "terrain.size": 64, "terrain.cell_size": 5.0, "terrain.relief": 20.0, "reservoir.level": 3.5,
+        "reservoir.seed": [160.0, 150.0], "reservoir.barrier": [[0.0, 225.0], [320.0, 225.0]],
+        "breach.bottom_width": 10.0, "breach.floor": 1.4, "breach.side_slope": 1.0,
+        "breach.line": [[160.0, 215.0], [160.0, 235.0]], "flood.spacing": 2.5, "run.t_end": 10.0, "run.map_frames": 0,
+        "flood.settle_steps": 200}, None),
 }  # fmt: skip
 
 _MACHINE = re.compile(r"wall|cpu|time_s|_s$|per_s|throughput|fraction|memory|rss|threads|version|python|path|"
@@ -86,7 +93,7 @@ def summarise(folder: Path) -> dict[str, float]:
     for tif in sorted((folder / "maps").glob("*.tif")):
         with rasterio.open(tif) as src:
             band = src.read(1, masked=True)
-        _array_stats(band.filled(np.nan), f"maps.{tif.stem}", out)
+        _array_stats(band.astype(np.float64).filled(np.nan), f"maps.{tif.stem}", out)
     fields = sorted((folder / "fields").glob("density_*.npz"))
     if fields:
         with np.load(fields[-1]) as f:
