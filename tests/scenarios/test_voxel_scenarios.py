@@ -356,3 +356,26 @@ def test_excess_shear_erodes_a_resistant_embankment_low_at_either_spacing(tmp_pa
     assert fe is not None and 0.70 - spacing <= fe["x"] <= 0.90 + spacing, fe
     prof = np.loadtxt(folder.path / "profiles.csv", delimiter=",", skiprows=1)
     assert prof[prof[:, 0] == prof[-1, 0], 2].max() == pytest.approx(0.2, abs=spacing / 2)
+
+
+def test_wall_attraction_is_a_setting_that_reaches_the_wall():
+    """voxels.attraction (SPEC VX-5): 'none' leaves the wall repulsive only (ρ₁ = 0), 'seed' gives the seed's
+    ρ₁ = ρ₀ + m W(0) (above ρ₀ by one particle's own share), a number is ρ₁ itself; a non-positive one is refused
+    in one sentence."""
+    from erosim.core.errors import ConfigError
+    from erosim.scenarios.builders_voxel import build_solver, build_terrain
+    from erosim.sph.boundaries.voxel_wall import VoxelWall
+
+    rho1 = {}
+    for value in ("none", "seed", 1010.0):
+        cfg = loader.load("overtopping", [*COARSE, f"voxels.attraction={value!r}" if isinstance(value, str)
+                                          else f"voxels.attraction={value}"]).config  # fmt: skip
+        solver, wall, _ = build_solver(cfg, build_terrain(cfg))
+        assert isinstance(wall, VoxelWall)
+        rho1[value] = wall.rho1
+    rho0 = cfg.sph.rho0
+    assert rho1["none"] == 0.0 and rho1[1010.0] == 1010.0
+    assert rho0 < rho1["seed"] < 1.5 * rho0  # ρ₀ plus one particle's W(0) share of the lattice's density
+    cfg = loader.load("overtopping", [*COARSE, "voxels.attraction=-5.0"]).config
+    with pytest.raises(ConfigError, match="attraction's ρ₁ must be a positive density"):
+        build_solver(cfg, build_terrain(cfg))

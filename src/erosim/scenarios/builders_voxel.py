@@ -513,7 +513,7 @@ def build_solver(cfg: VoxelScenario, terrain):
         lo = [terrain.lo[0] - 4.0 * h, terrain.lo[1] - 4.0 * h, terrain.lo[2]]
         hi = [terrain.hi[0] + 4.0 * h, terrain.hi[1] + 4.0 * h, max(terrain.hi[2], top) + 10.0 * h]
         planes = []
-    wall = VoxelWall(terrain)
+    wall = VoxelWall(terrain, attraction=None if cfg.voxels.attraction == "none" else cfg.voxels.attraction)
     solver = SPHSolver(p, fluid, domain_lo=lo, domain_hi=hi, seed=cfg.seed, boundaries=[wall, *planes])
     return solver, wall, derived
 

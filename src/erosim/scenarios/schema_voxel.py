@@ -73,6 +73,11 @@ class VoxelsSection(Section):
                          "ground (room for caves); 0: the ramp and two cells")  # fmt: skip
     iso: float = param(0.5, unit="1", doc="iso level of the surface in the density range (0 air, 1 solid)")
     max_bytes: int = param(4 << 30, gt=0, unit="B", doc="refuse a field larger than this in memory")
+    attraction: float | Literal["seed", "none"] = param(
+        "none", unit="kg/m^3", doc="the wall's attraction (SPEC VX-5): below this density ρ₁ a particle's wall "
+        "pressure blends towards the attractive curve, so water is drawn into scoured hollows; 'seed' = ρ₀ plus one "
+        "particle's own density contribution (the seed's choice), 'none' = repulsion only",
+    )  # fmt: skip
     scale: Literal["set", "dem"] = param(
         "set", doc="'dem': voxels and particles at the heightmap's own cell size (voxels.cell_size and sph.spacing "
         "follow it); what --set terrain.file=… gives a library scene unless either is set too",
