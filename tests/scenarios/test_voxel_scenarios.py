@@ -360,8 +360,8 @@ def test_excess_shear_erodes_a_resistant_embankment_low_at_either_spacing(tmp_pa
 
 def test_wall_attraction_is_a_setting_that_reaches_the_wall():
     """voxels.attraction (SPEC VX-5): 'none' leaves the wall repulsive only (ρ₁ = 0), 'seed' gives the seed's
-    ρ₁ = ρ₀ + m W(0) (above ρ₀ by one particle's own share), a number is ρ₁ itself; a non-positive one is refused
-    in one sentence."""
+    ρ₁ = ρ₀ + m W(0) (above ρ₀ by one particle's own share), a number is ρ₁ itself; anything else is refused in one
+    sentence when the scenario is loaded."""
     from erosim.core.errors import ConfigError
     from erosim.scenarios.builders_voxel import build_solver, build_terrain
     from erosim.sph.boundaries.voxel_wall import VoxelWall
@@ -376,6 +376,6 @@ def test_wall_attraction_is_a_setting_that_reaches_the_wall():
     rho0 = cfg.sph.rho0
     assert rho1["none"] == 0.0 and rho1[1010.0] == 1010.0
     assert rho0 < rho1["seed"] < 1.5 * rho0  # ρ₀ plus one particle's W(0) share of the lattice's density
-    cfg = loader.load("overtopping", [*COARSE, "voxels.attraction=-5.0"]).config
-    with pytest.raises(ConfigError, match="attraction's ρ₁ must be a positive density"):
-        build_solver(cfg, build_terrain(cfg))
+    for bad in ("-5.0", "'bogus'"):
+        with pytest.raises(ConfigError, match="give ρ₁ as a positive density in kg/m³, or 'seed' or 'none'"):
+            loader.load("overtopping", [*COARSE, f"voxels.attraction={bad}"])

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
@@ -73,11 +73,20 @@ class VoxelsSection(Section):
                          "ground (room for caves); 0: the ramp and two cells")  # fmt: skip
     iso: float = param(0.5, unit="1", doc="iso level of the surface in the density range (0 air, 1 solid)")
     max_bytes: int = param(4 << 30, gt=0, unit="B", doc="refuse a field larger than this in memory")
-    attraction: float | Literal["seed", "none"] = param(
+    attraction: float | str = param(
         "none", unit="kg/m^3", doc="the wall's attraction (SPEC VX-5): below this density ρ₁ a particle's wall "
         "pressure blends towards the attractive curve, so water is drawn into scoured hollows; 'seed' = ρ₀ plus one "
         "particle's own density contribution (the seed's choice), 'none' = repulsion only",
     )  # fmt: skip
+
+    @field_validator("attraction", mode="before")
+    @classmethod
+    def _attraction(cls, v):
+        if isinstance(v, str) and v in ("seed", "none"):
+            return v
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0:
+            return float(v)
+        raise ValueError("give ρ₁ as a positive density in kg/m³, or 'seed' or 'none'")
     scale: Literal["set", "dem"] = param(
         "set", doc="'dem': voxels and particles at the heightmap's own cell size (voxels.cell_size and sph.spacing "
         "follow it); what --set terrain.file=… gives a library scene unless either is set too",
