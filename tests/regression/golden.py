@@ -63,9 +63,7 @@ _MACHINE = re.compile(r"wall|cpu|time_s|_s$|per_s|throughput|fraction|memory|rss
 def _numbers(value, key: str, out: dict[str, float]) -> None:
     if _MACHINE.search(key.rsplit(".", 1)[-1]) or (key and _MACHINE.search(key.split(".", 1)[0])):
         return
-    if isinstance(value, bool):
-        out[key] = float(value)
-    elif isinstance(value, (int, float)):
+    if isinstance(value, (bool, int, float)):
         out[key] = float(value)
     elif isinstance(value, dict):
         for k, v in value.items():
