@@ -28,7 +28,7 @@ def main(argv=None) -> int:
     import erosim.hydrology.model as M
     from erosim.hydrology.pools import B_STEPS
     from erosim.scenarios import loader
-    from erosim.scenarios.builders_hydrology import build_model
+    from erosim.scenarios.hydrology.build import build_model
 
     sc = loader.load("hydrology", [f"terrain.size={args.size}", *args.sets])
     _terrain, model = build_model(sc.config)

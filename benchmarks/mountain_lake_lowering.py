@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import spearmanr
 
-from erosim.scenarios.builders_voxel import top_surface
 from erosim.scenarios.loader import read_toml
+from erosim.scenarios.voxel.build import top_surface
 from erosim.terrain.lake_outlets import hollows as lake_hollows
 from erosim.terrain.priority_flood_barnes2014 import closed_basin_depth
 from erosim.terrain.voxel import VoxelTerrain
@@ -241,7 +241,7 @@ def seed_scan(first: int, last: int) -> list[dict]:
     """The library scene's mountain for each ``terrain.seed`` in [first, last), as its voxels: the hollows
     of more than 1 m³, how many are deeper than the kernel support h and how many spill into another."""
     from erosim.scenarios import loader
-    from erosim.scenarios.builders_voxel import build_terrain
+    from erosim.scenarios.voxel.build import build_terrain
 
     rows = []
     for seed in range(first, last):

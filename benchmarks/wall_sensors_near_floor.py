@@ -17,7 +17,7 @@ import numpy as np
 
 from erosim.analysis.gauges import probe_pressure
 from erosim.scenarios import loader
-from erosim.scenarios.builders_sph import build, probe_wall
+from erosim.scenarios.sph.build import build, probe_wall
 from erosim.sph.wall_load import wall_pressures
 
 H, LENGTH, TANK = 0.3, 0.6, 1.61

@@ -154,7 +154,7 @@ def test_a_settled_lake_on_a_real_dem_stays_at_rest(tmp_path):
         '[terrain]\nfile = "sample:jacksboro"\n[reservoir]\nlevel = 325.0\nseed = [-84.2133, 36.5925]\n'
         "[flood]\nspacing = 83.0\nsettle_steps = 4000\nsettle_speed = 0.001\n[run]\nt_end = 300.0\nmap_frames = 0\n"
     )
-    from erosim.scenarios.builders_flood import build
+    from erosim.scenarios.flood.build import build
     from erosim.scenarios.loader import load
 
     _, m = build(load(str(scenario)).config)
@@ -228,7 +228,7 @@ def test_the_3d_sph_flood_runs_on_the_same_set_up(tmp_path):
     assert rep["particles"] > 300 and rep["water_budget"]["closure_rel"] == 0.0
     # the particles hold the set-up's reservoir, Σ (level − z)·Δ² (1 210 m³), to within one particle
     # of Δx³ = 1 m³: both solvers start from the same water
-    from erosim.scenarios.builders_flood import FloodSetUp
+    from erosim.scenarios.flood.build import FloodSetUp
 
     site = FloodSetUp(scenario.config)
     assert rep["volume_initial_m3"] == pytest.approx(site.depth0.sum() * site.dem.cell_size**2, abs=1.0)
@@ -258,7 +258,7 @@ def test_the_3d_sph_flood_resumes_bit_identically():
     import copy
 
     from erosim.scenarios import loader
-    from erosim.scenarios.builders_flood import build
+    from erosim.scenarios.flood.build import build
     from erosim.validation.flood_solvers import SETS
 
     cfg = loader.load("flood", [*SETS, "flood.solver=sph3d", "flood.spacing=1.0"]).config
@@ -282,7 +282,7 @@ def test_the_report_and_hazard_tif_count_the_same_cells_and_walls_stay_dry(flood
     """The flooded area and the class shares are counted over the cells hazard.tif shows (nodata and
     the dam's wall cells never flooded: particles pressing on the dam do not mark it), and the area
     flooded below the dam leaves out the reservoir and every cell wet at t = 0."""
-    from erosim.scenarios.builders_flood import FloodSetUp
+    from erosim.scenarios.flood.build import FloodSetUp
     from erosim.scenarios.loader import load
 
     result, _ = flood_run
@@ -314,7 +314,7 @@ def test_the_report_and_hazard_tif_count_the_same_cells_and_walls_stay_dry(flood
 def test_a_reservoir_in_a_closed_hollow_is_named():
     """A breach whose floor stands above the level opens nothing: the reservoir is a closed hollow, said
     in one sentence; the library's valley (its breach below the level) is not."""
-    from erosim.scenarios.builders_flood import FloodSetUp
+    from erosim.scenarios.flood.build import FloodSetUp
     from erosim.scenarios.loader import load
 
     assert FloodSetUp(load("flood", ["flood.settle_steps=0"]).config).closed_hollow is None

@@ -10,7 +10,8 @@ from erosim.core.errors import ConfigError, InputError
 from erosim.core.heightmap import Heightmap
 from erosim.io import heightmaps as hio
 from erosim.io.runfolder import RunFolder
-from erosim.scenarios import builders_hydrology, loader, runner
+from erosim.scenarios.hydrology import build as hydrology_build
+from erosim.scenarios.hydrology import loader, runner
 
 SMALL = ["terrain.size=48", "terrain.cell_size=40.0", "run.cycles=6", "run.frames=3", "hydrology.cycle_droplets=20000"]
 
@@ -29,7 +30,7 @@ def folder(tmp_path_factory):
 
 
 def test_run_folder_holds_every_output(folder):
-    for name in builders_hydrology.MAPS:
+    for name in hydrology_build.MAPS:
         assert (folder / "maps" / f"{name}.tif").is_file()
     for name in (
         "height.png",
@@ -186,7 +187,7 @@ def test_demo_folder_guard(tmp_path):
     keep.mkdir()
     (keep / "notes.txt").write_text("precious")
     with pytest.raises(ConfigError, match="did not write"):
-        builders_hydrology.clear_demo_folder(keep)
+        hydrology_build.clear_demo_folder(keep)
     assert (keep / "notes.txt").is_file()
 
 

@@ -9,7 +9,7 @@ from click.testing import CliRunner
 from erosim.cli import cli
 from erosim.io.particles import read_pvd, read_vtp
 from erosim.scenarios import loader
-from erosim.scenarios.builders_sph import fluid_particles
+from erosim.scenarios.sph.build import fluid_particles
 
 # coarse spacing and a few steps' worth of simulated time per scenario (every sph scenario of the
 # library must have an entry: test_every_sph_scenario_has_a_case)
@@ -88,7 +88,7 @@ def test_an_unsupported_block_falls_freely_at_g():
     """The falling cube starts at rest pressure: until it reaches the floor (6 m below: 1.1 s) every
     particle, the bottom layer too, moves at g·t. Tolerance 1 % (the issue's), far above what the
     weakly compressible start leaves (the block's own pressure waves stay within a few cm/s)."""
-    from erosim.scenarios.builders_sph import build
+    from erosim.scenarios.sph.build import build
 
     cfg = loader.load("falling-cube", ["sph.spacing=1.0"]).config
     solver = build(cfg).solver

@@ -10,7 +10,8 @@ from erosim.cli import cli
 from erosim.core.heightmap import Heightmap
 from erosim.io import heightmaps as hio
 from erosim.io.runfolder import RunFolder
-from erosim.scenarios import builders_stream, loader, runner
+from erosim.scenarios.particle_stream import build as particle_stream_build
+from erosim.scenarios.particle_stream import loader, runner
 
 SMALL = ["--set", "terrain.size=64", "--set", "emitters.main.particles=150", "--set", "emitters.main.steps=50"]
 
@@ -180,7 +181,7 @@ def test_every_hardness_source_builds(tmp_path):
     }
     for name, (sets, ok) in cases.items():
         sc = loader.load("particle-stream", ["terrain.size=64", *sets])
-        hm, d0, stream = builders_stream.build(sc.config)
+        hm, d0, stream = particle_stream_build.build(sc.config)
         assert ok(d0), name
         assert (stream.strata is not None) == (name == "strata"), name
 

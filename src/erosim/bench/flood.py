@@ -52,7 +52,7 @@ def setup(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, 
     (``overrides``: more ``key=value`` settings of the scenario)."""
     from erosim.io.heightmaps import write
     from erosim.scenarios import loader
-    from erosim.scenarios.builders_flood import build
+    from erosim.scenarios.flood.build import build
 
     hm = valley_dem()
     level = FLOOR_SLOPE * (LENGTH - DAM_Y) + DEPTH_AT_DAM

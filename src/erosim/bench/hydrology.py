@@ -55,7 +55,7 @@ def run(
     from erosim.core import devices
     from erosim.hydrology.pools import B_FLOOD_NS, B_STEPS
     from erosim.scenarios import loader
-    from erosim.scenarios.builders_hydrology import build_model
+    from erosim.scenarios.hydrology.build import build_model
 
     size = int(size)
     seed_case = preset != "library"

@@ -232,7 +232,7 @@ SWE_STEP_S = 1.0e-3  # a shallow-water step's fixed cost (neighbour bookkeeping,
 
 def flood(cfg) -> Estimate | None:
     """Particles from the reservoir the scenario fills (:class:`FloodSetUp`), steps from the CFL limit."""
-    from erosim.scenarios.builders_flood import FloodSetUp
+    from erosim.scenarios.flood.build import FloodSetUp
 
     site = FloodSetUp(cfg)  # bad input is refused here already, in the builder's own words
     hm = site.terrain
@@ -308,10 +308,10 @@ VOXEL_NODE_SETUP_S = 1.0e-6
 
 
 def voxel(cfg) -> Estimate:
-    """The field (nodes of ``voxels.cell_size`` over the terrain, as ``builders_voxel.build_terrain`` lays
+    """The field (nodes of ``voxels.cell_size`` over the terrain, as ``voxel.build.build_terrain`` lays
     them), the water (below ``water.level``, the rain and inflows over the run) and steps from the sound
     speed ``build_solver`` takes (10·√(2gH), H from the highest water to the field's bottom)."""
-    from erosim.scenarios.schema_voxel import at_dem_scale, band_for, overflow_head
+    from erosim.scenarios.voxel.schema import at_dem_scale, band_for, overflow_head
     from erosim.terrain.voxel import memory_bytes
 
     cfg = at_dem_scale(cfg)

@@ -1,7 +1,8 @@
 """Scenario kinds: which schema validates a scenario file and which builder turns it into a run.
 
-A kind is a schema (a :class:`~erosim.core.config.Section`) and a builder
-``setup(scenario, out) -> Setup`` (models, callbacks, stop time, report); every kind runs through
+A kind is a folder ``scenarios/<kind>/``: a schema (``schema.py``, a :class:`~erosim.core.config.Section`),
+a builder that only wires (``build.py``, ``setup(scenario, out) -> Setup``: models, callbacks, stop time,
+report) and what the run writes (``outputs.py``); every kind runs through
 :func:`erosim.scenarios.runner.run`.
 
 Import strings keep ``erosim list`` and ``--help`` fast (no Numba import until a run starts).
@@ -22,18 +23,19 @@ class Kind:
     builder: str  # "module:function", setup(scenario, out) -> erosim.scenarios.setup.Setup
 
 
+def _kind(folder: str, schema_class: str) -> Kind:
+    """A kind laid out as ``scenarios/<folder>/{schema, build, outputs}.py``."""
+    return Kind(f"erosim.scenarios.{folder}.schema:{schema_class}", f"erosim.scenarios.{folder}.build:setup")
+
+
 KINDS: dict[str, Kind] = {
-    "sph": Kind("erosim.scenarios.schema_sph:SPHScenario", "erosim.scenarios.builders_sph:setup"),
-    "hydrology": Kind(
-        "erosim.scenarios.schema_hydrology:HydrologyScenario", "erosim.scenarios.builders_hydrology:setup"
-    ),
-    "particle-stream": Kind("erosim.scenarios.schema_stream:StreamScenario", "erosim.scenarios.builders_stream:setup"),
-    "sph-terrain": Kind(
-        "erosim.scenarios.schema_sph_terrain:SPHTerrainScenario", "erosim.scenarios.builders_sph_terrain:setup"
-    ),
-    "flood": Kind("erosim.scenarios.schema_flood:FloodScenario", "erosim.scenarios.builders_flood:setup"),
-    "splash": Kind("erosim.scenarios.schema_splash:SplashScenario", "erosim.scenarios.builders_splash:setup"),
-    "voxel": Kind("erosim.scenarios.schema_voxel:VoxelScenario", "erosim.scenarios.builders_voxel:setup"),
+    "sph": _kind("sph", "SPHScenario"),
+    "hydrology": _kind("hydrology", "HydrologyScenario"),
+    "particle-stream": _kind("particle_stream", "StreamScenario"),
+    "sph-terrain": _kind("sph_terrain", "SPHTerrainScenario"),
+    "flood": _kind("flood", "FloodScenario"),
+    "splash": _kind("splash", "SplashScenario"),
+    "voxel": _kind("voxel", "VoxelScenario"),
 }
 
 

@@ -100,7 +100,7 @@ def run(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: b
 def demo(out: Path, progress: bool = True) -> dict:
     """``erosim demo``: the library ``hydrology`` scenario (512² mountains) into ``out``."""
     from erosim.scenarios import loader
-    from erosim.scenarios.builders_hydrology import clear_demo_folder
+    from erosim.scenarios.hydrology.build import clear_demo_folder
 
     out = Path(out)
     clear_demo_folder(out)

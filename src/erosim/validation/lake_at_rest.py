@@ -53,7 +53,7 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from erosim.scenarios.builders_flood import build
+    from erosim.scenarios.flood.build import build
     from erosim.scenarios.loader import load
     from erosim.viz.plots import save_figure
 

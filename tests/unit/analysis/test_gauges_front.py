@@ -5,7 +5,7 @@ import pytest
 
 from erosim.analysis.front import front_position, nondimensional_front
 from erosim.analysis.gauges import gauge_readings, probe_pressure, water_depth, water_level
-from erosim.scenarios.builders_sph import lattice
+from erosim.scenarios.sph.build import lattice
 
 DX = 0.01
 
@@ -104,7 +104,7 @@ def test_probe_on_the_walls_of_a_tank_at_rest_reads_rho_g_depth():
     ρ₀g·depth within 2 % (the issue's bound; measured 0.7–1.3 %). Without the hydrostatic
     extrapolation the floor probes read the pressure about half a support above the floor (−3.7 %)."""
     from erosim.scenarios import loader
-    from erosim.scenarios.builders_sph import build
+    from erosim.scenarios.sph.build import build
 
     dx = 0.2 / 16
     s = build(loader.load("hydrostatic", [f"sph.spacing={dx!r}"]).config).solver

@@ -129,12 +129,12 @@ def test_errors_found_while_building_a_run_leave_no_folder(tmp_path, monkeypatch
 
 
 def test_ctrl_c_before_the_first_step_leaves_no_folder_and_says_so(tmp_path, monkeypatch):
-    from erosim.scenarios import builders_sph
+    from erosim.scenarios.sph import build as sph_build
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(builders_sph, "setup", interrupted)
+    monkeypatch.setattr(sph_build, "setup", interrupted)
     out = tmp_path / "x"
     result = CliRunner().invoke(cli, ["--quiet", "run", "dam-break-2d", "--out", str(out)])
     assert result.exit_code == 130

@@ -135,7 +135,7 @@ def test_library_scenario_batches_match_the_serial_order_within_the_seed_scatter
     192² for 24 cycles, 6 seeds each way: eroded volume, steps per droplet and lake share agree within
     3 standard errors of their difference, the errors from the seed-to-seed scatter measured here."""
     from erosim.scenarios import loader
-    from erosim.scenarios.builders_hydrology import build_model
+    from erosim.scenarios.hydrology.build import build_model
 
     def runs(batch):
         out = []

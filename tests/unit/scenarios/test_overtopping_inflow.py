@@ -1,5 +1,5 @@
 """The overtopping flume's inflow: water laid at rest on the reservoir's surface, one particle at a time
-(erosim.scenarios.builders_voxel.Inflow) — the discharge kept, no momentum added, no overlap, an even rise."""
+(erosim.scenarios.voxel.build.Inflow) — the discharge kept, no momentum added, no overlap, an even rise."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from erosim.core.errors import InstabilityError
-from erosim.scenarios.builders_voxel import Inflow, overflow_head
+from erosim.scenarios.voxel.build import Inflow, overflow_head
 
 DX = 0.02
 

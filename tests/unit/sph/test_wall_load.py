@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from erosim.scenarios import loader
-from erosim.scenarios.builders_sph import build, lattice, probe_wall
+from erosim.scenarios.sph.build import build, lattice, probe_wall
 from erosim.sph.wall_load import patch, wall_pressure
 
 

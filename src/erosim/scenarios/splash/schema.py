@@ -28,7 +28,7 @@ from erosim.coupling.splash_coupler import ScourParams
 from erosim.erosion.splash import SplashParams
 from erosim.erosion.wet_strength import WetStrengthParams
 from erosim.scenarios.schema_common import TerrainSection, with_sph_defaults
-from erosim.scenarios.schema_sph_terrain import EdgesSection, InflowSection, RainSection
+from erosim.scenarios.sph_terrain.schema import EdgesSection, InflowSection, RainSection
 from erosim.sph.mud import MudParams
 from erosim.sph.params import SPHParams
 

@@ -1,4 +1,4 @@
-"""The ``sph`` kind: an :class:`~erosim.scenarios.schema_sph.SPHScenario` → particles, solver, callbacks.
+"""The ``sph`` kind: an :class:`~erosim.scenarios.sph.schema.SPHScenario` → particles, solver, callbacks.
 
 Fluid blocks are filled with a regular lattice of spacing Δx = ``sph.spacing``: along each axis
 n = round(L/Δx) particles at lo + (i + ½)Δx, so a block of width a holds exactly a/Δx columns and
@@ -21,8 +21,8 @@ import numpy as np
 
 from erosim.core.errors import ConfigError
 from erosim.core.schedules import TimeInterval
-from erosim.scenarios.schema_sph import SPHScenario
 from erosim.scenarios.setup import Setup
+from erosim.scenarios.sph.schema import SPHScenario
 from erosim.simulation import callbacks as cb
 
 THESIS = {"h": 0.2, "mass": 30.0, "dt": 0.1}  # SC-1/SC-2 as printed in seed 000 (ch. 3)

@@ -45,8 +45,8 @@ from erosim.analysis.hazard import HazardMaps, polygon_mask
 from erosim.core.errors import ConfigError, InputError
 from erosim.core.heightmap import default_transform, fractional_cell
 from erosim.core.schedules import IterationInterval, Schedule, TimeInterval
+from erosim.scenarios.flood.schema import FloodScenario
 from erosim.scenarios.schema_common import build_terrain, terrain_facts
-from erosim.scenarios.schema_flood import FloodScenario
 from erosim.scenarios.setup import Setup
 from erosim.simulation import callbacks as cb
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, equal_volumes, felt_bed

@@ -39,10 +39,10 @@ from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.coupling.sources import EdgeOutflow, PointInflow, Rain, lake_particles
 from erosim.coupling.terrains import HeightfieldTerrain
-from erosim.scenarios.builders_sph import lattice
 from erosim.scenarios.schema_common import build_terrain
-from erosim.scenarios.schema_sph_terrain import SPHTerrainScenario
 from erosim.scenarios.setup import Setup
+from erosim.scenarios.sph.build import lattice
+from erosim.scenarios.sph_terrain.schema import SPHTerrainScenario
 from erosim.simulation import callbacks as cb
 
 #: a spacing wider than this many terrain cells cannot resolve the terrain the water runs on

@@ -26,8 +26,8 @@ from erosim.core.errors import InputError
 from erosim.core.heightmap import Heightmap
 from erosim.core.schedules import IterationInterval, Schedule
 from erosim.erosion.particle_stream_warszawski import EDIR, EX, EY, Emitter, ParticleStream
+from erosim.scenarios.particle_stream.schema import HardnessSection, StreamScenario
 from erosim.scenarios.schema_common import build_terrain, terrain_facts
-from erosim.scenarios.schema_stream import HardnessSection, StreamScenario
 from erosim.scenarios.setup import Setup
 from erosim.simulation.callbacks import BudgetCheck
 from erosim.terrain import hardness as hardness_mod

@@ -38,7 +38,7 @@ from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.erosion.excess_shear_partheniades1965 import ExcessShearParams
 from erosim.scenarios.schema_common import TerrainSection, with_sph_defaults
-from erosim.scenarios.schema_sph_terrain import InflowSection as JetSection
+from erosim.scenarios.sph_terrain.schema import InflowSection as JetSection
 from erosim.sph.params import SPHParams
 
 

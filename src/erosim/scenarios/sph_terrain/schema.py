@@ -31,7 +31,7 @@ from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.erosion.transport_capacity_mei2007 import TransportCapacityParams
 from erosim.scenarios.schema_common import TerrainSection, with_sph_defaults
-from erosim.scenarios.schema_sph import FluidBlock, Measure
+from erosim.scenarios.sph.schema import FluidBlock, Measure
 from erosim.sph.params import SPHParams
 
 

@@ -45,8 +45,8 @@ from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.coupling.sources import EDGES, EdgeOutflow, PointInflow
 from erosim.coupling.terrains import VoxelFieldTerrain
-from erosim.scenarios.schema_voxel import VoxelScenario, at_dem_scale, band_for, overflow_head
 from erosim.scenarios.setup import Setup
+from erosim.scenarios.voxel.schema import VoxelScenario, at_dem_scale, band_for, overflow_head
 from erosim.simulation import callbacks as cb
 
 
@@ -348,7 +348,7 @@ class VoxelMaps(cb.Callback):
     the DEM's nodes at ``voxels.scale = "dem"``, else a grid of the voxels' size from the DEM's first node):
     height.tif and height_initial.tif (the top surface, :func:`top_surface`), erosion.tif and
     deposition.tif (its lowering and raising, m) and water_depth.tif (the fluid's volume over each column:
-    each particle's Δx³ spread over its footprint, :func:`erosim.scenarios.builders_splash.footprint_volume`)."""
+    each particle's Δx³ spread over its footprint, :func:`erosim.scenarios.splash.build.footprint_volume`)."""
 
     def __init__(self, terrain, solver, dem, out):
         super().__init__(Schedule(), name="maps")
@@ -366,7 +366,7 @@ class VoxelMaps(cb.Callback):
     def finalize(self, sim) -> dict[str, Any]:
         from erosim.coupling.raster import Raster
         from erosim.io import heightmaps as hio
-        from erosim.scenarios.builders_splash import footprint_volume
+        from erosim.scenarios.splash.build import footprint_volume
 
         now = top_surface(self.terrain)
         ny, nx = now.shape

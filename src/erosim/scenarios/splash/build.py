@@ -2,7 +2,7 @@
 SPEC SP-1…SP-6).
 
 The terrain (a DEM, a generated map, or — with ``[drop]`` — a flat patch scaled to the drop) lives in
-the SPH frame of :mod:`erosim.scenarios.builders_sph_terrain` (x east, y north, z up, rows
+the SPH frame of :mod:`erosim.scenarios.sph_terrain.build` (x east, y north, z up, rows
 northward). The fluid feels the ground as the heightmap's particle-free wall; porous ground particles
 (:class:`~erosim.coupling.porous_ground.PorousGround`) lie in layers under it; every ``run.every``
 steps :class:`~erosim.coupling.splash_coupler.WetGround` digs the craters of the particles that
@@ -47,10 +47,10 @@ from erosim.coupling.sources import EdgeOutflow, OutsideOutflow, PointInflow, Ra
 from erosim.coupling.splash_coupler import WetGround
 from erosim.erosion import splash as sp
 from erosim.erosion.wet_strength import strength
-from erosim.scenarios import builders_sph_terrain as terrain_kind
 from erosim.scenarios.schema_common import terrain_facts
-from erosim.scenarios.schema_splash import SplashScenario, ground_spacing
 from erosim.scenarios.setup import Setup
+from erosim.scenarios.sph_terrain import build as terrain_kind
+from erosim.scenarios.splash.schema import SplashScenario, ground_spacing
 from erosim.simulation import callbacks as cb
 from erosim.sph.mud import MudMixture
 
