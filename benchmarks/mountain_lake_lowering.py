@@ -35,7 +35,7 @@ import numpy as np
 from scipy.stats import spearmanr
 
 from erosim.scenarios.loader import read_toml
-from erosim.scenarios.voxel.build import top_surface
+from erosim.scenarios.voxel.outputs import top_surface
 from erosim.terrain.lake_outlets import hollows as lake_hollows
 from erosim.terrain.priority_flood_barnes2014 import closed_basin_depth
 from erosim.terrain.voxel import VoxelTerrain

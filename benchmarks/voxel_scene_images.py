@@ -5,7 +5,7 @@
     python benchmarks/voxel_scene_images.py caves RUN
 
 `mountain-lake`: the surface (marching cubes of fields/density_0000.npz and of the last field) as the run's
-figures/surface.png draws it (erosim.scenarios.voxel.build.surface_figure): before tinted by height,
+figures/surface.png draws it (erosim.scenarios.voxel.outputs.surface_figure): before tinted by height,
 after coloured by the lowering of the top surface (m), the last particle frame's water as blue dots.
 `canyon`: the cross-sections across the canyon after the first run (its start dashed) and after the
 second (its start, the first's end, dashed), side by side, at y = Y (default: the node row the two runs
@@ -28,7 +28,7 @@ import numpy as np
 from PIL import Image
 
 from erosim.io.particles import read_vtp
-from erosim.scenarios.voxel.build import surface_figure, top_surface
+from erosim.scenarios.voxel.outputs import surface_figure, top_surface
 from erosim.terrain.voxel import VoxelTerrain
 
 

@@ -10,8 +10,9 @@ from erosim.core.errors import ConfigError, InputError
 from erosim.core.heightmap import Heightmap
 from erosim.io import heightmaps as hio
 from erosim.io.runfolder import RunFolder
+from erosim.scenarios import loader, runner
 from erosim.scenarios.hydrology import build as hydrology_build
-from erosim.scenarios.hydrology import loader, runner
+from erosim.scenarios.hydrology import outputs as hydrology_outputs
 
 SMALL = ["terrain.size=48", "terrain.cell_size=40.0", "run.cycles=6", "run.frames=3", "hydrology.cycle_droplets=20000"]
 
@@ -30,7 +31,7 @@ def folder(tmp_path_factory):
 
 
 def test_run_folder_holds_every_output(folder):
-    for name in hydrology_build.MAPS:
+    for name in hydrology_outputs.MAPS:
         assert (folder / "maps" / f"{name}.tif").is_file()
     for name in (
         "height.png",

@@ -10,8 +10,8 @@ from erosim.cli import cli
 from erosim.core.heightmap import Heightmap
 from erosim.io import heightmaps as hio
 from erosim.io.runfolder import RunFolder
+from erosim.scenarios import loader, runner
 from erosim.scenarios.particle_stream import build as particle_stream_build
-from erosim.scenarios.particle_stream import loader, runner
 
 SMALL = ["--set", "terrain.size=64", "--set", "emitters.main.particles=150", "--set", "emitters.main.steps=50"]
 

@@ -41,7 +41,8 @@ def test_every_voxel_scenario_has_a_case():
 
 
 def test_mountain_lake_turns_any_dem_into_voxels_and_refuses_one_too_large(tmp_path):
-    from erosim.scenarios.voxel.build import build_terrain, surface_profile
+    from erosim.scenarios.voxel.build import build_terrain
+    from erosim.scenarios.voxel.outputs import surface_profile
 
     yy, xx = np.mgrid[0:9, 0:12]
     dem = 2.0 + 0.25 * xx + 0.1 * yy  # a tilted plane, heights in metres, 1 m cells (.npy)
@@ -167,7 +168,7 @@ def test_overtopping_runs_and_writes_its_outputs(tmp_path):
 def test_eroding_more_than_a_fifth_of_the_waters_volume_is_warned():
     """Clear water carries up to about 20 % sediment by volume (Costa 1988); the fluid carries none, so a
     run that removes more is told so, with the setting to change."""
-    from erosim.scenarios.voxel.build import sediment_warning
+    from erosim.scenarios.voxel.outputs import sediment_warning
 
     assert sediment_warning(0.19, 1.0) is None and sediment_warning(1.0, 0.0) is None
     note = sediment_warning(0.32, 1.0)
@@ -181,7 +182,7 @@ def test_a_run_that_moved_no_ground_says_why():
     0.8 m), τ_c = 1.5, n = ½, that is 0.8 · 1.5² = 1.8 m/s."""
     from erosim.core.heightmap import Heightmap
     from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
-    from erosim.scenarios.voxel.build import no_erosion_warning
+    from erosim.scenarios.voxel.outputs import no_erosion_warning
 
     t = VoxelTerrain.from_heightmap(Heightmap(z=np.zeros((6, 6)), cell_size=1.0), cell_size=1.0)
     eroder = ShearStressErosion(t, ShearStressParams(tau_c=1.5, k_eps=1.0), support=2.0)
@@ -200,7 +201,7 @@ def test_the_excess_shear_law_says_which_speed_it_needs():
     erodibility of 0 asks for no erosion and is not warned."""
     from erosim.core.heightmap import Heightmap
     from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion
-    from erosim.scenarios.voxel.build import no_erosion_warning
+    from erosim.scenarios.voxel.outputs import no_erosion_warning
     from erosim.scenarios.voxel.schema import VoxelErosion
 
     t = VoxelTerrain.from_heightmap(Heightmap(z=np.zeros((6, 6)), cell_size=1.0), cell_size=1.0)
@@ -313,7 +314,8 @@ def test_canyon_caves_second_run_starts_from_the_first_runs_field(tmp_path):
 def test_a_jet_on_a_heightmap_feeds_the_valley_floor(tmp_path):
     """[inflows.NAME] on a voxel heightmap: a layer of the jet's disc every Δx/speed seconds, its mouth
     ``height`` above the top surface at ``position``; a position off the map is one sentence."""
-    from erosim.scenarios.voxel.build import build_solver, build_terrain, jets, top_surface
+    from erosim.scenarios.voxel.build import build_solver, build_terrain, jets
+    from erosim.scenarios.voxel.outputs import top_surface
 
     sets = ["terrain.size=12", "run.t_end=1.0", "run.output_interval=1.0", "erosion.enabled=false",
             "run.particle_frames=false", "rain.rate=0", "inflows.river.position=[5.5, 2.0]",

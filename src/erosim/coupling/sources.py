@@ -15,12 +15,15 @@ acting between steps.
 * :class:`Rain` — every ``every`` steps, rain of R mm/h falls where a rain map says (per node a
   chance in [0, 1], ER-4): the expected number of drops N = Σ_k R p_k A Δt/(3.6·10⁶ V_p) (the
   fraction carried over), each dropped in a node chosen with probability ∝ p_k, at a random point of
-  its cell, ``height`` above the ground (or the water already there);
+  its cell, ``height`` above the ground (or the water already there), until ``until`` if given;
 * :class:`PointInflow` — a vertical jet of discharge Q (m³/s) from a disc of radius r at a height
   above the ground: a lattice layer of the disc every Δx/u seconds at u = Q/(area of the layer), each
   layer turned about the jet's axis by the golden angle from the one before (in 3-D), so the stream
   has no preferred direction (a lattice disc of radius ~Δx is a "+" of five particles; stacked
   unturned it lands as four axis-aligned streams and wets and digs a "+");
+* :class:`RainDrops` — rain on a voxel terrain as drops of five particles (SPEC VX-8) at random places;
+* :class:`FlumeInflow` — a laboratory flume's reservoir filled at a discharge, each particle laid at rest
+  on the water's surface (the voxel overtopping scenes);
 * :class:`EdgeOutflow` — particles beyond an open map edge are removed and counted;
 * :class:`OutsideOutflow` — particles over a DEM's nodata (the node nearest them outside the
   terrain) are removed and counted, as at an open edge.
@@ -30,13 +33,15 @@ Random draws use NumPy generators keyed by (seed, event number), so a resumed ru
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from scipy import ndimage
 
 from erosim.core.callbacks import Callback
-from erosim.core.errors import ConfigError
+from erosim.core.errors import ConfigError, InstabilityError
+from erosim.core.schedules import IterationInterval
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 
@@ -119,9 +124,10 @@ class Rain(_Source):
     """Rain of ``rate`` mm/h by the per-node chance map ``chance`` (raster.shape, SPH frame)."""
 
     def __init__(self, schedule, solver, raster: Raster, ground: np.ndarray, chance: np.ndarray, rate_mm_h: float,
-                 height: float, seed: int, grid=None, inset: float = 0.0):  # fmt: skip
+                 height: float, seed: int, grid=None, inset: float = 0.0, until: float | None = None):  # fmt: skip
         """``inset`` (m): drops start at least this far inside the map's edges (e.g. one kernel support,
-        out of the reach of closed edges' walls): the map's extent is drawn in by it on every side."""
+        out of the reach of closed edges' walls): the map's extent is drawn in by it on every side.
+        ``until`` (s of simulated time): the rain stops then (None: it never stops)."""
         super().__init__(schedule, "rain")
         if chance.shape != raster.shape:
             raise ConfigError(
@@ -135,6 +141,7 @@ class Rain(_Source):
         self.rate = float(rate_mm_h)
         self.height = float(height)
         self.seed = int(seed)
+        self.until = until
         self.inset = min(float(inset), 0.5 * (raster.nx - 1) * raster.dx, 0.5 * (raster.ny - 1) * raster.dy)
         cdf = np.cumsum(self.chance.ravel())
         self.cdf = cdf / cdf[-1] if cdf[-1] > 0 else cdf
@@ -148,6 +155,9 @@ class Rain(_Source):
     def __call__(self, sim=None) -> None:
         s = self.solver
         t = float(s.t)
+        if self.until is not None and t > self.until:
+            self.last_t = t
+            return
         due = self.carry + self.expected(t - self.last_t)
         self.last_t = t
         k = int(due)
@@ -293,3 +303,113 @@ class OutsideOutflow(Callback):
 
     def load_state_dict(self, state) -> None:
         self.left = {"water": float(state.get("left_water", 0.0)), "mud": float(state.get("left_mud", 0.0))}
+
+
+class RainDrops(Callback):
+    """Rain as drops of 5 particles (a centre and its four horizontal neighbours at Δx; SPEC VX-8) at
+    random places over the map at ``z``, falling at rest; the drops due at ``rate`` (mm/h) are added every
+    ``every`` steps. Places come from a generator keyed by (seed, shower), so a resumed run rains the same."""
+
+    SHAPE = np.array([[0, 0, 0], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], np.float64)
+
+    def __init__(self, schedule, solver, lo, hi, z: float, rate_mm_h: float, seed: int):
+        super().__init__(schedule, name="rain")
+        dx = solver.params.spacing
+        self.solver, self.lo, self.hi, self.z, self.seed = solver, np.asarray(lo), np.asarray(hi), z, seed
+        area = float(np.prod(self.hi - self.lo))
+        self.per_s = rate_mm_h / 3.6e6 * area / (5 * dx**3)  # drops per second
+        self.carry, self.last_t, self.events, self.drops = 0.0, float(solver.t), 0, 0
+
+    def __call__(self, sim) -> None:
+        s = self.solver
+        due = self.carry + (float(s.t) - self.last_t) * self.per_s
+        self.last_t = float(s.t)
+        n = int(due)
+        self.carry = due - n
+        if n == 0:
+            return
+        dx = s.params.spacing
+        rng = np.random.default_rng([self.seed, 0xD409, self.events])
+        self.events += 1
+        centres = np.column_stack([rng.uniform(self.lo[0] + dx, self.hi[0] - dx, n),
+                                   rng.uniform(self.lo[1] + dx, self.hi[1] - dx, n), np.full(n, self.z)])  # fmt: skip
+        pts = (centres[:, None, :] + dx * self.SHAPE[None]).reshape(-1, 3)
+        s.add_fluid(pts, np.zeros_like(pts), source="rain")
+        self.drops += n
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"carry": self.carry, "last_t": self.last_t, "events": self.events, "drops": self.drops}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.carry, self.last_t = float(state["carry"]), float(state["last_t"])
+        self.events, self.drops = int(state["events"]), int(state["drops"])
+
+
+class FlumeInflow(Callback):
+    """A reservoir filled as in a laboratory flume, its level rising gently: water enters at ``discharge``
+    Q (m³/s) one particle at a time (one every Δx³/Q seconds), each laid **at rest** on the water's
+    surface at its site (:meth:`rest_height`); the sites are the Δx lattice of the
+    rectangle ``x0…x1`` × the flume's width, taken in a fixed scattered order (a stride coprime with
+    their number), so the surface rises evenly.
+
+    A particle so laid adds potential energy of about Δx/2 and no momentum, and no wave larger than one
+    particle: the reservoir stays still while it fills and the overflow is driven by the level alone,
+    as in Fujisawa et al.'s (2011) flume fed from upstream. Water poured from a height instead hits the
+    surface at √(2gΔz), and whole layers dropped at once start surges: both stir the reservoir into
+    currents of several cm/s that scour its upstream face before any water reaches the crest
+    (docs/voxel.md). A new particle is at least Δx from every other."""
+
+    def __init__(self, solver, x0: float, x1: float, width: float, discharge: float, top: float):
+        super().__init__(IterationInterval(1), name="inflow")
+        dx = solver.params.spacing
+        xs = (np.arange(math.ceil(x0 / dx - 0.5), math.floor(x1 / dx - 0.5) + 1) + 0.5) * dx
+        ys = (np.arange(0, math.floor(width / dx - 0.5) + 1) + 0.5) * dx
+        gx, gy = np.meshgrid(xs[(xs > x0) & (xs < x1)], ys[ys < width], indexing="ij")
+        sites = np.column_stack([gx.ravel(), gy.ravel()])
+        n = len(sites)
+        stride = next(k for k in range(max(1, int(0.618 * n)), 2 * n + 2) if math.gcd(k, n) == 1)
+        self.sites = sites[(np.arange(n) * stride) % n]
+        self.dx, self.top = dx, top
+        self.period = dx**3 / discharge
+        self.solver = solver
+        self.carry, self.last_t, self.events = 0.0, float(solver.t), 0
+
+    def rest_height(self, pos, xy) -> float:
+        """The lowest z at ``xy`` at least Δx from every fluid particle below it: max over the particles k
+        within Δx horizontally (ρ_k < Δx) of z_k + √(Δx² − ρ_k²) (a ball laid on the surface); Δx/2 (on
+        the floor) when there are none."""
+        z = self._ball_top(pos, xy)
+        return z if z > -math.inf else 0.5 * self.dx
+
+    def _ball_top(self, pos, xy) -> float:
+        """max of z_k + √(Δx² − ρ_k²) over the particles within Δx horizontally; −∞ when there are none."""
+        r2 = (pos[:, 0] - xy[0]) ** 2 + (pos[:, 1] - xy[1]) ** 2
+        near = r2 < self.dx * self.dx
+        return float((pos[near, 2] + np.sqrt(self.dx * self.dx - r2[near])).max()) if near.any() else -math.inf
+
+    def __call__(self, sim) -> None:
+        s = self.solver
+        due = self.carry + (float(s.t) - self.last_t) / self.period
+        self.last_t = float(s.t)
+        count = int(due)
+        self.carry = due - count
+        if count == 0:
+            return
+        pos = s.fluid_positions()
+        pts = np.empty((count, 3))
+        for k in range(count):
+            xy = self.sites[(self.events + k) % len(self.sites)]
+            pts[k] = xy[0], xy[1], max(self.rest_height(pos, xy), self._ball_top(pts[:k], xy))  # and this step's
+        if pts[:, 2].max() > self.top:
+            raise InstabilityError(
+                f"The inflow's water reached the top of the flume's domain ({self.top:g} m) at t = {float(s.t):.3g} s; "
+                "lower inflow.discharge or raise terrain.top."
+            )
+        self.events += count
+        s.add_fluid(pts, np.zeros_like(pts), source="inflow")
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"carry": self.carry, "last_t": self.last_t, "events": self.events}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.carry, self.last_t, self.events = float(state["carry"]), float(state["last_t"]), int(state["events"])

@@ -382,12 +382,12 @@ def test_a_picture_that_fails_is_a_warning_not_a_lost_run(cli_runner, tmp_path, 
 def test_a_final_output_that_fails_is_a_warning_in_the_report(cli_runner, tmp_path, monkeypatch):
     """Any final output (here the hydrology kind's whole maps-and-pictures step) that raises a non-input
     error: report.json is still written, status completed, the failure one warning."""
-    from erosim.scenarios.hydrology import build as hydrology_build
+    from erosim.scenarios.hydrology import outputs as hydrology_outputs
 
     def broken(*args, **kwargs):
         raise ValueError("cannot draw")
 
-    monkeypatch.setattr(hydrology_build, "write_outputs", broken)
+    monkeypatch.setattr(hydrology_outputs, "write_outputs", broken)
     _, rep = _small_hydrology_run(cli_runner, tmp_path)
     assert any("final output 'outputs' failed (ValueError: cannot draw)" in w for w in rep["warnings"])
 

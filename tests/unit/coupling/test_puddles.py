@@ -6,8 +6,9 @@ import math
 import numpy as np
 import pytest
 
+from erosim.coupling.puddles import footprint_volume, hollow_depth, pond
 from erosim.coupling.raster import Raster
-from erosim.scenarios.splash.build import coarsening, footprint_volume, hollow_depth, pond
+from erosim.scenarios.splash.build import coarsening
 
 
 def test_a_footprint_spreads_a_particles_volume_over_the_cells_it_covers_and_keeps_it_all():

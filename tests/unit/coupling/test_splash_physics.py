@@ -121,7 +121,7 @@ def test_mud_sinks_through_still_water_and_falls_freely_in_air():
 def test_puddles_are_the_water_standing_in_closed_hollows():
     from types import SimpleNamespace
 
-    from erosim.scenarios.splash.build import hollow_depth, standing_water
+    from erosim.coupling.puddles import hollow_depth, standing_water
 
     r = Raster(0.0, 0.0, 0.1, 0.1, 9, 9)
     x, y = np.meshgrid(np.arange(9) * 0.1, np.arange(9) * 0.1)

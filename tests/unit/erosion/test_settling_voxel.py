@@ -89,7 +89,7 @@ def test_a_suspended_run_that_moved_no_ground_says_why(flume):
     """The wrapper gives the warning its eroder's own words: no quantum moved at τ_c = 0.5 (the preset's
     K = 1, n = ½ and l_min = 0.4 h = 3.2 cm: 0.032 · 0.5² = 0.008 m/s) names that speed (a suspended run
     once failed here, the wrapper lacking the eroder's threshold)."""
-    from erosim.scenarios.voxel.build import no_erosion_warning
+    from erosim.scenarios.voxel.outputs import no_erosion_warning
 
     terrain, solver, eroder = flume
     sus = SuspendedSediment(eroder, solver, settling_velocity=0.02)

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from erosim.scenarios import loader
-from erosim.scenarios.voxel.build import build_terrain, top_surface
+from erosim.scenarios.voxel.build import build_terrain
+from erosim.scenarios.voxel.outputs import top_surface
 from erosim.terrain.lake_outlets import hollows
 
 SLOPE, PIT, NOTCH = 0.05, 0.5, 0.01  # the plane falls 1 in 20 towards +x; pits 0.5 m deep; a 1 cm notch

@@ -30,28 +30,24 @@ crater law's values beside them.
 
 from __future__ import annotations
 
-import json
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from erosim.core.errors import ConfigError
 from erosim.core.heightmap import Heightmap, default_transform
-from erosim.core.schedules import IterationInterval, Schedule, TimeInterval
+from erosim.core.schedules import IterationInterval, TimeInterval
 from erosim.coupling.binning import FluidGrid
 from erosim.coupling.porous_ground import PorousGround
 from erosim.coupling.raster import Raster
 from erosim.coupling.sources import EdgeOutflow, OutsideOutflow, PointInflow, Rain
 from erosim.coupling.splash_coupler import WetGround
-from erosim.erosion import splash as sp
-from erosim.erosion.wet_strength import strength
 from erosim.scenarios.schema_common import terrain_facts
 from erosim.scenarios.setup import Setup
-from erosim.scenarios.sph_terrain import build as terrain_kind
+from erosim.scenarios.sph_terrain import geometry as terrain_geometry
+from erosim.scenarios.splash.outputs import SplashFrames, SplashOutputs, WetnessFrames, splash_report
 from erosim.scenarios.splash.schema import SplashScenario, ground_spacing
-from erosim.simulation import callbacks as cb
 from erosim.sph.mud import MudMixture
 
 #: the most porous ground particles a run lays (each holds about 1 kB with its diffusion pairs)
@@ -60,7 +56,7 @@ MAX_GROUND = 2_000_000
 DROP_SPACING = (4.0 * math.pi / 3.0) ** (1.0 / 3.0)
 
 
-def geometry(cfg: SplashScenario) -> tuple[terrain_kind.Geometry, float]:
+def geometry(cfg: SplashScenario) -> tuple[terrain_geometry.Geometry, float]:
     """The terrain in the SPH frame and the fluid spacing. A DEM's nodata cells keep the nearest valid
     heights (:func:`erosim.core.heightmap.fill_nodata`) and are marked in ``Geometry.nodata``."""
     if cfg.drop is not None:
@@ -70,8 +66,8 @@ def geometry(cfg: SplashScenario) -> tuple[terrain_kind.Geometry, float]:
         z = np.zeros((n, n))
         raster = Raster(0.0, 0.0, cell, cell, n, n)
         dem = Heightmap(z.copy(), cell, transform=default_transform(n, n, cell))
-        return terrain_kind.Geometry(raster, z.copy(), z.copy(), None, dem, 3), d.radius * DROP_SPACING
-    geo = terrain_kind.dem_geometry(cfg.terrain, cfg.seed, nodata_wall=None)  # nodata: outside, not walls
+        return terrain_geometry.Geometry(raster, z.copy(), z.copy(), None, dem, 3), d.radius * DROP_SPACING
+    geo = terrain_geometry.dem_geometry(cfg.terrain, cfg.seed, nodata_wall=None)  # nodata: outside, not walls
     dx = cfg.scale.spacing_cells * geo.raster.dx if cfg.scale.spacing_cells else cfg.sph.spacing
     return geo, dx
 
@@ -191,274 +187,12 @@ def build_solver(cfg: SplashScenario, geo, dx: float):
     hi = [r.x0 + (r.nx - 1) * r.dx + margin, r.y0 + (r.ny - 1) * r.dy + margin, max(tops) + max(10 * h, 0.5 * fall)]
     ground = HeightfieldGround(r, geo.terrain)
     boundaries = [ground]
-    planes = terrain_kind._edge_planes(geo, cfg.edges.outflow)
+    planes = terrain_geometry.edge_planes(geo, cfg.edges.outflow)
     if planes is not None:
         boundaries.append(PlaneWalls(*planes))
     boundaries.append(MudMixture(cfg.mud.solid_density, cfg.mud.solid_viscosity))  # mud's mass and viscosity
     solver = SPHSolver(p, fluid, fluid_vel=vel, domain_lo=lo, domain_hi=hi, seed=cfg.seed, boundaries=boundaries)
     return solver
-
-
-class SplashFrames(cb.ParticleFrames):
-    """Fluid frames with each particle's water share, mud concentration and mixture density, and the
-    ground particles' saturation (``particles/ground.pvd``)."""
-
-    def __init__(self, schedule, solver, wet: WetGround, folder: Path):
-        super().__init__(schedule, solver, folder)
-        from erosim.io.particles import FrameSeries
-
-        self.wet = wet
-        self.ground_series = FrameSeries(self.folder / "ground", name="ground")
-
-    def __call__(self, sim) -> None:
-        s, w = self.fluid, self.wet
-        fields = {
-            "velocity": s.fluid_velocities().astype(np.float32),
-            "water": s.fluid_field("water").astype(np.float32),
-            "mud": s.fluid_field("mud").astype(np.float32),
-            "mixture_density": s._fluid(w.mud_density()).astype(np.float32),
-        }
-        self.series.write(float(s.t), s.fluid_positions().astype(np.float32), fields)
-        g = w.ground
-        fields = {"saturation": g.theta.astype(np.float32), "porosity": g.porosity.astype(np.float32),
-                  "strength": g.strength(w.sigma_dry, w.sigma_wet).astype(np.float32)}  # fmt: skip
-        self.ground_series.write(float(s.t), g.pos.astype(np.float32), fields)
-
-    def state_dict(self) -> dict[str, Any]:
-        return {**super().state_dict(), "ground_frames": [list(f) for f in self.ground_series.frames]}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        from erosim.io.particles import FrameSeries
-
-        super().load_state_dict(state)
-        self.ground_series = FrameSeries(self.folder / "ground", name="ground", frames=state.get("ground_frames", []))
-
-
-class WetnessFrames(cb.Callback):
-    """``maps/frames/wetness_N.tif`` and ``height_N.tif`` (the DEM's grid) with ``frames.json``; small
-    copies of the wetness for the frames figure travel in the checkpoint."""
-
-    def __init__(self, schedule, geo, wet: WetGround, folder: Path):
-        super().__init__(schedule, name="wetness_frames")
-        self.geo, self.wet, self.folder = geo, wet, Path(folder)
-        self.times: list[float] = []
-        self.thumbs: list[np.ndarray] = []
-
-    def __call__(self, sim) -> None:
-        from erosim.core.atomic import write_text
-        from erosim.io import heightmaps as hio
-
-        k = len(self.times)
-        wet = self.wet.wetness()[::-1]
-        hio.write_raster(self.folder / f"wetness_{k:05d}.tif", wet.astype(np.float32), self.geo.dem)
-        hio.write(self.folder / f"height_{k:05d}.tif", np.ascontiguousarray(self.wet.terrain[::-1]), like=self.geo.dem)
-        self.times.append(float(self.wet.solver.t))
-        write_text(self.folder / "frames.json", json.dumps({"times": self.times}))
-        step = max(1, max(wet.shape) // 96)
-        self.thumbs.append(np.ascontiguousarray(wet[::step, ::step], dtype=np.float32))
-
-    def state_dict(self) -> dict[str, Any]:
-        return {"times": np.array(self.times), "thumbs": np.array(self.thumbs, np.float32)}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        self.times = np.asarray(state.get("times", [])).tolist()
-        self.thumbs = list(np.asarray(state.get("thumbs", np.zeros((0, 1, 1), np.float32))))
-
-    def finalize(self, sim) -> dict[str, Any]:
-        if not self.thumbs:
-            return {}
-        from erosim.viz.splash import wetness_frames_figure
-
-        path = sim.out.figures / "wetness_frames.png"
-        with sim.out.picture(path):
-            wetness_frames_figure(path, self.thumbs, self.times)
-        figure = "figures/wetness_frames.png"
-        return {"wetness_frames": {"count": len(self.times), "folder": "maps/frames", "figure": figure}}
-
-
-class TimedRain(Rain):
-    """Rain that stops at ``until`` (s of simulated time)."""
-
-    def __init__(self, *args, until: float | None = None, **kwargs):
-        super().__init__(*args, **kwargs)
-        self.until = until
-
-    def __call__(self, sim=None) -> None:
-        if self.until is not None and float(self.solver.t) > self.until:
-            self.last_t = float(self.solver.t)
-            return
-        super().__call__(sim)
-
-
-def hollow_depth(z: np.ndarray) -> np.ndarray:
-    """Depth (m) of the closed hollows of ``z``: the surface filled to its spill level minus z."""
-    from skimage.morphology import reconstruction
-
-    seed = z.copy()
-    seed[1:-1, 1:-1] = z.max()
-    return reconstruction(seed, z, method="erosion") - z
-
-
-def footprint_volume(raster, xy: np.ndarray, volume: np.ndarray, side: float) -> np.ndarray:
-    """Volumes (m³, one per node's cell) of water spread from points ``xy`` over the square footprints of
-    ``side`` metres centred on them, each cell taking the share of a footprint that it covers (the cells are
-    the nodes' squares); a footprint's share beyond the map goes to the cells it covers inside, so the
-    volume is conserved: Σ = Σ ``volume``."""
-    nx, ny, dx, dy = raster.nx, raster.ny, raster.dx, raster.dy
-    out = np.zeros(ny * nx)
-    if len(xy) == 0:
-        return out.reshape(ny, nx)
-    a = max(float(side), 1e-12)
-
-    def weights(c, x0, d, n):
-        """Per axis: node indices (m, k) and the footprint's share of each (rows sum to 1 inside the map)."""
-        lo = (c - 0.5 * a - x0) / d
-        first = np.floor(lo + 0.5).astype(np.int64)
-        m = int(math.ceil(a / d)) + 1
-        idx = first[:, None] + np.arange(m)[None, :]
-        cell_lo = x0 + (idx - 0.5) * d
-        w = np.clip(np.minimum(c[:, None] + 0.5 * a, cell_lo + d) - np.maximum(c[:, None] - 0.5 * a, cell_lo), 0.0,
-                    None)  # fmt: skip
-        w = np.where((idx >= 0) & (idx < n), w, 0.0)
-        total = w.sum(axis=1, keepdims=True)
-        return np.clip(idx, 0, n - 1), w / np.where(total > 0, total, 1.0), total[:, 0] > 0
-
-    ix, wx, okx = weights(np.asarray(xy[:, 0], np.float64), raster.x0, dx, nx)
-    iy, wy, oky = weights(np.asarray(xy[:, 1], np.float64), raster.y0, dy, ny)
-    vol = np.where(okx & oky, np.asarray(volume, np.float64), 0.0)
-    for j in range(iy.shape[1]):
-        for i in range(ix.shape[1]):
-            out += np.bincount(iy[:, j] * nx + ix[:, i], vol * wy[:, j] * wx[:, i], ny * nx)
-    return out.reshape(ny, nx)
-
-
-def pond(z: np.ndarray, hollows: np.ndarray, volume: np.ndarray, cell_area: float) -> np.ndarray:
-    """Depth (m) of the water ``volume`` (m³ per cell) that lies in each closed hollow (``hollows`` > 0, its
-    depth below the spill level; 8-connected cells form one hollow) standing level in it: the level L with
-    Σ max(L − z, 0)·A = the hollow's water, at most its spill level (water beyond spills and is not
-    counted). Depths are those of a physical volume on the grid, however large the particles."""
-    from scipy import ndimage
-
-    depth = np.zeros_like(z, dtype=np.float64)
-    labels, n = ndimage.label(hollows > 0, structure=np.ones((3, 3)))
-    if n == 0:
-        return depth
-    held = ndimage.sum_labels(volume, labels, np.arange(1, n + 1))
-    for k in np.nonzero(held > 0)[0]:
-        cells = labels == k + 1
-        zc = z[cells]
-        spill = float((zc + hollows[cells]).max())
-        order = np.sort(zc)
-        # volume to fill up to each cell's bottom: A·Σ_{j<i} (z_i − z_j)
-        below = cell_area * (np.arange(len(order)) * order - np.concatenate([[0.0], np.cumsum(order)[:-1]]))
-        i = int(np.searchsorted(below, held[k], side="right")) - 1
-        level = order[i] + (held[k] - below[i]) / (cell_area * (i + 1))
-        depth[cells] = np.maximum(min(level, spill) - zc, 0.0)
-    return depth
-
-
-def standing_water(wet: WetGround, raster, hollows: np.ndarray) -> np.ndarray:
-    """Puddles (m): the water the fluid particles still hold (V_p times their ``water`` share), spread over
-    each particle's footprint (a square of the fluid spacing: :func:`footprint_volume`), gathered by closed
-    hollow (``hollows`` > 0) and standing level in it (:func:`pond`) — water that stands because it cannot
-    run off; water elsewhere is on its way down the slope and not counted."""
-    st = wet.solver.state
-    nf = st.n_fluid
-    if nf == 0:
-        return np.zeros(hollows.shape)
-    pos = st.pos[:nf].astype(np.float64)
-    volume = footprint_volume(raster, pos[:, :2], st.water[:nf] * wet.vp, wet.solver.params.spacing)
-    return pond(wet.terrain, hollows, volume, raster.cell_area)
-
-
-def water_depth(wet: WetGround, raster) -> np.ndarray:
-    """Depth (m) of the water on the ground: the water the fluid particles within two kernel supports of
-    the ground hold (V_p times their ``water`` share; those higher up are still falling), each spread over
-    its footprint, a square of the fluid spacing (:func:`footprint_volume`): Σ depth·A is that water, and
-    one particle on a fine grid is not one cell's column of its whole volume."""
-    from erosim.coupling.sampling import sample
-
-    st = wet.solver.state
-    nf = st.n_fluid
-    if nf == 0:
-        return np.zeros(raster.shape)
-    pos = st.pos[:nf].astype(np.float64)
-    near = pos[:, 2] - sample(raster, wet.terrain, pos) < 2.0 * wet.solver.h
-    vol = footprint_volume(raster, pos[near, :2], st.water[:nf][near] * wet.vp, wet.solver.params.spacing)
-    return vol / raster.cell_area
-
-
-class SplashOutputs(cb.Callback):
-    """The final maps (the DEM's grid) and figures."""
-
-    def __init__(self, geo, wet: WetGround, grid: FluidGrid, drop: bool):
-        super().__init__(Schedule(), name="outputs")
-        self.geo, self.wet, self.grid, self.drop = geo, wet, grid, drop
-
-    def finalize(self, sim) -> dict[str, Any]:
-        from erosim.io import heightmaps as hio
-        from erosim.viz import splash as vs
-
-        out, g, w = sim.out, self.geo, self.wet
-        z = w.terrain
-        puddles = standing_water(w, g.raster, hollow_depth(z))
-        if g.nodata is not None:
-            puddles[g.nodata] = 0.0  # outside the terrain (the map keeps it as nodata)
-        fields = {
-            "height": z,
-            "height_initial": g.initial,
-            "erosion": np.maximum(g.initial - z, 0.0),
-            "deposition": np.maximum(z - g.initial, 0.0),
-            "wetness": w.wetness(),
-            "puddles": puddles,
-            "water_depth": water_depth(w, g.raster),
-        }
-        written = {}
-        for name, arr in fields.items():
-            mapped = np.ascontiguousarray(arr[::-1])
-            if name.startswith("height"):
-                hio.write(out.maps / f"{name}.tif", mapped, like=g.dem)
-            else:
-                hio.write_raster(out.maps / f"{name}.tif", mapped.astype(np.float32), g.dem)
-            written[name] = {"path": f"maps/{name}.tif", "min": float(mapped.min()), "max": float(mapped.max())}
-        info = hio.write(out.maps / "wetness.png", np.ascontiguousarray(fields["wetness"][::-1]), like=g.dem,
-                         height_range=(0.0, 1.0))  # fmt: skip
-        written["wetness_png16"] = {"path": "maps/wetness.png", "range": info.get("height_range", [0.0, 1.0])}
-        cell = g.raster.dx
-        from erosim.viz.plots import extent_of
-
-        box = None if self.drop else extent_of(g.dem.transform, g.initial.shape, cell)
-        from erosim.viz.plots import change_figure
-
-        draw = {
-            "wetness.png": lambda p: vs.wetness_figure(p, fields["wetness"][::-1], cell, "Surface wetness θ", box),
-            "erosion_deposition.png": lambda p: change_figure(p, (z - g.initial)[::-1], cell,
-                                                              "Erosion and deposition", box),
-            **({"crater.png": lambda p: vs.crater_profile_figure(p, g, z)} if self.drop
-               else {"puddles.png": lambda p: vs.puddles_figure(p, puddles[::-1], cell, box)}),
-        }  # fmt: skip
-        figs = []
-        for name, picture in draw.items():
-            with out.picture(out.figures / name):
-                picture(out.figures / name)
-                figs.append(f"figures/{name}")
-        standing = {
-            "volume_m3": float(puddles.sum() * g.raster.cell_area),
-            "area_m2": float((puddles > 0).sum() * g.raster.cell_area),
-            "max_depth_m": float(puddles.max()),
-        }
-        return {"outputs": {"maps": written, "figures": figs}, "puddles": standing}
-
-
-def crater_measure(geo, terrain: np.ndarray) -> dict[str, float]:
-    """Depth (m) of the deepest point below the initial ground, and the radius (m) of the circle of the
-    pit's area (nodes lowered by more than 1 % of that depth): the crater's a_p as measured."""
-    change = geo.initial - terrain
-    depth = float(change.max())
-    if depth <= 0:
-        return {"depth": 0.0, "radius": 0.0}
-    area = float((change > 0.01 * depth).sum()) * geo.raster.cell_area
-    return {"depth": depth, "radius": math.sqrt(area / math.pi)}
 
 
 def setup(scenario, out) -> Setup:
@@ -529,7 +263,7 @@ def setup(scenario, out) -> Setup:
                            f"{cfg.scale.max_ground:,}: raise it for finer particles, 0 never to coarsen)")  # fmt: skip
     cost = run_cost(cfg, solver, ground)
     if cfg.rain.rate > 0:
-        chance = terrain_kind._rain_map(cfg, geo)
+        chance = terrain_geometry.rain_map(cfg, geo)
         if geo.nodata is not None:
             chance = np.where(geo.nodata, 0.0, chance)  # no rain falls outside the terrain
         height = cfg.rain.height
@@ -539,9 +273,9 @@ def setup(scenario, out) -> Setup:
                             f"drops start {height:.3g} m above it so that they strike it.")  # fmt: skip
         # drops start one support inside the map: a drop born within a closed edge's wall would be pushed
         # off it alone, its density (continuity) falling by the wall's share, towards zero at the wall
-        callbacks.append(TimedRain(IterationInterval(cfg.rain.every), solver, r, geo.terrain, chance, cfg.rain.rate,
-                                   height, cfg.seed, grid=grid, until=cfg.run.rain_until,
-                                   inset=solver.h))  # fmt: skip
+        callbacks.append(Rain(IterationInterval(cfg.rain.every), solver, r, geo.terrain, chance, cfg.rain.rate,
+                              height, cfg.seed, grid=grid, until=cfg.run.rain_until,
+                              inset=solver.h))  # fmt: skip
     for name, inf in cfg.inflows.items():
         xy = geo.to_local(inf.position, f"inflows.{name}.position")
         callbacks.append(PointInflow(IterationInterval(1), solver, r, geo.terrain, xy, inf.discharge,
@@ -607,14 +341,6 @@ def scaling_line(given: SplashScenario, scaled: SplashScenario, lam: float, cell
             f"times and speeds × √λ = {math.sqrt(lam):.4g}): {changes}")  # fmt: skip
 
 
-def surface_wetness(wet: WetGround, geo) -> dict[str, float]:
-    """Mean and largest surface saturation over the terrain's nodes (nodata left out)."""
-    theta = wet.wetness()
-    if geo.nodata is not None:
-        theta = theta[~geo.nodata]
-    return {"mean": float(theta.mean()), "max": float(theta.max())}
-
-
 #: CPU seconds of a splash run on one core, per fluid step, per fluid particle-step and per ground diffusion
 #: pair at each coupling: fitted to the 80 × 80 DEM of docs/splash.md (490 s: 26 s of SPH steps, 442 s of
 #: seepage passes over 5.6·10⁶ pairs) and checked on an 18 × 18 one (estimate 3.6 s, measured 3.1 s)
@@ -647,64 +373,3 @@ def run_cost(cfg: SplashScenario, solver, ground: PorousGround) -> dict[str, Any
     est = Estimate(what, memory, seconds, fix)
     return {"steps": steps, "dt_s": dt, "fluid_particles": fluid, "ground_particles": ground.n,
             "ground_pairs": pairs, "seconds": seconds, "memory_bytes": memory, "estimate": est}  # fmt: skip
-
-
-def splash_report(cfg: SplashScenario, geo, dx: float, solver, wet: WetGround, sim) -> dict[str, Any]:
-    """The ``splash`` kind's entries of ``report.json``."""
-    imp = np.array(wet.impacts, np.float64).reshape(-1, 8)
-    rep: dict[str, Any] = {
-        "t": float(solver.t),
-        "t_end": cfg.run.t_end,
-        "steps": int(solver.steps),
-        "fluid_particles": solver.n_fluid,
-        "terrain": {
-            "shape": list(geo.terrain.shape),
-            "cell_size_m": geo.raster.dx,
-            "crs": geo.dem.crs if geo.dem is not None else None,
-        },  # fmt: skip
-        "resolution": {
-            "fluid_spacing_m": dx,
-            "particle_radius_m": wet.radius,
-            "ground_spacing_m": wet.ground.s,
-            "ground_particles": wet.ground.n,
-            "support_h_m": solver.h,
-            "sound_speed_m_s": solver.c,
-        },  # fmt: skip
-        "water_budget": wet.water_budget(),
-        "solid_budget": wet.solid_budget(),
-        "impacts": {
-            "count": wet.n_impacts,
-            "mean_speed_m_s": float(imp[:, 3].mean()) if len(imp) else None,
-            "mean_depth_m": float(imp[:, 6].mean()) if len(imp) else None,
-            "first": dict(
-                zip(("t", "x", "y", "speed", "theta", "sigma", "depth", "radius"), imp[0].tolist(), strict=True)
-            )
-            if len(imp)
-            else None,  # fmt: skip
-        },
-        "surface_wetness": surface_wetness(wet, geo),
-        "wall_cost": wet.costs(sim),
-        "couplings": wet.calls,
-        "removed": {k: v for k, v in solver.state.removed.items()},
-    }
-    if cfg.drop is not None:
-        d = cfg.drop
-        m = crater_measure(geo, wet.terrain)
-        theta = cfg.ground.saturation
-        sigma = float(strength(theta, cfg.ground.sigma_dry, cfg.ground.sigma_wet))
-        v_hit = float(imp[0, 3]) if len(imp) else d.speed
-        law_d = float(sp.crater_depth(d.radius, v_hit, solver.params.rho0, sigma))
-        rep["crater_depth_m"] = m["depth"]
-        rep["crater_width_m"] = m["radius"]
-        rep["crater_diameter_m"] = 2.0 * m["radius"]
-        rep["crater_law"] = {
-            "radius_m": d.radius,
-            "impact_speed_m_s": v_hit,
-            "saturation": theta,
-            "sigma_pa": sigma,
-            "depth_m": law_d,
-            "width_m": float(sp.crater_radius(d.radius, law_d)),
-            "note": "d_p = R v √(2ρ_f/(9σ_s)), a_p = √(2R d_p − d_p²) for the first drop; the measured crater "
-            "sums every drop's",
-        }
-    return rep

@@ -1,5 +1,5 @@
 """The overtopping flume's inflow: water laid at rest on the reservoir's surface, one particle at a time
-(erosim.scenarios.voxel.build.Inflow) — the discharge kept, no momentum added, no overlap, an even rise."""
+(erosim.coupling.sources.FlumeInflow) — the discharge kept, no momentum added, no overlap, an even rise."""
 
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from erosim.core.errors import InstabilityError
-from erosim.scenarios.voxel.build import Inflow, overflow_head
+from erosim.coupling.sources import FlumeInflow
+from erosim.scenarios.voxel.schema import overflow_head
 
 DX = 0.02
 
@@ -43,7 +44,7 @@ def test_inflow_keeps_the_discharge_lays_particles_at_rest_apart_and_rises_evenl
     res = Reservoir()
     n0 = len(res.pos)
     q = 1.5e-3  # m³/s: one particle every Δx³/Q = 5.3 ms
-    inflow = Inflow(res, 0.0, 0.4, 0.12, q, top=0.5)
+    inflow = FlumeInflow(res, 0.0, 0.4, 0.12, q, top=0.5)
     sites = len(inflow.sites)
     assert sites == 120 and len({tuple(s) for s in inflow.sites}) == sites  # every lattice site, once
     for k in range(1, 400):  # steps of 1 ms, 0.4 s
@@ -64,7 +65,7 @@ def test_inflow_keeps_the_discharge_lays_particles_at_rest_apart_and_rises_evenl
 
 def test_inflow_state_resumes_and_the_overflowing_domain_is_refused():
     a, b = Reservoir(), Reservoir()
-    ia, ib = Inflow(a, 0.0, 0.4, 0.12, 1.5e-3, top=0.5), Inflow(b, 0.0, 0.4, 0.12, 1.5e-3, top=0.5)
+    ia, ib = FlumeInflow(a, 0.0, 0.4, 0.12, 1.5e-3, top=0.5), FlumeInflow(b, 0.0, 0.4, 0.12, 1.5e-3, top=0.5)
     for k in range(1, 50):
         a.t = k * 1e-3
         ia(None)
@@ -76,7 +77,7 @@ def test_inflow_state_resumes_and_the_overflowing_domain_is_refused():
         ib(None)
     assert np.array_equal(a.pos, b.pos)
     low = Reservoir()
-    tight = Inflow(low, 0.0, 0.4, 0.12, 1.5e-3, top=0.05)
+    tight = FlumeInflow(low, 0.0, 0.4, 0.12, 1.5e-3, top=0.05)
     low.t = 0.01
     with pytest.raises(InstabilityError, match="top of the flume"):
         tight(None)

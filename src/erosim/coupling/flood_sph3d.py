@@ -28,6 +28,17 @@ from typing import Any
 import numpy as np
 
 from erosim.core.errors import ConfigError
+from erosim.coupling.raster import Raster
+from erosim.coupling.sampling import sample
+from erosim.coupling.sources import EdgeOutflow
+from erosim.kernels import swe_sph as K
+from erosim.sph.boundaries.heightfield import HeightfieldGround
+from erosim.sph.boundaries.planes import PlaneWalls
+from erosim.sph.depth_columns import column_fields
+from erosim.sph.manning_columns import ManningColumns
+from erosim.sph.params import SPHParams
+from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, wall_distance
+from erosim.sph.solver import SPHSolver
 
 
 class SPHFlood:
@@ -36,12 +47,6 @@ class SPHFlood:
     name = "sph3d"
 
     def __init__(self, site, spacing: float, open_edges, *, manning=0.0, every: int = 5, seed: int = 1):
-        from erosim.coupling.raster import Raster
-        from erosim.sph.boundaries.heightfield import HeightfieldGround
-        from erosim.sph.boundaries.planes import PlaneWalls
-        from erosim.sph.manning_columns import ManningColumns
-        from erosim.sph.params import SPHParams
-        from erosim.sph.solver import SPHSolver
 
         hm = site.terrain
         ny, nx = hm.shape
@@ -77,7 +82,6 @@ class SPHFlood:
             boundaries.append(PlaneWalls([p for p, _ in closed], [n for _, n in closed]))
         self.solver = SPHSolver(params, fluid, domain_lo=lo, domain_hi=hi, seed=seed, boundaries=boundaries)
         self.open_edges = tuple(open_edges)
-        from erosim.coupling.sources import EdgeOutflow
 
         self._outflow = EdgeOutflow(None, self.solver, self.raster, self.open_edges)
         self.volume_initial = self.budget()["volume_initial_m3"]
@@ -95,7 +99,6 @@ class SPHFlood:
         shallow-water solver starts with. (A lattice of fixed levels kept only the points more than
         0.4 Δx above the ground: it lost 0.4 Δx of every column, half the water of a shallow reservoir.)
         """
-        from erosim.coupling.sampling import sample
 
         s, cs = self.spacing, self.cell
         ny, nx = ground.shape
@@ -149,7 +152,6 @@ class SPHFlood:
 
     def _columns(self):
         """The water column under every particle (:func:`erosim.sph.depth_columns.column_fields`)."""
-        from erosim.sph.depth_columns import column_fields
 
         st = self.solver.state
         n = st.n_fluid
@@ -170,8 +172,6 @@ class SPHFlood:
         Every ``every`` steps."""
         if self.solver.steps % self.every:
             return
-        from erosim.kernels import swe_sph as K
-        from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, wall_distance
 
         n = self.solver.n_fluid
         if n == 0:
