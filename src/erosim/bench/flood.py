@@ -24,6 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
+from erosim.analysis.hazard import HazardMaps
+from erosim.core.heightmap import Heightmap, default_transform
+from erosim.io.heightmaps import write
+from erosim.scenarios import loader
+from erosim.scenarios.flood.build import build
+
 LENGTH, WIDTH, CELL = 10_000.0, 4_000.0, 20.0
 FLOOR_SLOPE, SIDE_SLOPE = 0.005, 0.10
 DAM_Y = 4_000.0  # m from the upstream (south) end
@@ -32,7 +38,6 @@ DEPTH_AT_DAM = 21.0
 
 def valley_dem(floor_width: float = 1000.0, seed: int = 7):
     """The benchmark's valley as a Heightmap (row 0 north; x east, y north from the south-west corner)."""
-    from erosim.core.heightmap import Heightmap, default_transform
 
     ny, nx = int(LENGTH / CELL), int(WIDTH / CELL)
     x = (np.arange(nx) + 0.5) * CELL
@@ -50,9 +55,6 @@ def valley_dem(floor_width: float = 1000.0, seed: int = 7):
 def setup(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, device: str = "cpu", overrides=()):
     """(site, solver, cfg, setup seconds): the benchmark's flood built and settled, ready to run
     (``overrides``: more ``key=value`` settings of the scenario)."""
-    from erosim.io.heightmaps import write
-    from erosim.scenarios import loader
-    from erosim.scenarios.flood.build import build
 
     hm = valley_dem()
     level = FLOOR_SLOPE * (LENGTH - DAM_Y) + DEPTH_AT_DAM
@@ -87,7 +89,6 @@ def run(
     """Run the benchmark flood; returns the JSON-able result (keys in the module docstring)."""
     import numba
 
-    from erosim.analysis.hazard import HazardMaps
 
     site, solver, cfg, setup_s = setup(t_end, spacing, split=split, device=device, overrides=overrides)
     maps = HazardMaps(site.terrain.shape, cfg.flood.wet_depth)

@@ -38,6 +38,11 @@ import os
 import time
 import warnings
 
+from erosim.core import devices
+from erosim.hydrology.pools import B_FLOOD_NS, B_STEPS
+from erosim.scenarios import loader
+from erosim.scenarios.hydrology.build import build_model
+
 
 def run(
     size: int = 256,
@@ -52,10 +57,6 @@ def run(
     import numba
     from numba import NumbaWarning
 
-    from erosim.core import devices
-    from erosim.hydrology.pools import B_FLOOD_NS, B_STEPS
-    from erosim.scenarios import loader
-    from erosim.scenarios.hydrology.build import build_model
 
     size = int(size)
     seed_case = preset != "library"

@@ -30,6 +30,10 @@ import time
 
 import numpy as np
 
+from erosim.core.devices import cuda_status, require
+from erosim.sph.params import SPHParams
+from erosim.sph.solver import SPHSolver
+
 
 def dam_break_geometry(particles: int, dim: int, spacing: float):
     """(fluid positions, domain lo, domain hi) of the benchmark's dam break."""
@@ -57,8 +61,6 @@ def box_reference(particles: int, spacing: float, *, warmup: int, steps: int | N
     at the speed of five probe steps, within ``step_bounds``; ``wall_s`` is the time of that many steps
     after ``warmup`` untimed ones.
     """
-    from erosim.sph.params import SPHParams
-    from erosim.sph.solver import SPHSolver
 
     fluid, lo, hi = dam_break_geometry(int(particles), 3, spacing)
     box = SPHSolver(SPHParams(dim=3, spacing=spacing), fluid, domain_lo=lo, domain_hi=hi)
@@ -94,8 +96,6 @@ def run(
     """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
     import numba
 
-    from erosim.core.devices import require
-    from erosim.sph.params import SPHParams
 
     require(device)
     if device == "cuda":
@@ -152,6 +152,5 @@ def run(
 
 def devices_gpu() -> str:
     """The GPU (or the simulator) that ran the benchmark, in words."""
-    from erosim.core.devices import cuda_status
 
     return cuda_status()[1]

@@ -28,22 +28,23 @@ import time
 
 import numpy as np
 
+from erosim.bench.sph import box_reference
+from erosim.core.schedules import IterationInterval
+from erosim.coupling.coupler import Coupler
+from erosim.coupling.raster import Raster
+from erosim.coupling.terrains import HeightfieldTerrain
+from erosim.erosion.transport_capacity_mei2007 import TransportCapacity, TransportCapacityParams
+from erosim.sph.boundaries.heightfield import HeightfieldGround
+from erosim.sph.boundaries.planes import PlaneWalls
+from erosim.sph.params import SPHParams
+from erosim.sph.solver import SPHSolver
+
 
 def run(particles: int = 100_000, steps: int | None = None, *, every: int = 20, warmup: int = 20,
         seconds: float = 8.0) -> dict:  # fmt: skip
     """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
     import numba
 
-    from erosim.bench.sph import box_reference
-    from erosim.core.schedules import IterationInterval
-    from erosim.coupling.coupler import Coupler
-    from erosim.coupling.raster import Raster
-    from erosim.coupling.terrains import HeightfieldTerrain
-    from erosim.erosion.transport_capacity_mei2007 import TransportCapacity, TransportCapacityParams
-    from erosim.sph.boundaries.heightfield import HeightfieldGround
-    from erosim.sph.boundaries.planes import PlaneWalls
-    from erosim.sph.params import SPHParams
-    from erosim.sph.solver import SPHSolver
 
     dx = 0.01
     # --- box: boundary particles on the floor and the sides

@@ -19,6 +19,7 @@ import time
 import numpy as np
 
 from erosim.core.devices import cuda_status
+from erosim.core.errors import ConfigError
 from erosim.erosion.particle_stream_warszawski import Emitter, ParticleStream
 from erosim.terrain import hardness
 from erosim.terrain.generate import generate
@@ -72,7 +73,6 @@ def run(particles: list[int], impacts_per_particle: int = STEPS, device: str = "
     then counts the host's one thread and ``gpu`` names the device.
     """
     if impacts_per_particle < 1:
-        from erosim.core.errors import ConfigError
 
         raise ConfigError(f"--impacts-per-particle {impacts_per_particle} is not valid; give 1 or more.")
     counts = [int(n) for n in particles]

@@ -30,14 +30,22 @@ from __future__ import annotations
 
 import resource
 
+from erosim.bench.sph import box_reference, timed_steps
+from erosim.core.schedules import IterationInterval
+from erosim.coupling.coupler import Coupler
+from erosim.coupling.terrains import VoxelFieldTerrain
+from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion, ExcessShearParams
+from erosim.erosion.settling_voxel import SuspendedSediment
+from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
+from erosim.sph.boundaries.voxel_wall import VoxelWall
+from erosim.sph.params import SPHParams
+from erosim.sph.solver import SPHSolver
+from erosim.terrain.voxel import Box, VoxelTerrain
+
 
 def tank_solver(fluid, lo, hi, dx: float):
     """The dam break's tank (``lo`` … ``hi``, open at the top) as a voxel field of Δ = ``dx`` with its
     wall-weight ramp, and an SPH solver of ``fluid`` felt through it: (solver, terrain)."""
-    from erosim.sph.boundaries.voxel_wall import VoxelWall
-    from erosim.sph.params import SPHParams
-    from erosim.sph.solver import SPHSolver
-    from erosim.terrain.voxel import Box, VoxelTerrain
 
     params = SPHParams(dim=3, spacing=dx, walls="reflect")
     band = 1.05 * (params.support() + 3**0.5 * dx)
@@ -54,17 +62,14 @@ def tank_solver(fluid, lo, hi, dx: float):
 def eroder_at_zero_threshold(terrain, solver, dx: float, law: str = "kristof2009", sediment: str = "carried_off"):
     """The benchmark's eroder: ``law`` at τ_c = 0 (every moving particle, or every particle on the bed,
     erodes), wrapped in the settling of :mod:`erosim.erosion.settling_voxel` for ``sediment = "suspended"``."""
-    from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
 
     if law == "excess_shear":
-        from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion, ExcessShearParams
 
         eroder = ExcessShearErosion(terrain, ExcessShearParams(erodibility=1.0, critical_stress=0.0),
                                     support=solver.h, spacing=dx)  # fmt: skip
     else:
         eroder = ShearStressErosion(terrain, ShearStressParams(k_eps=1.0, tau_c=0.0), support=solver.h)
     if sediment == "suspended":
-        from erosim.erosion.settling_voxel import SuspendedSediment
 
         eroder = SuspendedSediment(eroder, solver, settling_velocity=0.02)
     return eroder
@@ -75,10 +80,6 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
     """Benchmark one size; returns the JSON-able result (keys in the module docstring)."""
     import numba
 
-    from erosim.bench.sph import box_reference, timed_steps
-    from erosim.core.schedules import IterationInterval
-    from erosim.coupling.coupler import Coupler
-    from erosim.coupling.terrains import VoxelFieldTerrain
 
     dx = 0.01
     fluid, lo, hi, box, steps, box_wall = box_reference(particles, dx, warmup=warmup, steps=steps,

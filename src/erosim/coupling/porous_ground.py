@@ -26,8 +26,11 @@ import math
 import numpy as np
 from numba import njit
 
+from erosim.core.errors import ConfigError
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
+from erosim.erosion.wet_strength import strength
+from erosim.hydrology.seepage_darcy import harmonic
 from erosim.kernels.sph_diffusion import pair_weights, pairs_within
 
 
@@ -65,7 +68,6 @@ class PorousGround:
             iy = np.clip(np.floor((sites[:, 1] - raster.y0) / raster.dy + 0.5).astype(np.int64), 0, raster.ny - 1)
             keep = ~np.asarray(outside, bool)[iy, ix]
             if not keep.any():
-                from erosim.core.errors import ConfigError
 
                 raise ConfigError("Every ground column would stand over the DEM's nodata cells; give a DEM with more "
                                   "valid cells or a smaller ground spacing.")  # fmt: skip
@@ -147,7 +149,6 @@ class PorousGround:
         r = self._r if pairs is None else self._r[pairs]
         phi = 0.5 * (self.porosity[i] + self.porosity[j])
         if self.layered and self.permeability[0] > 0:
-            from erosim.hydrology.seepage_darcy import harmonic
 
             phi = phi * harmonic(self.permeability[i], self.permeability[j]) / self.permeability[0]
         return phi * pair_weights(r, self.h, 3, self.volume, self.volume, diffusivity)
@@ -194,7 +195,6 @@ class PorousGround:
 
     def strength(self, sigma_dry: float, sigma_wet: float) -> np.ndarray:
         """Each particle's yield strength σ_s(θ) (Pa; :mod:`erosim.erosion.wet_strength`)."""
-        from erosim.erosion.wet_strength import strength
 
         return strength(self.theta, sigma_dry, sigma_wet)
 

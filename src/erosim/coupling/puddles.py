@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from erosim.coupling.sampling import sample
 from erosim.coupling.splash_coupler import WetGround
 
 
@@ -98,7 +99,6 @@ def water_depth(wet: WetGround, raster) -> np.ndarray:
     the ground hold (V_p times their ``water`` share; those higher up are still falling), each spread over
     its footprint, a square of the fluid spacing (:func:`footprint_volume`): Σ depth·A is that water, and
     one particle on a fine grid is not one cell's column of its whole volume."""
-    from erosim.coupling.sampling import sample
 
     st = wet.solver.state
     nf = st.n_fluid

@@ -47,6 +47,7 @@ from erosim.core.errors import ConfigError
 from erosim.hydrology import droplet_step
 from erosim.hydrology.batch import NEW, NEXT, R_ROUNDS, R_S, R_STATUS, R_V, R_VX, R_VY, R_X, R_Y
 from erosim.hydrology.counter_rng import spawn_base, spawn_point
+from erosim.hydrology.model import batch_floods
 from erosim.hydrology.params import P_FOOT, P_MAXSTEPS, P_SPILL, P_V0
 from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_RAINED, B_SIZE, B_STEPS
 from erosim.kernels.device_source import SIMULATOR, rebind
@@ -212,7 +213,6 @@ class DeviceDroplets:
 
     def run_batch(self, first: int, nb: int) -> None:
         """Droplets first … first + nb − 1 in rounds: descents on the device, floods on the host."""
-        from erosim.hydrology.model import batch_floods
 
         m = self.model
         ny, nx = m.z.shape

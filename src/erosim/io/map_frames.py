@@ -16,6 +16,7 @@ import numpy as np
 
 from erosim.core.atomic import write_json
 from erosim.core.heightmap import Heightmap
+from erosim.io.heightmaps import write_raster
 
 FOLDER = Path("maps") / "frames"
 
@@ -26,7 +27,6 @@ def frame_path(run: str | os.PathLike, name: str, number: int) -> Path:
 
 def write_frame(run: str | os.PathLike, number: int, maps: dict[str, np.ndarray], like: Heightmap) -> list[Path]:
     """Write frame ``number``: each map (name → array of ``like``'s shape) as a float32 GeoTIFF."""
-    from erosim.io.heightmaps import write_raster
 
     (Path(run) / FOLDER).mkdir(parents=True, exist_ok=True)
     out = []

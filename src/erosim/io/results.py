@@ -23,6 +23,8 @@ import numpy as np
 
 from erosim.core.errors import InputError
 from erosim.core.heightmap import Heightmap
+from erosim.io import heightmaps
+from erosim.io.particles import read_pvd, read_vtp
 
 # kinds whose run folders erosim knows (flood: the flood-hazard kind's maps and report keys)
 KNOWN_KINDS = ("hydrology", "sph", "sph-terrain", "particle-stream", "flood", "splash")
@@ -111,7 +113,6 @@ class Run:
         return self.read_map("height")
 
     def read_map(self, name: str) -> Heightmap:
-        from erosim.io import heightmaps
 
         return heightmaps.read(self.maps[name])
 
@@ -178,7 +179,6 @@ def open_run(path: str | os.PathLike) -> Run:
     frames: list[tuple[float, Path]] = []
     pvd = p / "particles" / "particles.pvd"
     if pvd.is_file():
-        from erosim.io.particles import read_pvd
 
         try:
             # only names inside particles/: a collection cannot point the reader elsewhere
@@ -215,6 +215,5 @@ def _map_frames(folder: Path) -> list[tuple[float, dict[str, Path]]]:
 
 def read_frame(path: Path) -> dict[str, np.ndarray]:
     """Positions (n, 3) and point fields of one particle frame."""
-    from erosim.io.particles import read_vtp
 
     return read_vtp(path)

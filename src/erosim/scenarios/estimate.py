@@ -33,6 +33,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from erosim.core.errors import ConfigError
+from erosim.kernels.swe_sph import step_limit
+from erosim.scenarios.flood.build import FloodSetUp
+from erosim.scenarios.schema_common import build_terrain as heightmap
+from erosim.scenarios.voxel.schema import at_dem_scale, band_for, overflow_head
+from erosim.sph.params import SPHParams
+from erosim.terrain.voxel import memory_bytes
 
 BASE_BYTES = 250e6
 HYDRO_CELL_BYTES, HYDRO_CELL_S, HYDRO_CELL_CYCLE_S = 170.0, 3e-6, 0.2e-6
@@ -232,7 +238,6 @@ SWE_STEP_S = 1.0e-3  # a shallow-water step's fixed cost (neighbour bookkeeping,
 
 def flood(cfg) -> Estimate | None:
     """Particles from the reservoir the scenario fills (:class:`FloodSetUp`), steps from the CFL limit."""
-    from erosim.scenarios.flood.build import FloodSetUp
 
     site = FloodSetUp(cfg)  # bad input is refused here already, in the builder's own words
     hm = site.terrain
@@ -242,7 +247,6 @@ def flood(cfg) -> Estimate | None:
     d_max = max(float(site.depth0.max()), 1e-3)
     g = 9.81
     if cfg.flood.solver == "sph3d":
-        from erosim.sph.params import SPHParams
 
         n = volume / spacing**3
         p = SPHParams(dim=3, spacing=spacing)
@@ -266,7 +270,6 @@ def shallow_water(what: str, model, t_end: float, speed: float = 0.0) -> Estimat
     """A shallow-water SPH run from its built model (validations that step a model themselves): Δt from the
     model's CFL limit C·min H/(√(g d) + |u|) at the start, its wave speed √(g d_max) raised by ``speed``, the
     fastest water expected (a dam break's front: 2√(g h₀)); particle-steps at SWE_STEPS_S."""
-    from erosim.kernels.swe_sph import step_limit
 
     p = model.params
     c = math.sqrt(p.g * max(float(model.depth.max()), 1e-9)) if model.n else 1.0
@@ -311,8 +314,6 @@ def voxel(cfg) -> Estimate:
     """The field (nodes of ``voxels.cell_size`` over the terrain, as ``voxel.build.build_terrain`` lays
     them), the water (below ``water.level``, the rain and inflows over the run) and steps from the sound
     speed ``build_solver`` takes (10·√(2gH), H from the highest water to the field's bottom)."""
-    from erosim.scenarios.voxel.schema import at_dem_scale, band_for, overflow_head
-    from erosim.terrain.voxel import memory_bytes
 
     cfg = at_dem_scale(cfg)
     f, v, p, run = cfg.terrain, cfg.voxels, cfg.sph, cfg.run
@@ -324,7 +325,6 @@ def voxel(cfg) -> Estimate:
     if f.shape == "heightmap":
         import numpy as np
 
-        from erosim.scenarios.schema_common import build_terrain as heightmap
 
         hm = heightmap(f, cfg.seed)
         z = np.asarray(hm.z, np.float64)

@@ -16,7 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from erosim.io.runfolder import RunFolder
-from erosim.scenarios import kinds
+from erosim.scenarios import estimate, kinds, loader
+from erosim.scenarios.hydrology.build import clear_demo_folder
 from erosim.scenarios.loader import Scenario, write_resolved
 from erosim.simulation.simulation import Simulation
 
@@ -43,7 +44,6 @@ def _completed_report(out: RunFolder) -> dict | None:
 
 def execute(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: bool = True):
     """Build and run ``scenario`` into ``out``; returns (summary for the command line, simulation)."""
-    from erosim.scenarios import estimate
 
     # a resumed validation's interrupted run (the hook its session sets on RunFolder)
     resume = resume or (RunFolder.continues is not None and RunFolder.continues(out.path))
@@ -99,8 +99,6 @@ def run(scenario: Scenario, out: RunFolder, *, resume: bool = False, progress: b
 
 def demo(out: Path, progress: bool = True) -> dict:
     """``erosim demo``: the library ``hydrology`` scenario (512² mountains) into ``out``."""
-    from erosim.scenarios import loader
-    from erosim.scenarios.hydrology.build import clear_demo_folder
 
     out = Path(out)
     clear_demo_folder(out)

@@ -24,7 +24,9 @@ from pydantic import model_validator
 from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.core.heightmap import Heightmap
-from erosim.terrain.shapes import SHAPES
+from erosim.io.heightmaps import NO_CELL_SIZE, read
+from erosim.terrain.generate import NOISE_KEYS, generate, resolve
+from erosim.terrain.shapes import SHAPES, shape
 
 #: Cell size of generated terrains when the scenario gives none (m): 512 cells span 5.12 km.
 DEFAULT_CELL_SIZE = 10.0
@@ -91,7 +93,6 @@ class TerrainSection(Section):
         return self.source == "file" or (self.source == "auto" and self.file is not None)
 
     def noise_overrides(self) -> dict:
-        from erosim.terrain.generate import NOISE_KEYS
 
         return {k: getattr(self, k) for k in NOISE_KEYS if k != "kind" and getattr(self, k) is not None}
 
@@ -108,7 +109,6 @@ class TerrainSection(Section):
                 f"terrain.height_range = {self.height_range} is not valid; give [low, high] with low < high."
             )
         if not self.uses_file and self.preset not in SHAPES:
-            from erosim.terrain.generate import resolve
 
             resolve(self.preset, self.noise_overrides(), where="terrain")  # unknown preset / bad value
         return self
@@ -117,7 +117,6 @@ class TerrainSection(Section):
 def build_terrain(section: TerrainSection, seed: int) -> Heightmap:
     """The scenario's heightmap: read ``section.file`` or generate ``section.preset``."""
     if section.uses_file:
-        from erosim.io.heightmaps import read
 
         return read(
             section.file,
@@ -126,14 +125,12 @@ def build_terrain(section: TerrainSection, seed: int) -> Heightmap:
             height_range=tuple(section.height_range) if section.height_range else None,
         )
     if section.preset in SHAPES:
-        from erosim.terrain.shapes import shape
 
         return shape(
             section.preset, section.size, section.cell_size or DEFAULT_CELL_SIZE,
             relief=section.relief if section.relief is not None else 1.0,
             base=section.base if section.base is not None else 0.0,
         )  # fmt: skip
-    from erosim.terrain.generate import generate
 
     own = section.seed if section.seed is not None else seed
     return generate(
@@ -158,7 +155,6 @@ def _crs_name(wkt: str | None) -> str:
 def terrain_facts(hm: Heightmap, section: TerrainSection) -> tuple[dict, list[str]]:
     """What a run takes its terrain to be: report.json's ``terrain`` entries and the console's
     "assumed" lines (cell size and where it came from, height range, nodata cells, CRS)."""
-    from erosim.io.heightmaps import NO_CELL_SIZE
 
     ny, nx = hm.shape
     valid = hm.z if hm.nodata is None else hm.z[~hm.nodata]

@@ -26,9 +26,17 @@ from typing import Any
 
 import numpy as np
 
+from erosim.analysis.front import front_position
+from erosim.analysis.gauges import gauge_readings, probe_pressure
+from erosim.core.atomic import write_text
 from erosim.core.callbacks import Callback
 from erosim.core.increments import Increment, IncrementView, check_budget
 from erosim.core.schedules import Schedule
+from erosim.io import map_frames
+from erosim.io.particles import FrameSeries
+from erosim.viz.animate import save_animation
+from erosim.viz.maps import save_png
+from erosim.viz.plots import snapshot
 
 
 def csv_text(header: list[str], rows) -> str:
@@ -54,7 +62,6 @@ class ParticleFrames(Callback):
 
     def __init__(self, schedule: Schedule, fluid, folder: Path):
         super().__init__(schedule, name="frames")
-        from erosim.io.particles import FrameSeries
 
         self.fluid = fluid
         self.folder = Path(folder)
@@ -74,7 +81,6 @@ class ParticleFrames(Callback):
         return {"frames": [list(f) for f in self.series.frames]}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
-        from erosim.io.particles import FrameSeries
 
         self.series = FrameSeries(self.folder, frames=state.get("frames", []))
 
@@ -93,7 +99,6 @@ class Snapshots(Callback):
         self.count = 0
 
     def __call__(self, sim) -> None:
-        from erosim.viz.plots import snapshot
 
         s = self.fluid
         snapshot(
@@ -140,7 +145,6 @@ class Probes(Callback):
         self.rows: list[list[float]] = []
 
     def __call__(self, sim) -> None:
-        from erosim.analysis.gauges import gauge_readings, probe_pressure
 
         s = self.fluid
         pos = s.fluid_positions()
@@ -173,7 +177,6 @@ class Probes(Callback):
             self.rows = np.asarray(state["rows"]).tolist()
 
     def flush(self, sim) -> None:
-        from erosim.core.atomic import write_text
 
         write_text(self.path, csv_text(self.header, self.rows))
 
@@ -192,7 +195,6 @@ class FrontTracker(Callback):
         self.rows: list[list[float]] = []
 
     def __call__(self, sim) -> None:
-        from erosim.analysis.front import front_position
 
         s = self.fluid
         self.rows.append([float(s.t), front_position(s.fluid_positions(), self.spacing, self.origin, axis=0)])
@@ -205,7 +207,6 @@ class FrontTracker(Callback):
             self.rows = np.asarray(state["rows"]).tolist()
 
     def flush(self, sim) -> None:
-        from erosim.core.atomic import write_text
 
         write_text(self.path, csv_text(["t", "x_front"], self.rows))
 
@@ -236,7 +237,6 @@ class Animation(Callback):
     def _take(self, sim) -> np.ndarray:
         pic = self.picture(sim)
         if self.stills is not None:
-            from erosim.viz.maps import save_png
 
             save_png(Path(self.stills.format(self.count)), pic)
             self.count += 1
@@ -258,7 +258,6 @@ class Animation(Callback):
     def finalize(self, sim) -> dict[str, Any]:
         if not self.frames:
             return {}
-        from erosim.viz.animate import save_animation
 
         save_animation(self.path, [*self.frames, self._take(sim)], fps=self.fps)  # the state stays as it was
         return {"animation": str(self.path.relative_to(sim.out.path))}
@@ -278,7 +277,6 @@ class MapFrames(Callback):
         self.times: list[float] = []
 
     def _write(self, sim) -> None:
-        from erosim.io import map_frames
 
         map_frames.write_frame(sim.out.path, len(self.times), self.maps(sim), self.like)
         self.times.append(float(sim.time))

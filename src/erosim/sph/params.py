@@ -29,6 +29,7 @@ import numpy as np
 from pydantic import model_validator
 
 from erosim.core.config import Section, param
+from erosim.core.errors import ConfigError
 
 
 class SPHParams(Section):
@@ -163,7 +164,6 @@ class SPHParams(Section):
     @model_validator(mode="after")
     def _check_gravity(self) -> SPHParams:
         if self.gravity is not None and len(self.gravity) != self.dim:
-            from erosim.core.errors import ConfigError
 
             raise ConfigError(
                 f"Setting 'gravity' has {len(self.gravity)} components but dim = {self.dim}; "

@@ -28,6 +28,7 @@ import numpy as np
 from erosim.core import devices
 from erosim.core.errors import ConfigError, InstabilityError
 from erosim.kernels import swe_sph as K
+from erosim.sph import kernels_cuda, kernels_swe_cuda
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterSPH
 
 _FIELDS = ("pos", "vel", "hsup", "depth", "omega", "acc")  # what the device changes
@@ -79,7 +80,6 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
                 "Particle splitting (flood.split) is not available on device 'cuda'; run with --device cpu "
                 "or set flood.split = false."
             )
-        from erosim.sph import kernels_cuda, kernels_swe_cuda
 
         self._kc, self._ks = kernels_cuda, kernels_swe_cuda
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from erosim.core.errors import ConfigError, InstabilityError
 from erosim.kernels import neighbours as nb
-from erosim.kernels.sph_kernels import kernel_w
+from erosim.kernels.sph_kernels import kernel_w, lattice_sum
 from erosim.sph import diffusion_limit_molteni2009 as diffusion_limit
 from erosim.sph import eos as eos_mod
 from erosim.sph import forces, integrators
@@ -259,7 +259,6 @@ class SPHSolver:
 
     def _calibrate_mass(self) -> None:
         """Summation density: m such that an interior lattice particle has ρ = ρ₀ (not ρ₀Δx^d·ΣW)."""
-        from erosim.kernels.sph_kernels import lattice_sum
 
         self.m = self.params.rho0 / lattice_sum(self.params.spacing, self.h, self.dim, self.params.kernel)
 
@@ -290,7 +289,6 @@ class SPHSolver:
         does not fit a curved wall or a concave edge settles into its gap without the gap becoming pressure.
         A wall with no density share of its own (the box's reflection alone) counts as missing neighbours.
         """
-        from erosim.kernels.sph_kernels import lattice_sum
 
         st = self.state
         total = np.zeros(st.n)

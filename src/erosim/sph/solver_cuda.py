@@ -35,6 +35,7 @@ import numpy as np
 from erosim.core import devices
 from erosim.core.errors import ConfigError
 from erosim.kernels import neighbours as nb
+from erosim.sph import kernels_cuda as kc
 from erosim.sph.boundaries.box import BoxWalls
 from erosim.sph.boundaries.particles import BoundaryParticles
 from erosim.sph.solver import SPHSolver
@@ -66,7 +67,6 @@ class CudaSPHSolver(SPHSolver):
         for bd in self.boundaries:
             if type(bd) not in (BoxWalls, BoundaryParticles):
                 raise _unsupported(f"The boundary model '{bd.name}'")
-        from erosim.sph import kernels_cuda as kc
 
         self._kc = kc
         prm = self.params

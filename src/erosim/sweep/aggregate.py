@@ -23,8 +23,12 @@ import numpy as np
 
 from erosim import __version__
 from erosim.core.atomic import atomic_path, write_text
+from erosim.io import heightmaps as hio
+from erosim.io.heightmaps import default_transform
 from erosim.sweep.member import read_report
 from erosim.sweep.plan import Plan
+from erosim.viz.maps import hillshade
+from erosim.viz.plots import extent_of, probability_map
 
 UNITS = {"stream": "1", "vegetation": "1", "hardness": "1", "hardness_initial": "1", "hazard": "1"}
 SKIPPED_REPORT_KEYS = ("outputs", "progress", "warnings", "error")
@@ -64,7 +68,6 @@ def write_csv(path: Path, plan: Plan, records: list[dict[str, Any]], reports: li
 
 
 def _read_map(path: Path):
-    from erosim.io import heightmaps as hio
 
     hm = hio.read(path)
     z = hm.z.astype(np.float32)
@@ -75,8 +78,6 @@ def _read_map(path: Path):
 
 def _coordinates(hm, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, tuple]:
     """Cell-centre x and y of the map (the DEM's coordinates) and its extent for the figures."""
-    from erosim.io.heightmaps import default_transform
-    from erosim.viz.plots import extent_of
 
     ny, nx = shape
     transform = hm.transform or default_transform(ny, nx, hm.cell_size)
@@ -199,8 +200,6 @@ def aggregate(folder: Path, plan: Plan, records: list[dict[str, Any]]) -> dict[s
 
 
 def _figures(folder: Path, ds, thresholds, extent: tuple, cell_size: float) -> list[str]:
-    from erosim.viz.maps import hillshade
-    from erosim.viz.plots import probability_map
 
     shade = None
     if "height_mean" in ds:

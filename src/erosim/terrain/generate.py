@@ -43,6 +43,7 @@ from pyfastnoiselite.pyfastnoiselite import FastNoiseLite, FractalType, NoiseTyp
 from erosim.core.config import Section, param, validate_section
 from erosim.core.errors import ConfigError
 from erosim.core.heightmap import Heightmap
+from erosim.terrain.priority_flood_barnes2014 import fill_basins
 
 KINDS = ("fbm", "ridged", "warped")
 
@@ -237,7 +238,6 @@ def generate(
         u = height_fraction(p, seed, X.ravel(), Y.ravel(), octaves)
         z[r0:r1] = (p.base + p.relief * u).reshape(r1 - r0, nx)
     if p.fill_slope > 0:
-        from erosim.terrain.priority_flood_barnes2014 import fill_basins
 
         z = fill_basins(z, float(cell_size), p.fill_slope)
     return Heightmap(z=z, cell_size=float(cell_size))

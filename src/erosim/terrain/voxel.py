@@ -62,7 +62,10 @@ import numpy as np
 from erosim.core.atomic import save_npz, write_bytes
 from erosim.core.errors import ConfigError, InputError
 from erosim.core.heightmap import Heightmap
+from erosim.io.volumes import write_vti
 from erosim.kernels.raster import bilinear_points
+from erosim.kernels.voxel import wall_distance
+from erosim.viz.plots import voxel_section
 
 #: bytes per node of the density field (float32)
 BYTES_PER_NODE = 4
@@ -292,7 +295,6 @@ class VoxelTerrain:
     def distance(self, points) -> tuple[np.ndarray, np.ndarray]:
         """(l, n) at ``points`` (m, 3): the distance to the surface (m, positive outside the solid) and the
         unit normal pointing out of it (SPEC VX-3, :mod:`erosim.kernels.voxel`)."""
-        from erosim.kernels.voxel import wall_distance
 
         pts = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
         l, n = np.empty(len(pts)), np.empty((len(pts), 3))
@@ -553,7 +555,6 @@ class VoxelTerrain:
                       title: str = "", reference: VoxelTerrain | None = None) -> Path:  # fmt: skip
         """A PNG of the section (:meth:`section`): density shaded, the surface as a line, and the surface
         of ``reference`` (e.g. the terrain before erosion) dashed."""
-        from erosim.viz.plots import voxel_section
 
         field, extent, labels = self.section(axis, at)
         ref = None if reference is None else reference.section(axis, at)[0]
@@ -585,7 +586,6 @@ class VoxelTerrain:
 
     def write_vti(self, path: str | os.PathLike, fields: dict[str, np.ndarray] | None = None) -> Path:
         """The field (and any other node ``fields`` of the same shape) as VTK image data ParaView opens."""
-        from erosim.io.volumes import write_vti
 
         arrays = {"density": self.density, **(fields or {})}
         return write_vti(path, arrays, self.origin, self.cell_size)

@@ -28,7 +28,9 @@ from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import loader
+from erosim.scenarios.runner import execute
 from erosim.validation import run_facts
+from erosim.viz.plots import pressure_profile
 
 P_THRESHOLD = 0.03
 # spacing (m), settling time (s)
@@ -63,8 +65,6 @@ def errors(pos: np.ndarray, p: np.ndarray, *, rho0: float, g: float, level: floa
 
 def run(resolution: str = "default", out: Path | None = None, progress: bool = True) -> dict:
     """Run the case with both ground models; writes ``validation.json`` and the pressure figures."""
-    from erosim.scenarios.runner import execute
-    from erosim.viz.plots import pressure_profile
 
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")

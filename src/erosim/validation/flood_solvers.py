@@ -23,6 +23,9 @@ import numpy as np
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
+from erosim.scenarios import loader
+from erosim.scenarios.runner import execute
+from erosim.viz.plots import save_figure
 
 THRESHOLD = 0.8
 #: particle spacing (m) of (swe, sph3d)
@@ -38,8 +41,6 @@ SETS = [
 
 
 def _run(solver: str, spacing: float, folder: Path, progress: bool):
-    from erosim.scenarios import loader
-    from erosim.scenarios.runner import execute
 
     scenario = loader.load("flood", [*SETS, f"flood.solver={solver}", f"flood.spacing={spacing!r}"])
     out = RunFolder(folder / solver)
@@ -60,7 +61,6 @@ def figure(path: Path, depth: dict, wet: dict, iou: float) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from erosim.viz.plots import save_figure
 
     union = wet["swe"] | wet["sph3d"]
     fig, axes = plt.subplots(1, 3, figsize=(12, 4.4))

@@ -21,7 +21,9 @@ from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import loader
+from erosim.scenarios.runner import execute
 from erosim.validation import run_facts
+from erosim.viz.plots import pressure_profile
 
 P_THRESHOLD = 0.02
 RHO_THRESHOLD = 0.01
@@ -45,8 +47,6 @@ def errors(pos: np.ndarray, p: np.ndarray, rho: np.ndarray, *, rho0: float, g: f
 def run(resolution: str = "default", out: Path | None = None, progress: bool = True, device: str = "cpu") -> dict:
     """Run the case; writes ``validation.json`` and ``figures/pressure_profile.png`` (``device = "cuda"``:
     the SPH steps on the GPU)."""
-    from erosim.scenarios.runner import execute
-    from erosim.viz.plots import pressure_profile
 
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")

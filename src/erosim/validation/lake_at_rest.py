@@ -21,6 +21,9 @@ from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import estimate
+from erosim.scenarios.flood.build import build
+from erosim.scenarios.loader import load
+from erosim.viz.plots import save_figure
 
 SPEED = 1e-3  # m/s
 LEVEL, SEED = 325.0, (-84.2133, 36.5925)
@@ -53,9 +56,6 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from erosim.scenarios.flood.build import build
-    from erosim.scenarios.loader import load
-    from erosim.viz.plots import save_figure
 
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")

@@ -42,10 +42,13 @@ import numpy as np
 
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
+from erosim.data import KOSHIZUKA_OKA, reference_csv
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import loader
+from erosim.scenarios.runner import execute
 from erosim.validation import run_facts
 from erosim.validation.criteria import at_most, not_evaluated, percent, verdict
+from erosim.viz.plots import front_vs_experiment
 
 A = 0.05715  # column width a (m), 2.25 in
 T_MAX_METRIC = 3.0
@@ -83,7 +86,6 @@ def front_error(
 
 def reference_computation() -> tuple[np.ndarray, np.ndarray]:
     """(T, Z) of Koshizuka & Oka's (1996) MPS computation of the n² = 2 collapse, 0 < T ≤ 3."""
-    from erosim.data import KOSHIZUKA_OKA, reference_csv
 
     ko = reference_csv(KOSHIZUKA_OKA)
     sel = (ko["set"] == "pysph_mps") & (ko["T"] > 0) & (ko["T"] <= T_MAX_METRIC + 1e-12)
@@ -219,8 +221,6 @@ def _run_one(
 ) -> dict:  # fmt: skip
     """One run at Δx = a/n_a: its folder, figure and errors (E, E_MPS, column height)."""
     from erosim.data import MARTIN_MOYCE_SURGE, reference_csv
-    from erosim.scenarios.runner import execute
-    from erosim.viz.plots import front_vs_experiment
 
     ref = reference_csv(MARTIN_MOYCE_SURGE)
     g = 9.81

@@ -45,6 +45,7 @@ import numpy as np
 from erosim.core import atomic
 from erosim.core.errors import ConfigError, InstabilityError
 from erosim.io.runfolder import RunFolder, default_out
+from erosim.scenarios import loader, runner
 
 #: (particle spacing = voxel size (m), t_end (s))
 RESOLUTIONS = {"coarse": (0.04, 20.0), "default": (0.02, 60.0), "fine": (0.015, 60.0)}
@@ -101,7 +102,6 @@ def assess(preset: str, cfg, sub: Path, t_end: float) -> dict:
 
 def run(resolution: str = "default", out: Path | None = None, progress: bool = True) -> dict:
     """Both presets, the three criteria, the figures."""
-    from erosim.scenarios import loader, runner
 
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")

@@ -17,6 +17,9 @@ import json
 from pathlib import Path
 from typing import Any
 
+from erosim.core.atomic import write_json
+from erosim.io.runfolder import RunFolder
+
 MARK = "validation_run.json"
 
 
@@ -34,7 +37,6 @@ _S = _Session()
 @contextlib.contextmanager
 def validating(case: str, resolution: str, options: dict[str, Any], resume: Path | None = None):
     """Run a validation case inside: its root folder is marked, and with ``resume`` its folders reopened."""
-    from erosim.io.runfolder import RunFolder
 
     _S.case, _S.resolution, _S.options = case, resolution, dict(options)
     _S.root, _S.resume = (Path(resume) if resume else None), (Path(resume).resolve() if resume else None)
@@ -61,7 +63,6 @@ def opened(path: Path) -> None:
     if _S.case is None or _S.root is not None:
         return
     _S.root = Path(path)
-    from erosim.core.atomic import write_json
 
     write_json(Path(path) / MARK, {"case": _S.case, "resolution": _S.resolution, "options": _S.options})
 

@@ -33,8 +33,10 @@ from erosim.core.errors import ConfigError
 from erosim.data import SPHERIC2, reference_csv
 from erosim.io.runfolder import RunFolder, default_out
 from erosim.scenarios import loader
+from erosim.scenarios.runner import execute
 from erosim.validation import run_facts
 from erosim.validation.criteria import at_most, verdict
+from erosim.viz.plots import series_vs_experiment
 
 H = 0.55  # initial column height (m)
 LEVEL_WINDOW = (0.0, 1.5)
@@ -116,8 +118,6 @@ def run(
 ) -> dict:
     """Run the case; writes ``validation.json`` and ``figures/spheric2_vs_experiment.png``. ``overrides`` are
     scenario settings (``section.key=value``) applied after the case's own, for studies (docs/sph.md)."""
-    from erosim.scenarios.runner import execute
-    from erosim.viz.plots import series_vs_experiment
 
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")

@@ -29,7 +29,11 @@ import numpy as np
 
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
+from erosim.data import DROP_CRATER_SCALING, reference_csv
+from erosim.io import heightmaps as hio
 from erosim.io.runfolder import RunFolder, default_out
+from erosim.scenarios import loader, runner
+from erosim.viz.splash import craters_side_by_side, energy_scaling_figure
 
 SATURATIONS = (0.0, 0.5, 1.0)
 LABELS = ("dry (θ = 0)", "partly wet (θ = 0.5)", "saturated (θ = 1)")
@@ -41,7 +45,6 @@ TOLERANCE = 0.05  # |β − 1/5|: the gap between the drops' 1/5 and the solid s
 
 def published_exponents() -> dict[str, float]:
     """β of D_c ∝ E_K^β by impactor, from the shipped reference file."""
-    from erosim.data import DROP_CRATER_SCALING, reference_csv
 
     ref = reference_csv(DROP_CRATER_SCALING)
     return {str(k): float(b) for k, b in zip(ref["impactor"], ref["beta"], strict=True)}
@@ -55,7 +58,6 @@ def fit_exponent(energy, diameter) -> float:
 def _drop(folder: Path, sets: list[str], progress: bool) -> dict:
     import json
 
-    from erosim.scenarios import loader, runner
 
     runner.run(loader.load("splash-drop", sets), RunFolder(folder, overwrite=True), progress=progress)
     return json.loads((folder / "report.json").read_text(encoding="utf-8"))
@@ -64,8 +66,6 @@ def _drop(folder: Path, sets: list[str], progress: bool) -> dict:
 def run(resolution: str = "default", out: Path | None = None, progress: bool = True, speed: float = 4.0,
         radius: float = 0.002) -> dict:  # fmt: skip
     """The runs, the comparisons and the figures."""
-    from erosim.io import heightmaps as hio
-    from erosim.viz.splash import craters_side_by_side, energy_scaling_figure
 
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")

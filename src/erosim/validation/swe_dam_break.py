@@ -31,8 +31,10 @@ from scipy.optimize import brentq
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
+from erosim.kernels.swe_sph import step_limit
 from erosim.scenarios import estimate
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, lattice_volume
+from erosim.viz.plots import save_figure
 
 G = 9.81
 H0 = 1.0
@@ -144,7 +146,6 @@ def run_case(h1: float, resolution: str = "default", params: ShallowWaterParams 
 
 
 def _limit(solver: ShallowWaterSPH) -> float:
-    from erosim.kernels.swe_sph import step_limit
 
     return step_limit(solver.vel, solver.depth, solver.hsup, solver.n, solver.params.g)
 
@@ -156,7 +157,6 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from erosim.viz.plots import save_figure
 
     folder = RunFolder(out if out is not None else default_out(f"validate-swe-dam-break-{resolution}"))
     cases = {"ritter": run_case(0.0, resolution, progress=progress),

@@ -25,8 +25,10 @@ import numpy as np
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
+from erosim.kernels.swe_sph import step_limit
 from erosim.scenarios import estimate
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, equal_volumes
+from erosim.viz.plots import save_figure
 
 G = 9.81
 A, H0, SIGMA, L = 1.0, 0.1, 0.5, 4.0
@@ -82,7 +84,6 @@ def run_case(resolution: str = "default", periods: float = 2.0, params: ShallowW
     X, Y = np.meshgrid(g, g)
     track, errors, ious = [], [], []
     wall0 = time.perf_counter()
-    from erosim.kernels.swe_sph import step_limit
 
     for ts in samples:
         while m.t < ts - 1e-12:
@@ -123,7 +124,6 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from erosim.viz.plots import save_figure
 
     folder = RunFolder(out if out is not None else default_out(f"validate-thacker-{resolution}"))
     r = run_case(resolution, progress=progress)

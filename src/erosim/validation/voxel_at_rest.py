@@ -30,6 +30,13 @@ import numpy as np
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import default_out
+from erosim.scenarios import estimate
+from erosim.simulation.progress import ProgressBar
+from erosim.sph.boundaries.voxel_wall import VoxelWall
+from erosim.sph.params import SPHParams
+from erosim.sph.solver import SPHSolver
+from erosim.terrain.voxel import HalfSpace, Sphere, VoxelTerrain
+from erosim.viz.plots import pressure_profile
 
 P_THRESHOLD = 0.03
 RHO_THRESHOLD = 0.01
@@ -42,7 +49,6 @@ RESOLUTIONS = {"coarse": (0.02, 1.5, 0.3), "default": (0.01, 2.0, 0.25), "fine":
 def tank(cell: float, pad: float = 0.08):
     """The solid of the module docstring on voxels of ``cell`` (m), the grid starting ``pad`` (m) outside the
     walls (at 8 cm the fine grid's nodes lie 2/3 of a cell off them, the others' on them)."""
-    from erosim.terrain.voxel import HalfSpace, Sphere, VoxelTerrain
 
     walls = [HalfSpace((0, 0, 0), (0, 0, 1)), HalfSpace((0, 0, 0), (1, 0, 0)), HalfSpace((0, 0, 0), (0, 1, 0)),
              HalfSpace((0, W, 0), (0, -1, 0)), HalfSpace((X45, 0, 0), (-1, 0, 1))]  # fmt: skip
@@ -70,10 +76,6 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     """Run the case; writes ``validation.json`` and ``pressure.png`` (pressure against height, with the
     hydrostatic line) into ``out``. ``start`` is the solver's ``initial_pressure`` (the lattice's start made
     consistent with the walls by default; ``"hydrostatic"`` for the plain hydrostatic start)."""
-    from erosim.sph.boundaries.voxel_wall import VoxelWall
-    from erosim.sph.params import SPHParams
-    from erosim.sph.solver import SPHSolver
-    from erosim.viz.plots import pressure_profile
 
     if resolution not in RESOLUTIONS:
         raise ConfigError(f"Unknown resolution '{resolution}'; use one of: {', '.join(RESOLUTIONS)}.")
@@ -89,13 +91,11 @@ def run(resolution: str = "default", out: Path | None = None, progress: bool = T
     inside_max = 0
     heads, zs = [], []
     if progress:
-        from erosim.scenarios import estimate
 
         guess = estimate.from_solver(f"a tank of {vt.shape[2]} × {vt.shape[1]} × {vt.shape[0]} voxels", s, t_end,
                                      speed=0.0, rate=estimate.VOXEL_STEPS_PER_CORE_S,
                                      step_extra_s=estimate.VOXEL_STEP_S - estimate.SPH_STEP_S)  # fmt: skip
         print(f"voxel-at-rest: {guess.line()}", file=sys.stderr, flush=True)
-    from erosim.simulation.progress import ProgressBar
 
     with ProgressBar(t_end, "voxel-at-rest", unit="s", enabled=progress) as bar:
         while s.t < t_end:

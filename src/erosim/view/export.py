@@ -19,6 +19,7 @@ from erosim.core.errors import InputError
 from erosim.core.heightmap import Heightmap
 from erosim.io import exports, heightmaps
 from erosim.io.results import open_run
+from erosim.viz import maps
 
 FORMATS = ("glb", "gltf", "obj", "exr", "raw32", "png16", "raw16", "splat")
 DEFAULT_FORMATS = ("glb", "obj", "exr", "raw32", "png16", "raw16", "splat")
@@ -27,7 +28,6 @@ MAX_TEXTURE = 4096  # px a side: larger maps are textured at a stride
 
 
 def _texture(kind: str, z: np.ndarray, cell_size: float, layers: dict[str, np.ndarray]) -> np.ndarray | None:
-    from erosim.viz import maps
 
     if kind == "none":
         return None

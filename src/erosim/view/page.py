@@ -25,7 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from erosim.io.results import LAYERS, Run
+from erosim.io import heightmaps
+from erosim.io.results import LAYERS, Run, read_frame
+from erosim.viz import maps
 from erosim.viz.flood import HAZARD_LEGEND
 
 MAX_SIDE = 1024
@@ -178,7 +180,6 @@ def _preview(z: np.ndarray, cell: float, present: dict) -> str:
 
     from PIL import Image
 
-    from erosim.viz import maps
 
     s = max(1, int(np.ceil(max(z.shape) / 512)))
     zs = np.asarray(z[::s, ::s], dtype=np.float64)
@@ -214,7 +215,6 @@ def _change_layer(meta: dict, present: dict) -> None:
 def _map_frames(p: Payload, run: Run, step: int, shape: tuple[int, int], water) -> None:
     """Height and water of each map frame on the view's grid (frames of another shape are left out;
     the water of a frame is drawn where the run's final maps have a water layer)."""
-    from erosim.io import heightmaps
 
     water_names = next(layer.files for layer in LAYERS if layer.key == "water")
     frames = run.map_frames
@@ -235,7 +235,6 @@ def _map_frames(p: Payload, run: Run, step: int, shape: tuple[int, int], water) 
 
 
 def _frames(p: Payload, run: Run, max_particles: int, ground) -> None:
-    from erosim.io.results import read_frame
 
     meta = p.meta
     meta["frames"], meta["frame_fields"], meta["field_ranges"] = [], [], {}

@@ -26,6 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from erosim.core.heightmap import Heightmap  # noqa: E402
+from erosim.viz.maps import hillshade
 from erosim.viz.plots import axis_labels, extent_of, map_units, save_figure, scale_bar  # noqa: E402
 
 #: (class, colour, meaning) of FL-3, H1 … H6 (the meanings are erosim.analysis.hazard.HAZARD_MEANING's)
@@ -41,7 +42,6 @@ HAZARD_LEGEND: tuple[tuple[str, str, str], ...] = (
 
 def _frame(hm: Heightmap) -> tuple[tuple, tuple, np.ndarray]:
     """(extent shown, (km?, geographic?, map units per metre), hillshade RGBA with nodata white) of the DEM."""
-    from erosim.viz.maps import hillshade
 
     x0, x1, y0, y1 = extent_of(hm.transform, hm.shape, hm.cell_size)
     per_metre, geographic = map_units((x0, x1, y0, y1), hm.shape[1], hm.cell_size)

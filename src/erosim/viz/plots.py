@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from erosim.core.atomic import atomic_path  # noqa: E402
+from erosim.viz.maps import hillshade
 
 
 def save_figure(fig, path: str | os.PathLike) -> Path:
@@ -160,7 +161,6 @@ def terrain_panels(height: np.ndarray, water: np.ndarray, change: np.ndarray, ce
     metres; arrays in map order (row 0 = north). ``change_range`` fixes the change panel's scale at
     ±that (m; beyond it the colours saturate, the bar's ends say so), so that the frames of a run compare;
     by default the frame's own largest change. Returns the picture as an RGB array."""
-    from erosim.viz.maps import hillshade
 
     ny, nx = height.shape
     extent = [0, nx * cell_size, 0, ny * cell_size]
@@ -321,7 +321,6 @@ def map_figure(
 
 def hillshade_figure(path, z: np.ndarray, cell_size: float, title: str, extent: tuple | None = None) -> Path:
     """The terrain's hillshade (sun from the north-west, 45°) with axes and a scale bar."""
-    from erosim.viz.maps import hillshade
 
     shade = hillshade(np.asarray(z, dtype=np.float64), cell_size)
     return map_figure(path, np.repeat(shade[..., None], 3, axis=2), cell_size, title, extent=extent)

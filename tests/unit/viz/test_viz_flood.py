@@ -47,8 +47,19 @@ def test_the_legend_is_the_fl3_table():
     assert len({colour for _, colour, _ in HAZARD_LEGEND}) == 6
 
 
-def test_a_dry_run_still_draws(tmp_path):
-    hm, _ = _flood()
+def _class_pixels(picture) -> np.ndarray:
+    """Pixels of each hazard class's colour (H1…H6) in a picture."""
+    colours = [np.array([int(c[k : k + 2], 16) for k in (1, 3, 5)], np.float64) for _, c, _ in HAZARD_LEGEND]
+    return np.array([(np.abs(picture - c).sum(axis=2) < 60).sum() for c in colours])
+
+
+def test_a_dry_run_still_draws_and_maps_no_hazard(tmp_path):
+    hm, wet = _flood()
     dry = HazardMaps(hm.shape)
     _not_blank(plot_flood_maps(tmp_path / "m.png", hm, dry))
-    _not_blank(plot_hazard(tmp_path / "h.png", hm, dry.classes(), dry.summary(100.0)))
+    dry_pixels = _class_pixels(_not_blank(plot_hazard(tmp_path / "h.png", hm, dry.classes(), dry.summary(100.0))))
+    wet_pixels = _class_pixels(_not_blank(plot_hazard(tmp_path / "w.png", hm, wet.classes(), wet.summary(100.0))))
+    # dry: the class colours appear only in the legend's six equal swatches (equal within 10 %), and the
+    # wet run's map adds its H5/H6 cells on top of the same swatches (more than twice as many pixels)
+    assert dry_pixels.max() <= 1.1 * dry_pixels.min()
+    assert (wet_pixels[4:] > 2 * dry_pixels[4:]).all()

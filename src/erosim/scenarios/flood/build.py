@@ -42,6 +42,7 @@ from erosim.analysis.hazard import HazardMaps, polygon_mask
 from erosim.core.errors import ConfigError, InputError
 from erosim.core.schedules import TimeInterval
 from erosim.coupling.flood_sph3d import SPHFlood
+from erosim.io.heightmaps import read
 from erosim.scenarios.flood.outputs import FloodGauges, FloodOutputs, HazardTracker, ReleaseCheck, depth_picture
 from erosim.scenarios.flood.schema import FloodScenario
 from erosim.scenarios.flood.site import FloodSetUp
@@ -59,7 +60,6 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
     spacing = fl.spacing if fl.spacing is not None else 2.0 * hm.cell_size
     manning: np.ndarray | float = fl.manning
     if fl.manning_file:
-        from erosim.io.heightmaps import read
 
         m = read(fl.manning_file).z
         if m.shape != hm.shape:

@@ -13,11 +13,15 @@ from typing import Any
 import numpy as np
 
 from erosim.analysis.hazard import HazardMaps
+from erosim.core.atomic import write_text
 from erosim.core.schedules import IterationInterval, Schedule, TimeInterval
+from erosim.io.heightmaps import write_raster
 from erosim.io.runfolder import RunFolder
 from erosim.scenarios.flood.site import FloodSetUp
 from erosim.simulation import callbacks as cb
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterSPH
+from erosim.viz.flood import plot_flood_maps, plot_hazard
+from erosim.viz.maps import colormap, hillshade
 
 #: a reservoir that releases less than this share of its volume in the first tenth of the run is warned of
 SLOW_RELEASE = 0.01
@@ -139,7 +143,6 @@ class FloodGauges(cb.Callback):
         self.rows = [list(r) for r in state["rows"]] if "rows" in state else []
 
     def flush(self, sim) -> None:
-        from erosim.core.atomic import write_text
 
         header = ["t", *(f"eta_{n}" for n in self.names), *(f"depth_{n}" for n in self.names)]
         header += [f"speed_{n}" for n in self.names]
@@ -176,7 +179,6 @@ class FloodOutputs(cb.Callback):
 def write_flood_maps(out: RunFolder, site: FloodSetUp, solver: ShallowWaterSPH, maps: HazardMaps, inside) -> None:
     """The hazard maps as GeoTIFFs on the DEM's grid, and their figures (each picture guarded: one that
     cannot be drawn is a warning, never the loss of the maps)."""
-    from erosim.io.heightmaps import write_raster
 
     hm = site.terrain
     nodata = hm.nodata if hm.nodata is not None else np.zeros(hm.shape, bool)
@@ -191,7 +193,6 @@ def write_flood_maps(out: RunFolder, site: FloodSetUp, solver: ShallowWaterSPH, 
     depth = solver.depth_grid()
     write_raster(folder / "depth_final.tif", np.where(nodata, np.nan, depth).astype(np.float32), hm, nodata=np.nan)
     write_raster(folder / "height.tif", np.where(nodata, np.nan, hm.z).astype(np.float32), hm, nodata=np.nan)
-    from erosim.viz.flood import plot_flood_maps, plot_hazard
 
     shares = maps.summary(hm.cell_size**2, inside)
     draw = {
@@ -204,7 +205,6 @@ def write_flood_maps(out: RunFolder, site: FloodSetUp, solver: ShallowWaterSPH, 
 
 
 def depth_picture(site: FloodSetUp, solver: ShallowWaterSPH):
-    from erosim.viz.maps import colormap, hillshade
 
     hm = site.terrain
     shade = hillshade(hm.z, hm.cell_size)

@@ -9,7 +9,9 @@ import math
 import numpy as np
 
 from erosim.core.errors import InputError
-from erosim.core.heightmap import default_transform, fractional_cell
+from erosim.core.heightmap import cell_of, default_transform, fractional_cell
+from erosim.io.gauge_points import read_gauge_points
+from erosim.kernels.swe_sph import bed_at
 from erosim.scenarios.flood.schema import FloodScenario
 from erosim.scenarios.schema_common import build_terrain
 from erosim.sph.shallow_water_vacondio2012 import equal_volumes
@@ -52,7 +54,6 @@ class FloodSetUp:
         self.closed_hollow = self._closed_hollow(res.seed, cfg)
         self.gauges = None  # (name, x, y) of each gauge: a bad file is refused here, before anything settles
         if cfg.gauges.file:
-            from erosim.io.gauge_points import read_gauge_points
 
             self.gauges = read_gauge_points(cfg.gauges.file, self.terrain)
 
@@ -61,7 +62,6 @@ class FloodSetUp:
         connected water below the level on the breached DEM (its walls kept) is the reservoir itself."""
         from scipy import ndimage
 
-        from erosim.core.heightmap import cell_of
 
         hm = self.terrain
         below = (hm.z < self.level) & ~self.wall & hm.valid
@@ -97,7 +97,6 @@ class FloodSetUp:
         the solver feels, walls raised); the particles share the reservoir's volume on the DEM,
         Σ (level − z)·Δ², exactly.
         """
-        from erosim.kernels.swe_sph import bed_at
 
         cs = self.dem.cell_size
         ny, nx = self.dem.shape

@@ -23,20 +23,21 @@ from typing import Any
 
 from erosim.core.errors import ConfigError
 from erosim.core.schedules import IterationInterval, TimeInterval
+from erosim.hydrology.model import HydrologyModel
+from erosim.io.heightmaps import read
 from erosim.scenarios.hydrology.outputs import HydrologyOutputs, frame_maps, thumbnail
 from erosim.scenarios.schema_common import build_terrain, terrain_facts
 from erosim.scenarios.setup import Setup
 from erosim.simulation.callbacks import Animation, BudgetCheck, MapFrames
+from erosim.terrain import hardness
 
 
 def _inputs(cfg, shape):
     rain = erod = None
     if cfg.inputs.rain_map:
-        from erosim.io.heightmaps import read
 
         rain = read(cfg.inputs.rain_map).z
     if cfg.inputs.hardness_map:
-        from erosim.terrain import hardness
 
         erod = 1.0 - hardness.load(cfg.inputs.hardness_map, shape)
     return rain, erod
@@ -45,7 +46,6 @@ def _inputs(cfg, shape):
 def build_model(cfg, *, timing: bool = False):
     """The terrain and a fresh :class:`HydrologyModel` for a validated ``HydrologyScenario`` (on
     ``run.device``: the droplet batches on the GPU with ``cuda``)."""
-    from erosim.hydrology.model import HydrologyModel
 
     terrain = build_terrain(cfg.terrain, cfg.seed)
     rain, erod = _inputs(cfg, terrain.shape)

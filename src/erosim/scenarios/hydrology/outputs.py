@@ -10,6 +10,11 @@ import numpy as np
 
 from erosim.core.callbacks import Callback
 from erosim.core.schedules import Schedule
+from erosim.hydrology import pools, vegetation
+from erosim.hydrology.params import P_SEA
+from erosim.io import heightmaps as hio
+from erosim.viz.maps import DARK_BLUE, FOREST, GROUND, LIGHT_BLUE, hydrology_map
+from erosim.viz.plots import change_figure, extent_of, hillshade_figure, map_figure
 
 MAPS = ("height_initial", "height", "lake_depth", "stream", "erosion", "deposition", "vegetation")
 
@@ -25,9 +30,6 @@ def figure_step(shape) -> int:
 
 def picture(model, step: int = 1):
     """The combined hydrology map (HY-9) of the model's current state, every ``step``-th cell."""
-    from erosim.hydrology import pools, vegetation
-    from erosim.hydrology.params import P_SEA
-    from erosim.viz.maps import hydrology_map
 
     s = slice(None, None, step)
     z = model.z[s, s]
@@ -47,7 +49,6 @@ def frame_maps(model) -> dict:
 
 def write_outputs(model, terrain, folder) -> dict:
     """Maps, engine exports and pictures of the model's current state into a run folder; their ranges."""
-    from erosim.io import heightmaps as hio
 
     maps = {
         "height_initial": model.z0,
@@ -80,8 +81,6 @@ def write_outputs(model, terrain, folder) -> dict:
             m = hio.write_mask_png16(folder.maps / f"mask_{name}.png", maps[name], vmax=vmax)
             info["masks"][name] = {"path": f"maps/mask_{name}.png", "vmax": m["vmax"]}
     with folder.picture(folder.figures):
-        from erosim.viz.maps import DARK_BLUE, FOREST, GROUND, LIGHT_BLUE
-        from erosim.viz.plots import change_figure, extent_of, hillshade_figure, map_figure
 
         box = extent_of(terrain.transform, model.z.shape, model.cell_size)
         k = figure_step(model.z.shape)

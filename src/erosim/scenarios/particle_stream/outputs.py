@@ -8,15 +8,18 @@ from typing import Any
 
 import numpy as np
 
+from erosim.core.atomic import atomic_path
 from erosim.core.callbacks import Callback
 from erosim.core.heightmap import Heightmap
 from erosim.core.schedules import Schedule
 from erosim.erosion.particle_stream_warszawski import EDIR, EX, EY, ParticleStream
-from erosim.terrain.hardness import Strata
+from erosim.io import heightmaps as hio
+from erosim.terrain.hardness import Strata, strata_at
+from erosim.viz.maps import colormap, hillshade
+from erosim.viz.plots import extent_of, hillshade_figure, map_figure, scale_bar
 
 
 def _strata_picture(z: np.ndarray, d: np.ndarray, cell_size: float) -> np.ndarray:
-    from erosim.viz.maps import colormap, hillshade
 
     tint = colormap(d, "copper_r", vmin=0.0, vmax=1.0)
     shade = 0.25 + 0.75 * hillshade(z, cell_size)
@@ -59,8 +62,6 @@ def canyon_figure(
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from erosim.core.atomic import atomic_path
-    from erosim.viz.plots import scale_bar
 
     erosion = h0 - h
     ny, nx = h.shape
@@ -76,7 +77,6 @@ def canyon_figure(
     pad = 0.15 * max(top - bottom, 1.0)
     zs = np.linspace(top + pad, bottom - pad, 400)[:, None]
     if spec is not None:
-        from erosim.terrain.hardness import strata_at
 
         rock = strata_at(zs, float(col), rows[None, :].astype(float), cell, spec)
     else:
@@ -136,8 +136,6 @@ def canyon_figure(
 
 def write_outputs(out, hm: Heightmap, d0: np.ndarray, stream: ParticleStream) -> dict[str, Any]:
     """Maps and figures of a finished (or interrupted) stream; returns what the report needs."""
-    from erosim.io import heightmaps as hio
-    from erosim.viz.plots import extent_of, hillshade_figure, map_figure
 
     maps, figs = out.maps, out.figures
     final = hm.copy(stream.h)

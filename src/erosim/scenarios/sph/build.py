@@ -25,6 +25,8 @@ from erosim.scenarios.setup import Setup
 from erosim.scenarios.sph.outputs import column_width, martin_moyce_figure, sph_report
 from erosim.scenarios.sph.schema import SPHScenario
 from erosim.simulation import callbacks as cb
+from erosim.sph.boundaries.lifted_gate import LiftedGate
+from erosim.sph.wall_load import wall_pressures
 
 THESIS = {"h": 0.2, "mass": 30.0, "dt": 0.1}  # SC-1/SC-2 as printed in seed 000 (ch. 3)
 
@@ -110,7 +112,6 @@ def build(cfg: SPHScenario) -> Built:
     if cfg.gate.speed > 0:
         if cfg.run.device == "cuda":
             raise ConfigError("A lifted gate runs on device 'cpu' only; run with --device cpu or set gate.speed = 0.")
-        from erosim.sph.boundaries.lifted_gate import LiftedGate
 
         boundaries.append(
             LiftedGate(cfg.gate_face(), cfg.gate_side(), cfg.domain.lo, cfg.domain.hi, cfg.sph.spacing,
@@ -173,7 +174,6 @@ def setup(scenario, out) -> Setup:
       neighbours, throughput, particles outside the domain, the water budget (mass initial, added
       by each source, removed by each sink, in the fluid), the final front.
     """
-    from erosim.sph.wall_load import wall_pressures
 
     cfg: SPHScenario = scenario.config
     built = build(cfg)

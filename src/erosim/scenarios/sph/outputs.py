@@ -8,7 +8,10 @@ from typing import Any
 
 import numpy as np
 
+from erosim.analysis.front import nondimensional_front
+from erosim.data import MARTIN_MOYCE_SURGE, reference_csv
 from erosim.scenarios.sph.schema import SPHScenario
+from erosim.viz.plots import front_vs_experiment
 
 
 def column_width(cfg: SPHScenario) -> float:
@@ -22,9 +25,6 @@ def martin_moyce_figure(path, width: float, g: float, spacing: float, title: str
     :class:`~erosim.simulation.callbacks.FrontTracker`."""
 
     def figure(rows: np.ndarray) -> None:
-        from erosim.analysis.front import nondimensional_front
-        from erosim.data import MARTIN_MOYCE_SURGE, reference_csv
-        from erosim.viz.plots import front_vs_experiment
 
         ref = reference_csv(MARTIN_MOYCE_SURGE)
         T, Z = nondimensional_front(rows[:, 0], rows[:, 1], width, g)

@@ -36,12 +36,17 @@ from erosim.coupling.coupler import Coupler
 from erosim.coupling.sampling import sample
 from erosim.coupling.sources import EdgeOutflow, PointInflow, Rain, lake_particles
 from erosim.coupling.terrains import HeightfieldTerrain
+from erosim.erosion.transport_capacity_mei2007 import TransportCapacity
+from erosim.scenarios import estimate
 from erosim.scenarios.setup import Setup
 from erosim.scenarios.sph.build import lattice
 from erosim.scenarios.sph_terrain.geometry import Geometry, bedrock_map, edge_planes, geometry, rain_map
 from erosim.scenarios.sph_terrain.outputs import BelowGround, TerrainOutputs, panel_function, terrain_report
 from erosim.scenarios.sph_terrain.schema import SPHTerrainScenario
 from erosim.simulation import callbacks as cb
+from erosim.sph.boundaries.heightfield import GroundParticles, HeightfieldGround
+from erosim.sph.boundaries.planes import PlaneWalls
+from erosim.sph.solver import SPHSolver
 
 #: more particles than this would not fit in the memory of a workstation (about 1 kB each)
 MAX_PARTICLES = 20_000_000
@@ -65,9 +70,6 @@ def fluid_positions(cfg: SPHTerrainScenario, geo: Geometry) -> np.ndarray:
 
 def build_solver(cfg: SPHTerrainScenario, geo: Geometry, fluid: np.ndarray):
     """The solver with its ground and edge walls; the sound speed from the highest fall the water can take."""
-    from erosim.sph.boundaries.heightfield import GroundParticles, HeightfieldGround
-    from erosim.sph.boundaries.planes import PlaneWalls
-    from erosim.sph.solver import SPHSolver
 
     p, r, d = cfg.sph, geo.raster, geo.dim
     dx = p.spacing
@@ -125,7 +127,6 @@ def _check_size(cfg: SPHTerrainScenario, geo: Geometry, fluid: np.ndarray, sourc
 
 def setup(scenario, out) -> Setup:
     """The fluid, its ground, sources, sinks, coupler and outputs of an ``sph-terrain`` run."""
-    from erosim.erosion.transport_capacity_mei2007 import TransportCapacity
 
     cfg: SPHTerrainScenario = scenario.config
     geo = geometry(cfg)
@@ -215,7 +216,6 @@ TERRAIN_STEP_S, COUPLING_CELL_S = {2: 0.010, 3: 0.022}, 3.3e-5
 def run_estimate(cfg: SPHTerrainScenario, geo: Geometry, solver, callbacks):
     """Memory and time of the run from its built solver (:func:`erosim.scenarios.estimate.from_solver`): the
     rain and inflows over ``run.t_end`` added, the coupler's maps and passes per step."""
-    from erosim.scenarios import estimate
 
     vp = cfg.sph.spacing**geo.dim
     flow = sum(s.flow for s in callbacks if isinstance(s, Rain)) + sum(i.discharge for i in cfg.inflows.values())

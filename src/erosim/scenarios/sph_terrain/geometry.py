@@ -12,8 +12,10 @@ import numpy as np
 from erosim.core.errors import ConfigError, InputError
 from erosim.core.heightmap import Heightmap
 from erosim.coupling.raster import Raster
+from erosim.io.heightmaps import default_transform, read
 from erosim.scenarios.schema_common import build_terrain
 from erosim.scenarios.sph_terrain.schema import SPHTerrainScenario
+from erosim.sph.boundaries.heightfield import wall_heights
 
 
 @dataclass
@@ -62,8 +64,6 @@ def dem_geometry(terrain, seed: int, nodata_wall: float | None) -> Geometry:
     """A scenario's ``[terrain]`` in the SPH frame (rows northward). Nodata cells keep the nearest valid
     heights (as every kind reads a DEM) and are marked in ``Geometry.nodata``; with ``nodata_wall`` they
     are raised into walls that many metres above the DEM's top."""
-    from erosim.io.heightmaps import default_transform
-    from erosim.sph.boundaries.heightfield import wall_heights
 
     hm = build_terrain(terrain, seed)
     if hm.transform is None:
@@ -80,7 +80,6 @@ def dem_geometry(terrain, seed: int, nodata_wall: float | None) -> Geometry:
 
 def map_like_terrain(path: str, what: str, geo: Geometry) -> np.ndarray:
     """A raster of the terrain's size (bedrock, rain map) in the SPH frame (rows northward)."""
-    from erosim.io.heightmaps import read
 
     m = read(path).z
     if m.shape != geo.terrain.shape:

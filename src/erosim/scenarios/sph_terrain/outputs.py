@@ -11,8 +11,11 @@ import numpy as np
 
 from erosim.core.schedules import Schedule
 from erosim.coupling.coupler import Coupler
+from erosim.io import heightmaps as hio
 from erosim.scenarios.sph_terrain.geometry import Geometry
 from erosim.simulation import callbacks as cb
+from erosim.viz.maps import save_png
+from erosim.viz.plots import change_figure, extent_of, hillshade_figure, map_figure, profile_panel, terrain_panels
 
 
 class BelowGround(cb.Callback):
@@ -62,7 +65,6 @@ class TerrainOutputs(cb.Callback):
         out, g = sim.out, self.geo
         self.coupler.terrain.grid.bin(self.coupler.solver)  # the water as it is at the end
         fields = self.fields()
-        from erosim.viz.maps import save_png
 
         with out.picture(out.figures / "maps_final.png"):
             save_png(out.figures / "maps_final.png", self.panel())
@@ -72,7 +74,6 @@ class TerrainOutputs(cb.Callback):
             rows = np.column_stack([x] + [f[0] for f in fields.values()])
             out.write_text("profile.csv", cb.csv_text(cols, rows))
             return {"outputs": {"profile": "profile.csv", "figure": "figures/maps_final.png"}}
-        from erosim.io import heightmaps as hio
 
         written = {}
         for name, arr in fields.items():
@@ -84,7 +85,6 @@ class TerrainOutputs(cb.Callback):
             hio.write_raster(out.maps / "rain.tif", rain.astype(np.float32), g.dem)
             written["rain"] = {"path": "maps/rain.tif", "min": float(rain.min()), "max": float(rain.max()),
                                "unit": "mm/h"}  # fmt: skip
-        from erosim.viz.plots import change_figure, extent_of, hillshade_figure, map_figure
 
         north_up = g.initial[::-1]
         box = extent_of(g.dem.transform if g.dem is not None else None, north_up.shape, g.raster.dx)
@@ -114,7 +114,6 @@ WATER_SHOWN_M = 1e-3
 
 def panel_function(geo: Geometry, coupler: Coupler, title: str):
     """The picture of the terrain and water now (three panels; 2-D: the bed profile) as an RGB array."""
-    from erosim.viz.plots import profile_panel, terrain_panels
 
     # one scale for every frame's change panel: a tenth of the terrain's relief (at least a centimetre)
     relief = float(np.nanmax(geo.initial) - np.nanmin(geo.initial))

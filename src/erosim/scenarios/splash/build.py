@@ -43,12 +43,16 @@ from erosim.coupling.porous_ground import PorousGround
 from erosim.coupling.raster import Raster
 from erosim.coupling.sources import EdgeOutflow, OutsideOutflow, PointInflow, Rain
 from erosim.coupling.splash_coupler import WetGround
+from erosim.scenarios.estimate import BASE_BYTES, SPH_PARTICLE_BYTES, START_S, Estimate
 from erosim.scenarios.schema_common import terrain_facts
 from erosim.scenarios.setup import Setup
 from erosim.scenarios.sph_terrain import geometry as terrain_geometry
 from erosim.scenarios.splash.outputs import SplashFrames, SplashOutputs, WetnessFrames, splash_report
 from erosim.scenarios.splash.schema import SplashScenario, ground_spacing
+from erosim.sph.boundaries.heightfield import HeightfieldGround
+from erosim.sph.boundaries.planes import PlaneWalls
 from erosim.sph.mud import MudMixture
+from erosim.sph.solver import SPHSolver
 
 #: the most porous ground particles a run lays (each holds about 1 kB with its diffusion pairs)
 MAX_GROUND = 2_000_000
@@ -159,9 +163,6 @@ def drop_column(cfg: SplashScenario, geo, dx: float, h: float) -> tuple[np.ndarr
 def build_solver(cfg: SplashScenario, geo, dx: float):
     """The solver on the heightmap's wall, with closed edges as planes; the sound speed
     ``scale.sound_factor`` times the fastest water expected."""
-    from erosim.sph.boundaries.heightfield import HeightfieldGround
-    from erosim.sph.boundaries.planes import PlaneWalls
-    from erosim.sph.solver import SPHSolver
 
     p, r = cfg.sph.model_copy(update={"spacing": dx}), geo.raster
     h = p.support()
@@ -361,7 +362,6 @@ def run_cost(cfg: SplashScenario, solver, ground: PorousGround) -> dict[str, Any
         fluid += int(rained / solver.params.spacing**3)
     pairs = len(ground.i)
     seconds = steps * (STEP_S + PARTICLE_STEP_S * 0.5 * fluid + PAIR_COUPLING_S * pairs / cfg.run.every)
-    from erosim.scenarios.estimate import BASE_BYTES, SPH_PARTICLE_BYTES, START_S, Estimate
 
     seconds += START_S
     dx = solver.params.spacing

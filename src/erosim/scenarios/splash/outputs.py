@@ -11,14 +11,20 @@ from typing import Any
 
 import numpy as np
 
+from erosim.core.atomic import write_text
 from erosim.core.schedules import Schedule
 from erosim.coupling.binning import FluidGrid
 from erosim.coupling.puddles import hollow_depth, standing_water, water_depth
 from erosim.coupling.splash_coupler import WetGround
 from erosim.erosion import splash as sp
 from erosim.erosion.wet_strength import strength
+from erosim.io import heightmaps as hio
+from erosim.io.particles import FrameSeries
 from erosim.scenarios.splash.schema import SplashScenario
 from erosim.simulation import callbacks as cb
+from erosim.viz import splash as vs
+from erosim.viz.plots import change_figure, extent_of
+from erosim.viz.splash import wetness_frames_figure
 
 
 class SplashFrames(cb.ParticleFrames):
@@ -27,7 +33,6 @@ class SplashFrames(cb.ParticleFrames):
 
     def __init__(self, schedule, solver, wet: WetGround, folder: Path):
         super().__init__(schedule, solver, folder)
-        from erosim.io.particles import FrameSeries
 
         self.wet = wet
         self.ground_series = FrameSeries(self.folder / "ground", name="ground")
@@ -50,7 +55,6 @@ class SplashFrames(cb.ParticleFrames):
         return {**super().state_dict(), "ground_frames": [list(f) for f in self.ground_series.frames]}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
-        from erosim.io.particles import FrameSeries
 
         super().load_state_dict(state)
         self.ground_series = FrameSeries(self.folder / "ground", name="ground", frames=state.get("ground_frames", []))
@@ -67,8 +71,6 @@ class WetnessFrames(cb.Callback):
         self.thumbs: list[np.ndarray] = []
 
     def __call__(self, sim) -> None:
-        from erosim.core.atomic import write_text
-        from erosim.io import heightmaps as hio
 
         k = len(self.times)
         wet = self.wet.wetness()[::-1]
@@ -89,7 +91,6 @@ class WetnessFrames(cb.Callback):
     def finalize(self, sim) -> dict[str, Any]:
         if not self.thumbs:
             return {}
-        from erosim.viz.splash import wetness_frames_figure
 
         path = sim.out.figures / "wetness_frames.png"
         with sim.out.picture(path):
@@ -106,8 +107,6 @@ class SplashOutputs(cb.Callback):
         self.geo, self.wet, self.grid, self.drop = geo, wet, grid, drop
 
     def finalize(self, sim) -> dict[str, Any]:
-        from erosim.io import heightmaps as hio
-        from erosim.viz import splash as vs
 
         out, g, w = sim.out, self.geo, self.wet
         z = w.terrain
@@ -135,10 +134,8 @@ class SplashOutputs(cb.Callback):
                          height_range=(0.0, 1.0))  # fmt: skip
         written["wetness_png16"] = {"path": "maps/wetness.png", "range": info.get("height_range", [0.0, 1.0])}
         cell = g.raster.dx
-        from erosim.viz.plots import extent_of
 
         box = None if self.drop else extent_of(g.dem.transform, g.initial.shape, cell)
-        from erosim.viz.plots import change_figure
 
         draw = {
             "wetness.png": lambda p: vs.wetness_figure(p, fields["wetness"][::-1], cell, "Surface wetness θ", box),

@@ -44,6 +44,11 @@ from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.coupling.sources import EDGES, EdgeOutflow, FlumeInflow, PointInflow, RainDrops
 from erosim.coupling.terrains import VoxelFieldTerrain
+from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion
+from erosim.erosion.settling_voxel import SuspendedSediment
+from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion
+from erosim.scenarios.schema_common import build_terrain as heightmap
+from erosim.scenarios.schema_common import terrain_facts
 from erosim.scenarios.setup import Setup
 from erosim.scenarios.voxel.outputs import (
     EROSION_NOTES,
@@ -56,13 +61,16 @@ from erosim.scenarios.voxel.outputs import (
     top_surface,
 )
 from erosim.scenarios.voxel.schema import VoxelScenario, at_dem_scale, band_for, overflow_head
+from erosim.sph.boundaries.planes import PlaneWalls
+from erosim.sph.boundaries.voxel_wall import VoxelWall
+from erosim.sph.solver import SPHSolver
+from erosim.terrain.voxel import Box, Embankment, HalfSpace, VoxelTerrain
 
 
 def build_terrain(cfg: VoxelScenario):
     """The scenario's voxel field: a saved field (``terrain.voxels_file``), a heightmap with its caves, or
     the flume's floor (z < 0), the plinth (z < ``embankment.base``) and the embankment; ``voxels.scale =
     "dem"`` resolved first (:func:`at_dem_scale`)."""
-    from erosim.terrain.voxel import Box, Embankment, HalfSpace, VoxelTerrain
 
     cfg = at_dem_scale(cfg)
     f, e, v = cfg.terrain, cfg.embankment, cfg.voxels
@@ -83,7 +91,6 @@ def build_terrain(cfg: VoxelScenario):
         )
     band = band_for(cfg)
     if f.shape == "heightmap":
-        from erosim.scenarios.schema_common import build_terrain as heightmap
 
         hm = heightmap(cfg.terrain, cfg.seed)
         lift = max([cfg.rain.height] + [j.height for j in cfg.inflows.values()])  # rain and the jets' mouths
@@ -154,9 +161,6 @@ def rain_height(cfg: VoxelScenario, terrain) -> float:
 def build_solver(cfg: VoxelScenario, terrain):
     """The fluid (a reservoir or lakes at rest), its voxel wall and, in a flume, the planes of its side and
     upstream walls; the sound speed from the highest fall the water can take."""
-    from erosim.sph.boundaries.planes import PlaneWalls
-    from erosim.sph.boundaries.voxel_wall import VoxelWall
-    from erosim.sph.solver import SPHSolver
 
     p, f, e = cfg.sph, cfg.terrain, cfg.embankment
     dx = p.spacing
@@ -208,11 +212,9 @@ def build_solver(cfg: VoxelScenario, terrain):
 def make_eroder(e, terrain, solver):
     """The eroder of ``erosion.law`` for ``terrain`` and the fluid of ``solver``."""
     if e.law == "excess_shear":
-        from erosim.erosion.excess_shear_partheniades1965 import ExcessShearErosion
 
         return ExcessShearErosion(terrain, e, support=solver.h, spacing=solver.params.spacing,
                                   rho0=solver.params.rho0)  # fmt: skip
-    from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion
 
     return ShearStressErosion(terrain, e, support=solver.h)
 
@@ -225,7 +227,6 @@ def setup(scenario, out) -> Setup:
     e, run = cfg.erosion, cfg.run
     eroder = make_eroder(e, terrain, solver) if e.enabled else None
     if eroder is not None and e.sediment == "suspended":
-        from erosim.erosion.settling_voxel import SuspendedSediment
 
         eroder = SuspendedSediment(eroder, solver, e.settling_velocity, e.max_concentration)
     coupler = Coupler(IterationInterval(e.every), solver, eroder, VoxelFieldTerrain(terrain), start=e.start)
@@ -274,8 +275,6 @@ def setup(scenario, out) -> Setup:
 
     assumed: list[str] = []
     if cfg.terrain.shape == "heightmap" and not cfg.terrain.voxels_file:
-        from erosim.scenarios.schema_common import build_terrain as heightmap
-        from erosim.scenarios.schema_common import terrain_facts
 
         dem = heightmap(cfg.terrain, cfg.seed)
         callbacks.append(VoxelMaps(terrain, solver, dem, out))

@@ -11,10 +11,17 @@ from typing import Any
 
 import numpy as np
 
+from erosim.core.atomic import write_text
+from erosim.core.heightmap import Heightmap, transform_of
 from erosim.core.schedules import Schedule
+from erosim.coupling.puddles import footprint_volume
 from erosim.coupling.raster import Raster
+from erosim.io import heightmaps as hio
 from erosim.scenarios.voxel.schema import VoxelScenario
 from erosim.simulation import callbacks as cb
+from erosim.terrain.voxel import memory_bytes
+from erosim.viz.plots import profiles_figure
+from erosim.viz.surface_render import surface_panels
 
 
 def surface_profile(terrain, y: float) -> tuple[np.ndarray, np.ndarray]:
@@ -73,7 +80,6 @@ class Profiles(cb.Callback):
         self.rows = [tab[tab[:, 0] == t] for t in np.unique(tab[:, 0])]
 
     def flush(self, sim) -> None:
-        from erosim.core.atomic import write_text
 
         write_text(self.path, cb.csv_text(["t", "x", "z"], self.table()))
 
@@ -154,7 +160,6 @@ class VoxelMaps(cb.Callback):
 
     def __init__(self, terrain, solver, dem, out):
         super().__init__(Schedule(), name="maps")
-        from erosim.core.heightmap import Heightmap, transform_of
 
         self.terrain, self.solver, self.out = terrain, solver, out
         self.initial = top_surface(terrain)
@@ -166,8 +171,6 @@ class VoxelMaps(cb.Callback):
         self.like = Heightmap(np.zeros((ny, nx)), c, crs=dem.crs, transform=transform)
 
     def finalize(self, sim) -> dict[str, Any]:
-        from erosim.coupling.puddles import footprint_volume
-        from erosim.io import heightmaps as hio
 
         now = top_surface(self.terrain)
         ny, nx = now.shape
@@ -192,7 +195,6 @@ class VoxelMaps(cb.Callback):
 def surface_figure(path, start, end, water: np.ndarray, t: float, name: str) -> Path:
     """``figures/surface.png``: the surface at the start tinted by height, and at ``t`` coloured by the lowering
     of the top surface (per node column, on faces facing up) with the ``water`` particles as dots."""
-    from erosim.viz.surface_render import surface_panels
 
     a, b = start.surface_mesh(), end.surface_mesh()
     dz = top_surface(end) - top_surface(start)
@@ -276,7 +278,6 @@ def reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x
     suspended = eroder is not None and cfg.erosion.sediment == "suspended"
 
     def report(sim) -> dict[str, Any]:
-        from erosim.terrain.voxel import memory_bytes
 
         first, onset = coupler.terrain.first, coupler.terrain.onset
         frame = "from the embankment's upstream toe" if flume else "the terrain's frame (m from its south-west node)"
@@ -334,7 +335,6 @@ def reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x
 
 def profile_figure(cfg: VoxelScenario, profiles: Profiles, out) -> None:
     """``figures/profiles.png``: the centre-line profiles every ``run.figure_interval`` and the last."""
-    from erosim.viz.plots import profiles_figure
 
     tab = profiles.table()
     if not len(tab):

@@ -38,6 +38,7 @@ from erosim.core.config import Section, param
 from erosim.core.errors import ConfigError
 from erosim.erosion.excess_shear_partheniades1965 import ExcessShearParams
 from erosim.scenarios.schema_common import TerrainSection, with_sph_defaults
+from erosim.scenarios.schema_common import build_terrain as heightmap
 from erosim.scenarios.sph_terrain.schema import InflowSection as JetSection
 from erosim.sph.params import SPHParams
 
@@ -242,7 +243,6 @@ def at_dem_scale(cfg: VoxelScenario) -> VoxelScenario:
     millions of nodes per cell of a 30 m map or a handful on a 0.5 m one. Unchanged for ``"set"``."""
     if cfg.voxels.scale != "dem" or cfg.terrain.voxels_file:
         return cfg
-    from erosim.scenarios.schema_common import build_terrain as heightmap
 
     cell = float(heightmap(cfg.terrain, cfg.seed).cell_size)
     return cfg.model_copy(update={

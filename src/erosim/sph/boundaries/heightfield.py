@@ -31,7 +31,7 @@ from numba import njit, prange
 from erosim.kernels.raster import bilinear, bilinear_points
 from erosim.sph.boundaries import particles as bparticles
 from erosim.sph.boundaries.distance_wall import DistanceWall
-from erosim.sph.boundaries.wall_weight_harada2007 import wall_density, wall_rates
+from erosim.sph.boundaries.wall_weight_harada2007 import VT, VTN, wall_density, wall_rates
 
 
 @njit(inline="always", cache=True)
@@ -169,7 +169,6 @@ class HeightfieldGround(DistanceWall):
         if self.slip:
             from dataclasses import replace
 
-            from erosim.sph.boundaries.wall_weight_harada2007 import VT, VTN
 
             table = self.curves.table.copy()
             table[[VT, VTN]] = 0.0

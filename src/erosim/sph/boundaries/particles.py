@@ -26,6 +26,8 @@ import numpy as np
 from numba import njit, prange
 
 from erosim.kernels import sph_kernels as K
+from erosim.kernels.neighbours import find_neighbours
+from erosim.kernels.sph_kernels import kernel_w
 from erosim.sph.boundaries.base import Boundary
 from erosim.sph.boundaries.pressure_extrapolation_adami2012 import extrapolate_driver
 from erosim.sph.eos import tait
@@ -209,8 +211,6 @@ class BoundaryParticles(Boundary):
 
     def _base(self, solver) -> None:
         """Summation density: the constant part m (W(0) + Σ_boundary W) of each boundary particle."""
-        from erosim.kernels.neighbours import find_neighbours
-        from erosim.kernels.sph_kernels import kernel_w
 
         st, h, d, kernel = solver.state, solver.h, solver.dim, solver.params.kernel
         self.rho_base = np.zeros(st.n, np.float64)

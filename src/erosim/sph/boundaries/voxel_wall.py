@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit, prange
 
 from erosim.core.errors import ConfigError
-from erosim.kernels.voxel import FAR, distance_normal
+from erosim.kernels.voxel import FAR, distance_normal, wall_distance
 from erosim.sph.boundaries.distance_wall import DistanceWall
 from erosim.sph.boundaries.wall_weight_harada2007 import wall_density, wall_rates
 
@@ -162,7 +162,6 @@ class VoxelWall(DistanceWall):
     def distances(self, solver) -> tuple[np.ndarray, np.ndarray]:
         """(l, n) of the fluid particles in the state's (internal) order: wall distance (m, positive in the
         fluid) and unit normal; ``solver.in_label_order`` puts them in the order of ``solver.fluid_positions()``."""
-        from erosim.kernels.voxel import wall_distance
 
         st = solver.state
         nf = st.n_fluid
