@@ -292,7 +292,7 @@ def test_water_jet_as_shipped_wets_a_disk_and_digs_a_round_crater(tmp_path):
     w = theta / theta.sum()
     wet = radii(theta, (w * ii).sum(), (w * jj).sum(), lambda v: v >= 0.05, min(theta.shape) / 2 - 1) * s
     assert (wet.max() - wet.min()) / wet.mean() < 0.15, wet  # measured 0.123: not yet the 0.10
-    imp = g["callback.wet_ground.impacts"]
+    imp = g["callback.wet_ground.eroder_impacts"]
     depth = -z.min()
     edge = radii(z, imp[:, 1].mean() / cell, imp[:, 2].mean() / cell, lambda v: v < -0.1 * depth, 0.12 / cell) * cell
     assert (edge.max() - edge.min()) / edge.mean() < 0.10, edge  # measured 0.037

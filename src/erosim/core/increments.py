@@ -29,12 +29,18 @@ from erosim.core.errors import BudgetError
 class Increment:
     """Δz (m) per node, the change of sediment held in the water ΔS (m³), sediment carried off C (m³), and
     ``particles``: the new values of per-particle fields of the fluid (name → the first n fluid
-    particles' values, in the state's order; the sediment each carries), which the caller writes with Δz."""
+    particles' values, in the state's order; the sediment each carries), which the caller writes with Δz;
+    ``terrain_fields``: the new values of the terrain's own fields (a porous ground's moisture), which
+    the terrain writes; ``removed``: the fluid particles to remove (a mask over the first n), counted
+    under ``sink`` (water spent into the ground)."""
 
     dz: np.ndarray
     suspended: float = 0.0
     carried_off: float = 0.0
     particles: dict[str, np.ndarray] = field(default_factory=dict)
+    terrain_fields: dict[str, np.ndarray] = field(default_factory=dict)
+    removed: np.ndarray | None = None
+    sink: str = "removed"
 
 
 def check_budget(inc: Increment, shape: tuple[int, ...], cell_area: float, who: str, rtol: float = 1e-9) -> dict:

@@ -13,7 +13,8 @@ heightfield, or a voxel field's densities). Each time its schedule fires (every 
 3. checks the increment's budget (:func:`~erosim.core.increments.check_budget` with the terrain's
    volume per unit: Σ Δ·A + ΔS + C = 0) and the terrain's own limits (the bedrock), refusing it with
    one clear sentence otherwise;
-4. applies it once: the particle fields, then Δ inside the solver's
+4. applies it once: the particle fields, the terrain's own fields, the particles it removes (through the
+   solver's sinks), then Δ inside the solver's
    :meth:`~erosim.sph.solver.SPHSolver.ground_moving` (the walls' share kept, every boundary
    refreshed with the new ground), and adds the terms to the run's budget.
 
@@ -84,6 +85,10 @@ class Coupler(Callback):
         g.refuse(inc, who)
         for field, values in inc.particles.items():
             getattr(s.state, field)[: len(values)] = values
+        if inc.terrain_fields:
+            g.write(inc.terrain_fields)
+        if inc.removed is not None:
+            s.remove_fluid(inc.removed, sink=inc.sink)
         changed = inc.dz != 0
         if changed.any():
             with s.ground_moving(g.values, changed):

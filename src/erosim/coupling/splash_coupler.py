@@ -45,22 +45,14 @@ state of step 1). The water budget (fluid + ground + evaporated + left through t
 solid budget (ground lost = mud in the water + mud gone through the edges + thrown clear) close to
 rounding and are reported with their ``closure_rel``.
 
-Why not the house :class:`~erosim.coupling.coupler.Coupler`. Both make the terrain change an
-:class:`~erosim.core.increments.Increment`, check it with ``check_budget`` and apply it once, then
-refresh the solver's boundaries; but the Coupler's eroder contract is ``increments(terrain, grid,
-dt)`` over the binned :class:`~erosim.coupling.binning.FluidGrid` (its ``needs`` checked against
-``FluidGrid.FIELDS``), and this exchange is per particle, not per cell: (a) a strike's speed is the
-particle's approach speed remembered between calls (the registered ``approach``/``touching``
-fields), and several strikes may land in one cell; (b) it writes particle fields (``mud``,
-``water``) and removes spent particles through the solver's sinks; (c) after the terrain changes,
-the ground particles' columns follow their surface and only then does moisture diffuse among them,
-a step after the apply that the Coupler has no hook for; (d) the Coupler bins the whole fluid on
-every call, which this exchange does not use. Routing it through the Coupler would mean an eroder
-that holds the solver (defeating ``needs``), the porous ground made a boundary model so that its
-``refresh`` moves the columns, the solid budget mapped onto the Coupler's four terms (suspended =
-mud, carried off = thrown clear + mud gone through the edges) and a new checkpoint layout — more than
-a small change, so the exchange keeps its own callback and shares the Increment/``check_budget``
-contract instead.
+The exchange runs through the house :class:`~erosim.coupling.coupler.Coupler`: :class:`WetExchange`
+is its eroder (steps 1–4 above: ``increments(terrain, solver, dt)``; the particle fields it changes —
+``mud``, ``water``, ``touching``, ``approach`` and the velocity of a strike —, the ground's moisture and
+the spent particles travel in the :class:`~erosim.core.increments.Increment`), the terrain is a
+:class:`~erosim.coupling.terrains.PorousHeightfieldTerrain` (heights with the porous ground under them,
+whose columns follow the surface when the coupler applies Δz: step 5), and :class:`Moisture` is the
+callback on the same schedule that runs step 6 after it. :class:`WetGround` builds the three and
+gives the run's budgets and maps.
 """
 
 from __future__ import annotations
@@ -72,16 +64,17 @@ import numpy as np
 
 from erosim.core.callbacks import Callback
 from erosim.core.config import Section, param
-from erosim.core.increments import Increment, check_budget
+from erosim.core.increments import Increment
+from erosim.coupling.coupler import Coupler
 from erosim.coupling.porous_ground import PorousGround
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
+from erosim.coupling.terrains import PorousHeightfieldTerrain
 from erosim.erosion import splash as sp
 from erosim.erosion.shear_stress_kristof2009 import excess_stresses
 from erosim.erosion.wet_strength import strength
 from erosim.hydrology.seepage_darcy import absorb_spread, conductivity, drain, evaporate, footprint_weights, harmonic
 from erosim.kernels.sph_diffusion import diffuse
-from erosim.sph.boundaries.heightfield import node_slopes
 from erosim.sph.mud import MudParams, diffuse_concentration, mixture_density
 
 SPENT = 1e-9  # a particle with less than this share of its water left is spent
@@ -120,29 +113,40 @@ def _scatter(raster: Raster, xy: np.ndarray, volume: np.ndarray, valid: np.ndarr
     return dz
 
 
-class WetGround(Callback):
-    """The callback of the module docstring (``schedule``: every N fluid steps)."""
+class PassClock:
+    """Wall and process CPU time of the passes of one coupling (this session), and of the fluid's steps
+    between two couplings (from the end of :class:`Moisture` to the start of the next exchange)."""
 
-    def __init__(self, schedule, solver, raster: Raster, terrain: np.ndarray, ground: PorousGround, *,
-                 splash: sp.SplashParams, sigma_dry: float, sigma_wet: float, permeability: float,
-                 diffusivity: float, evaporation_mm_h: float, mud: MudParams, scour: ScourParams,
-                 outside: np.ndarray | None = None, name: str = "wet_ground"):  # fmt: skip
-        """``outside``: None or the nodes outside the terrain (a DEM's nodata; raster.shape), which no
-        crater, scour or settling mud changes."""
-        super().__init__(schedule, name=name)
-        self.solver, self.raster, self.terrain, self.ground = solver, raster, terrain, ground
-        self.splash, self.mud, self.scour = splash, mud, scour
-        self.outside = None if outside is None or not np.any(outside) else np.asarray(outside, bool)
-        self.valid = None if self.outside is None else ~self.outside
+    PASSES = ("splash", "seepage", "mud", "between")
+
+    def __init__(self):
+        self.wall = dict.fromkeys(self.PASSES, 0.0)
+        self.cpu = dict.fromkeys(self.PASSES, 0.0)
+        self.end: tuple[float, float] | None = None
+
+    @staticmethod
+    def now() -> tuple[float, float]:
+        return time.perf_counter(), time.process_time()
+
+    def add(self, name: str, start: tuple[float, float], stop: tuple[float, float]) -> None:
+        self.wall[name] += stop[0] - start[0]
+        self.cpu[name] += stop[1] - start[1]
+
+
+class WetExchange:
+    """The eroder of the module docstring's steps 1–4 (contact, splash, scour, seepage), per particle."""
+
+    name = "splash"
+    needs = ("particles",)
+
+    def __init__(self, solver, *, splash: sp.SplashParams, sigma_dry: float, sigma_wet: float, permeability: float,
+                 scour: ScourParams, layered_k: float | None = None, clock: PassClock | None = None):  # fmt: skip
+        self.solver, self.splash, self.scour = solver, splash, scour
+        self.clock = clock or PassClock()
         self.sigma_dry, self.sigma_wet = float(sigma_dry), float(sigma_wet)
         g = float(np.linalg.norm(solver.g))
-        self.k = conductivity(permeability, gravity=g if g > 0 else 9.81)
-        self.diffusivity = float(diffusivity)
-        kg = conductivity(ground.permeability, gravity=g if g > 0 else 9.81)
-        self.k_between = harmonic(kg[ground.upper], kg[ground.lower]) if ground.layered else None
-        if ground.layered:  # the surface takes water at the top soil's conductivity
-            self.k = float(kg[0])
-        self.evaporation = evaporation_mm_h / 3.6e6  # m/s
+        # the surface takes water at the top soil's conductivity in a layered ground
+        self.k = conductivity(permeability, gravity=g if g > 0 else 9.81) if layered_k is None else layered_k
         dx = solver.params.spacing
         self.vp = dx**3
         self.radius = (3.0 * self.vp / (4.0 * np.pi)) ** (1.0 / 3.0)  # the particle's equivalent sphere
@@ -151,44 +155,38 @@ class WetGround(Callback):
         for field, fill in (("water", 1.0), ("mud", 0.0), ("touching", 0.0), ("approach", 0.0)):
             if field not in st.specs:
                 st.register(field, fill=fill)
-        self.terrain0 = terrain.copy()
-        self.sx, self.sy = node_slopes(terrain, raster.dx, raster.dy)
-        self._w = ground.weights(self.diffusivity)
-        self.ground_water0 = ground.water()
-        self.totals = dict.fromkeys(("eroded", "deposited", "suspended", "splashed_away", "evaporated", "dug",
-                                     "scoured"), 0.0)  # fmt: skip
+        self.dug = 0.0
+        self.scoured = 0.0
         self.impacts: list[list[float]] = []  # per strike: t, x, y, speed, θ, σ, depth, opening radius
         self.n_impacts = 0
-        self.last_t = float(solver.t)
-        self.calls = 0
-        self.wall = {"splash": 0.0, "seepage": 0.0, "mud": 0.0, "between": 0.0}
-        self.cpu = dict(self.wall)  # process CPU time: steadier than wall time on a loaded machine
-        self._end = None
 
-    # ------------------------------------------------------------------ one coupling
-    def __call__(self, sim=None) -> None:
-        t0, c0 = time.perf_counter(), time.process_time()
-        if self._end is not None:
-            self.wall["between"] += t0 - self._end[0]
-            self.cpu["between"] += c0 - self._end[1]
-        s, st = self.solver, self.solver.state
-        dt = float(s.t) - self.last_t
+    def increments(self, terrain, solver, dt: float) -> Increment:
+        """Steps 1–4 on ``terrain`` (a :class:`~erosim.coupling.terrains.PorousHeightfieldTerrain`)."""
+        clock = self.clock
+        start = clock.now()
+        if clock.end is not None:
+            clock.add("between", clock.end, start)
+        s, st = solver, solver.state
         nf = st.n_fluid
-        r = self.raster
+        r = terrain.raster
+        ground = terrain.ground
+        outside, valid = terrain.outside, terrain.valid
         pos, vel = st.pos[:nf].astype(np.float64), st.vel[:nf].astype(np.float64)
-        zg = sample(r, self.terrain, pos)
-        sx, sy = sample(r, self.sx, pos), sample(r, self.sy, pos)
+        new_vel = st.vel[:nf].copy()
+        mud, water = st.mud[:nf].copy(), st.water[:nf].copy()
+        zg = sample(r, terrain.z, pos)
+        sx, sy = sample(r, terrain.sx, pos), sample(r, terrain.sy, pos)
         norm = np.sqrt(1.0 + sx * sx + sy * sy)
         gap = (pos[:, 2] - zg) / norm  # distance to the (locally planar) ground
         vn = -(-sx * vel[:, 0] - sy * vel[:, 1] + vel[:, 2]) / norm  # speed towards the ground
         touch = gap < self.contact
-        cols = self.ground.column_of(pos[:, :2])
-        theta_here = self.ground.theta[cols]
+        cols = ground.column_of(pos[:, :2])
+        theta_here = ground.theta[cols]
 
         # ---- 1–2 splash
         new = touch & (st.touching[:nf] == 0)
         # water already lying on the ground cushions a newcomer: it strikes at the speed it has now
-        lying = np.bincount(cols[touch & ~new], minlength=self.ground.n) > 0
+        lying = np.bincount(cols[touch & ~new], minlength=ground.n) > 0
         speed = np.where(lying[cols], np.maximum(vn, 0.0), np.maximum(vn, st.approach[:nf]))
         strike = np.flatnonzero(new & (speed >= self.splash.min_speed))
         dz = np.zeros(r.shape)
@@ -197,22 +195,22 @@ class WetGround(Callback):
             sigma = float(strength(theta_here[i], self.sigma_dry, self.sigma_wet))
             d = float(sp.crater_depth(self.radius, speed[i], s.params.rho0, sigma))
             dzi = sp.crater_increment(r, pos[i : i + 1, :2], self.radius, np.array([d]))
-            if self.outside is not None:
-                dzi[self.outside] = 0.0  # outside the terrain nothing is dug
+            if outside is not None:
+                dzi[outside] = 0.0  # outside the terrain nothing is dug
             dug = float(-dzi.sum() * r.cell_area)
             rim = sp.rim_increment(r, pos[i, 0], pos[i, 1], float(sp.crater_radius(self.radius, d)),
                                    self.splash.rim * dug, self.splash.rim_extent)  # fmt: skip
-            if self.outside is not None and rim[self.outside].any():  # the rim lands on the terrain only
+            if outside is not None and rim[outside].any():  # the rim lands on the terrain only
                 kept = rim.sum()
-                rim[self.outside] = 0.0
+                rim[outside] = 0.0
                 rim *= kept / rim.sum() if rim.sum() > 0 else 0.0
             vol = dug - float(rim.sum() * r.cell_area)  # what leaves the ground: mud, or thrown clear
-            take = min(vol, max(self.splash.mud_max - st.mud[i], 0.0) * self.vp)
-            st.mud[i] += take / self.vp
+            take = min(vol, max(self.splash.mud_max - mud[i], 0.0) * self.vp)
+            mud[i] += take / self.vp
             taken_up += take
             thrown += vol - take
             dz += dzi + rim
-            self.totals["dug"] += dug
+            self.dug += dug
             self.n_impacts += 1
             if len(self.impacts) < 1000:
                 a = float(sp.crater_radius(self.radius, d))
@@ -223,11 +221,11 @@ class WetGround(Callback):
             # only its motion along the ground (no rebound)
             nrm = np.column_stack([-sx[strike], -sy[strike], np.ones(len(strike))]) / norm[strike, None]
             keep = np.maximum(vn[strike], 0.0)[:, None] * nrm
-            st.vel[strike] = (vel[strike] + keep).astype(st.vel.dtype)
-        st.touching[:nf] = touch
+            new_vel[strike] = (vel[strike] + keep).astype(new_vel.dtype)
+        touching = touch.astype(st.touching.dtype)
         # the speed of approach is the one measured before the ground's wall began to push
         free = gap >= max(s.h, self.contact)
-        st.approach[:nf] = np.where(touch, 0.0, np.where(free, np.maximum(vn, 0.0), st.approach[:nf]))
+        approach = np.where(touch, 0.0, np.where(free, np.maximum(vn, 0.0), st.approach[:nf]))
 
         # ---- 3 scour
         sc = self.scour
@@ -240,75 +238,132 @@ class WetGround(Callback):
             dx = s.params.spacing
             excess_stresses(vpar, np.maximum(gap[idx], 0.0), sc.l_min * dx, sc.k, sc.n, tau_c, exc)
             vol = sc.k_s * exc * dx * dx * dt
-            room = np.maximum(self.splash.mud_max - st.mud[idx], 0.0) * self.vp
+            room = np.maximum(self.splash.mud_max - mud[idx], 0.0) * self.vp
             vol = np.minimum(vol, room)
             if vol.any():
-                dz -= _scatter(r, pos[idx, :2], vol, self.valid)
-                st.mud[idx] += vol / self.vp
+                dz -= _scatter(r, pos[idx, :2], vol, valid)
+                mud[idx] += vol / self.vp
                 taken_up += float(vol.sum())
-                self.totals["scoured"] += float(vol.sum())
-        t1, c1 = time.perf_counter(), time.process_time()
+                self.scoured += float(vol.sum())
+        splashed = clock.now()
+        clock.add("splash", start, splashed)
 
         # ---- 4 seepage: Darcy absorption, spent particles settle their mud
         idx = np.flatnonzero(touch)
-        pt, pc, pr = self.ground.columns_near(pos[idx, :2], s.h)  # each particle's footprint (radius h)
+        pt, pc, pr = ground.columns_near(pos[idx, :2], s.h)  # each particle's footprint (radius h)
         w = footprint_weights(pr, s.h)
         w /= np.bincount(pt, w, len(idx))[pt]
         taken = np.zeros(nf)
-        taken[idx], gained = absorb_spread(st.water[idx] * self.vp, pt, pc, w, self.ground.theta, self.ground.pore,
-                                           self.ground.area, self.k, dt, cover=self.ground.area)  # fmt: skip
-        st.water[:nf] -= taken / self.vp
-        spent = touch & (st.water[:nf] <= SPENT)
+        taken[idx], gained = absorb_spread(water[idx] * self.vp, pt, pc, w, ground.theta, ground.pore,
+                                           ground.area, self.k, dt, cover=ground.area)  # fmt: skip
+        water -= taken / self.vp
+        spent = touch & (water <= SPENT)
         settled = 0.0
         if spent.any():
             k = np.flatnonzero(spent)
-            gained += np.bincount(cols[k], st.water[k] * self.vp, self.ground.n)
-            mud_vol = st.mud[k] * self.vp
+            gained += np.bincount(cols[k], water[k] * self.vp, ground.n)
+            mud_vol = mud[k] * self.vp
             # on a round footprint of the particle's size (at least two cells): not a four-node square
-            dz += sp.settle(r, pos[k, :2], mud_vol, max(sp.SUBCELL * min(r.dx, r.dy), s.params.spacing), self.valid)
+            dz += sp.settle(r, pos[k, :2], mud_vol, max(sp.SUBCELL * min(r.dx, r.dy), s.params.spacing), valid)
             settled = float(mud_vol.sum())
-            st.water[k] = 0.0
-            st.mud[k] = 0.0
-        self.ground.theta += gained / self.ground.pore
+            water[k] = 0.0
+            mud[k] = 0.0
+        clock.add("seepage", splashed, clock.now())
+        return Increment(
+            dz=dz, suspended=taken_up - settled, carried_off=thrown,
+            particles={"vel": new_vel, "mud": mud, "water": water, "touching": touching, "approach": approach},
+            terrain_fields={"theta": ground.theta + gained / ground.pore},
+            removed=spent if spent.any() else None, sink="seepage",
+        )  # fmt: skip
 
-        # ---- 5 one increment, checked and applied
-        inc = Increment(dz=dz, suspended=taken_up - settled, carried_off=thrown)
-        terms = check_budget(inc, r.shape, r.cell_area, "Splash erosion")
-        self.totals["eroded"] += terms["eroded"]
-        self.totals["deposited"] += terms["deposited"]
-        self.totals["suspended"] += terms["suspended"]
-        self.totals["splashed_away"] += terms["carried_off"]
-        if spent.any():
-            s.remove_fluid(spent, sink="seepage")
-        changed = dz != 0
-        if changed.any():
-            with s.ground_moving(self.terrain, changed):
-                self.terrain += dz
-                self.sx[...], self.sy[...] = node_slopes(self.terrain, r.dx, r.dy)
-            moved = self.ground.follow()
-            if moved is None:
-                self._w = self.ground.weights(self.diffusivity)
-            elif len(moved):
-                self._w[moved] = self.ground.weights(self.diffusivity, moved)
+    def state_dict(self) -> dict[str, Any]:
+        return {"impacts": np.array(self.impacts, np.float64).reshape(-1, 8), "n_impacts": self.n_impacts,
+                "dug": self.dug, "scoured": self.scoured}  # fmt: skip
 
-        # ---- 6 moisture, evaporation
-        g = self.ground
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.impacts = np.asarray(state["impacts"]).reshape(-1, 8).tolist()
+        self.n_impacts = int(state["n_impacts"])
+        self.dug, self.scoured = float(state["dug"]), float(state["scoured"])
+
+
+class Moisture(Callback):
+    """Step 6 of the module docstring, after the coupler on the same schedule: water drains down a layered
+    ground's columns, moisture diffuses through the ground, the surface evaporates, and the mud
+    concentration diffuses among the fluid particles."""
+
+    def __init__(self, schedule, solver, terrain, *, evaporation_mm_h: float, mud: MudParams,
+                 clock: PassClock | None = None, name: str = "moisture"):  # fmt: skip
+        super().__init__(schedule, name=name)
+        self.clock = clock or PassClock()
+        self.solver, self.terrain, self.mud = solver, terrain, mud
+        ground = terrain.ground
+        g = float(np.linalg.norm(solver.g))
+        kg = conductivity(ground.permeability, gravity=g if g > 0 else 9.81)
+        self.k_between = harmonic(kg[ground.upper], kg[ground.lower]) if ground.layered else None
+        self.evaporation = evaporation_mm_h / 3.6e6  # m/s
+        self.vp = solver.params.spacing**3
+        self.evaporated = 0.0
+        self.last_t = float(solver.t)
+
+    def __call__(self, sim=None) -> None:
+        clock = self.clock
+        start = clock.now()
+        s, st = self.solver, self.solver.state
+        dt = float(s.t) - self.last_t
+        g = self.terrain.ground
         if self.k_between is not None:
             drain(g.theta, g.pore, g.upper, g.lower, self.k_between, g.area, dt)
-        diffuse(g.theta, g.pore, g.i, g.j, self._w, dt)
-        self.totals["evaporated"] += evaporate(g.theta, g.pore, g.surface, g.area, self.evaporation, dt)
-        t2, c2 = time.perf_counter(), time.process_time()
-        # ---- mud diffusion among the fluid
+        diffuse(g.theta, g.pore, g.i, g.j, self.terrain.weights, dt)
+        self.evaporated += evaporate(g.theta, g.pore, g.surface, g.area, self.evaporation, dt)
+        moist = clock.now()
+        clock.add("seepage", start, moist)  # moisture counts with the seepage pass
         nf = st.n_fluid
         diffuse_concentration(st.pos[:nf].astype(np.float64), st.mud[:nf], self.vp, s.h, self.mud.diffusivity, dt)
-        t3, c3 = time.perf_counter(), time.process_time()
-        for store, (a, b, c, d) in ((self.wall, (t0, t1, t2, t3)), (self.cpu, (c0, c1, c2, c3))):
-            store["splash"] += b - a
-            store["seepage"] += c - b
-            store["mud"] += d - c
+        clock.end = clock.now()
+        clock.add("mud", moist, clock.end)
         self.last_t = float(s.t)
-        self.calls += 1
-        self._end = (time.perf_counter(), time.process_time())
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"evaporated": self.evaporated, "last_t": self.last_t}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.evaporated, self.last_t = float(state["evaporated"]), float(state["last_t"])
+
+
+class WetGround:
+    """The splash kind's coupling of water and porous ground: the coupler with :class:`WetExchange` over a
+    :class:`~erosim.coupling.terrains.PorousHeightfieldTerrain`, and :class:`Moisture`, on ``schedule``
+    (every N fluid steps); ``callbacks`` are the two to run, in that order. Gives the run's budgets and
+    maps."""
+
+    def __init__(self, schedule, solver, raster: Raster, terrain: np.ndarray, ground: PorousGround, *,
+                 splash: sp.SplashParams, sigma_dry: float, sigma_wet: float, permeability: float,
+                 diffusivity: float, evaporation_mm_h: float, mud: MudParams, scour: ScourParams,
+                 outside: np.ndarray | None = None, name: str = "wet_ground"):  # fmt: skip
+        """``outside``: None or the nodes outside the terrain (a DEM's nodata; raster.shape), which no
+        crater, scour or settling mud changes."""
+        self.solver, self.raster, self.ground, self.mud = solver, raster, ground, mud
+        self.adapter = PorousHeightfieldTerrain(raster, terrain, ground, diffusivity, outside=outside)
+        g = float(np.linalg.norm(solver.g))
+        top_k = None
+        if ground.layered:  # the surface takes water at the top soil's conductivity
+            top_k = float(conductivity(ground.permeability, gravity=g if g > 0 else 9.81)[0])
+        self.clock = PassClock()
+        self.exchange = WetExchange(solver, splash=splash, sigma_dry=sigma_dry, sigma_wet=sigma_wet,
+                                    permeability=permeability, scour=scour, layered_k=top_k,
+                                    clock=self.clock)  # fmt: skip
+        self.coupler = Coupler(schedule, solver, self.exchange, self.adapter, name=name)
+        self.moisture = Moisture(schedule, solver, self.adapter, evaporation_mm_h=evaporation_mm_h, mud=mud,
+                                 clock=self.clock)  # fmt: skip
+        self.sigma_dry, self.sigma_wet = self.exchange.sigma_dry, self.exchange.sigma_wet
+        self.vp, self.radius = self.exchange.vp, self.exchange.radius
+        self.ground_water0 = ground.water()
+
+    callbacks = property(lambda self: [self.coupler, self.moisture])
+    terrain = property(lambda self: self.adapter.z)  # the heights, changed in place
+    impacts = property(lambda self: self.exchange.impacts)
+    n_impacts = property(lambda self: self.exchange.n_impacts)
+    calls = property(lambda self: self.coupler.calls)
 
     # ------------------------------------------------------------------ budgets and maps
     def water_budget(self) -> dict[str, Any]:
@@ -321,8 +376,9 @@ class WetGround(Callback):
         fluid = float(st.water[: st.n_fluid].sum()) * vp
         left = st.removed_sums.get("water", 0.0) * vp
         ground = self.ground.water()
+        evaporated = self.moisture.evaporated
         supplied = fluid0 + added + self.ground_water0
-        now = fluid + ground + self.totals["evaporated"] + left
+        now = fluid + ground + evaporated + left
         return {
             "unit": "m3",
             "fluid_initial": fluid0,
@@ -330,8 +386,8 @@ class WetGround(Callback):
             "ground_initial": self.ground_water0,
             "in_fluid": fluid,
             "in_ground": ground,
-            "absorbed": ground - self.ground_water0 + self.totals["evaporated"],
-            "evaporated": self.totals["evaporated"],
+            "absorbed": ground - self.ground_water0 + evaporated,
+            "evaporated": evaporated,
             "left_edges": left,
             "closure_rel": abs(supplied - now) / supplied if supplied > 0 else 0.0,
         }
@@ -342,20 +398,20 @@ class WetGround(Callback):
         st = self.solver.state
         mud = float(st.mud[: st.n_fluid].sum()) * self.vp
         left = st.removed_sums.get("mud", 0.0) * self.vp
-        t = self.totals
+        t = self.coupler.totals
         lost = t["eroded"] - t["deposited"]
-        change = float((self.terrain - self.terrain0).sum() * self.raster.cell_area)
+        change = float((self.adapter.z - self.adapter.z0).sum() * self.raster.cell_area)
         return {
             "unit": "m3",
             "eroded": t["eroded"],
             "settled": t["deposited"],
             "in_mud": mud,
             "mud_left_edges": left,
-            "splashed_away": t["splashed_away"],
-            "by_splash": t["dug"],
-            "by_scour": t["scoured"],
+            "splashed_away": t["carried_off"],
+            "by_splash": self.exchange.dug,
+            "by_scour": self.exchange.scoured,
             "terrain_change": change,
-            "closure_rel": abs(lost - mud - left - t["splashed_away"]) / t["eroded"] if t["eroded"] > 0 else 0.0,
+            "closure_rel": abs(lost - mud - left - t["carried_off"]) / t["eroded"] if t["eroded"] > 0 else 0.0,
         }
 
     def wetness(self) -> np.ndarray:
@@ -371,7 +427,7 @@ class WetGround(Callback):
         """Wall and process CPU time of the passes and of the fluid's steps between two couplings (this
         session), and each pass per second of those steps."""
         out: dict[str, Any] = {}
-        for label, w in (("wall", self.wall), ("cpu", self.cpu)):
+        for label, w in (("wall", self.clock.wall), ("cpu", self.clock.cpu)):
             between = w["between"]
             out[f"sph_steps_{label}_s"] = round(between, 4)
             for k in ("splash", "seepage", "mud"):
@@ -379,27 +435,3 @@ class WetGround(Callback):
                 out[f"{k}_per_sph_{label}"] = w[k] / between if between > 0 else None
         out["note"] = "this session's time of each pass, and per second of the fluid's steps between couplings"
         return out
-
-    # ------------------------------------------------------------------ callback protocol
-    def state_dict(self) -> dict[str, Any]:
-        imp = np.array(self.impacts, np.float64).reshape(-1, 8)
-        return {
-            "terrain": self.terrain.copy(),
-            "totals": np.array([self.totals[k] for k in self.totals]),
-            "impacts": imp,
-            "n_impacts": self.n_impacts,
-            "last_t": self.last_t,
-            "calls": self.calls,
-            **{f"ground_{k}": v for k, v in self.ground.state_dict().items()},
-        }
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        self.terrain[...] = np.asarray(state["terrain"])
-        self.totals = dict(zip(self.totals, np.asarray(state["totals"]).tolist(), strict=True))
-        self.impacts = np.asarray(state["impacts"]).reshape(-1, 8).tolist()
-        self.n_impacts = int(state["n_impacts"])
-        self.last_t = float(state["last_t"])
-        self.calls = int(state["calls"])
-        self.sx[...], self.sy[...] = node_slopes(self.terrain, self.raster.dx, self.raster.dy)
-        self.ground.load_state_dict({k[7:]: v for k, v in state.items() if k.startswith("ground_")})
-        self._w = self.ground.weights(self.diffusivity)

@@ -1,4 +1,5 @@
-"""The two terrains a :class:`~erosim.coupling.coupler.Coupler` can change: a heightfield and a voxel field.
+"""The terrains a :class:`~erosim.coupling.coupler.Coupler` can change: a heightfield, a heightfield over a
+porous ground, and a voxel field.
 
 The coupler's steps are the same for both (ask the eroder, check the budget, apply once, refresh the
 fluid's boundaries); what differs is held here, behind one small interface:
@@ -15,6 +16,8 @@ fluid's boundaries); what differs is held here, behind one small interface:
     particles;
 ``refuse(inc, who)``, ``apply(dz, t)``
     checks of its own (the bedrock) and the write of Δ (with what the terrain records of its changes);
+``write(fields)``
+    the new values of its own fields an increment carries (a porous ground's moisture);
 ``budget(totals, eroder)``, ``state_dict()``, ``load_state_dict()``
     its report and checkpoint entries.
 """
@@ -27,7 +30,9 @@ import numpy as np
 
 from erosim.core.errors import BudgetError, ConfigError
 from erosim.coupling.binning import FluidGrid
+from erosim.coupling.porous_ground import PorousGround
 from erosim.coupling.raster import Raster
+from erosim.sph.boundaries.heightfield import node_slopes
 
 
 class HeightfieldTerrain:
@@ -80,6 +85,62 @@ class HeightfieldTerrain:
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.z[...] = np.asarray(state["terrain"])  # in place: the boundaries hold this array
         self.grid.load_state_dict({k[5:]: v for k, v in state.items() if k.startswith("grid_")})
+
+
+class PorousHeightfieldTerrain:
+    """Heights ``z`` (raster.shape, SPH frame; changed in place) over a
+    :class:`~erosim.coupling.porous_ground.PorousGround` whose columns follow the surface when it changes
+    (the splash kind, seed 003). The eroder is given this adapter (heights, their slopes, the ground and
+    its moisture, the nodes ``outside`` the terrain) and sees the fluid's particles; the ground's pair
+    weights for moisture diffusion (``diffusivity``, m²/s) are kept here and renewed where columns move."""
+
+    provides = ("particles",)
+    report_key = None  # the splash kind reports its own water and solid budgets
+
+    def __init__(self, raster: Raster, z: np.ndarray, ground: PorousGround, diffusivity: float, *, outside=None):
+        self.raster, self.z, self.ground = raster, z, ground
+        self.outside = None if outside is None or not np.any(outside) else np.asarray(outside, bool)
+        self.valid = None if self.outside is None else ~self.outside
+        self.diffusivity = float(diffusivity)
+        self.z0 = z.copy()
+        self.sx, self.sy = node_slopes(z, raster.dx, raster.dy)
+        self.weights = ground.weights(self.diffusivity)
+
+    terrain = property(lambda self: self)
+    values = property(lambda self: self.z)
+    shape = property(lambda self: self.z.shape)
+    unit_volume = property(lambda self: self.raster.cell_area)
+
+    def fluid(self, solver):
+        return solver
+
+    def refuse(self, inc, who: str) -> None:
+        """Nothing of its own: the eroder keeps every change off the nodes outside the terrain."""
+
+    def write(self, fields: dict[str, np.ndarray]) -> None:
+        self.ground.theta[...] = fields["theta"]
+
+    def apply(self, dz: np.ndarray, t: float) -> None:
+        """z += Δz, the slopes renewed, the ground's columns laid under the new surface."""
+        self.z += dz
+        self.sx[...], self.sy[...] = node_slopes(self.z, self.raster.dx, self.raster.dy)
+        moved = self.ground.follow()
+        if moved is None:
+            self.weights = self.ground.weights(self.diffusivity)
+        elif len(moved):
+            self.weights[moved] = self.ground.weights(self.diffusivity, moved)
+
+    def budget(self, totals: dict[str, float], eroder) -> dict[str, Any]:
+        return dict(totals)
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"terrain": self.z.copy(), **{f"ground_{k}": v for k, v in self.ground.state_dict().items()}}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.z[...] = np.asarray(state["terrain"])
+        self.sx[...], self.sy[...] = node_slopes(self.z, self.raster.dx, self.raster.dy)
+        self.ground.load_state_dict({k[7:]: v for k, v in state.items() if k.startswith("ground_")})
+        self.weights = self.ground.weights(self.diffusivity)
 
 
 def _node(terrain, flat: int) -> tuple[float, float, float]:

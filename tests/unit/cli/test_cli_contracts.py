@@ -368,12 +368,12 @@ def _small_hydrology_run(cli_runner, tmp_path):
 def test_a_picture_that_fails_is_a_warning_not_a_lost_run(cli_runner, tmp_path, monkeypatch):
     """A figure that raises at the end of a run: the maps and report.json are written, the failure is
     one warning in the report."""
-    from erosim.viz import plots
+    from erosim.scenarios.hydrology import outputs
 
     def broken(*args, **kwargs):
         raise ZeroDivisionError("float division by zero")
 
-    monkeypatch.setattr(plots, "hillshade_figure", broken)
+    monkeypatch.setattr(outputs, "hillshade_figure", broken)  # the name the kind's outputs call
     out, rep = _small_hydrology_run(cli_runner, tmp_path)
     assert (out / "maps" / "height.tif").is_file()
     assert any("figures" in w and "ZeroDivisionError" in w for w in rep["warnings"])
@@ -396,9 +396,9 @@ def test_a_final_output_that_fails_is_a_warning_in_the_report(cli_runner, tmp_pa
     ("kind", "sets", "module", "function", "kept"),
     [
         ("particle-stream", ["terrain.size=48", "emitters.main.particles=40", "emitters.main.steps=30"],
-         "erosim.viz.plots", "hillshade_figure", ["figures/canyon.png", "figures/erosion.png", "maps/erosion.tif"]),
+         "erosim.scenarios.particle_stream.outputs", "hillshade_figure", ["figures/canyon.png", "figures/erosion.png", "maps/erosion.tif"]),
         pytest.param("flood", ["run.t_end=20.0", "run.map_frames=1", "flood.settle_steps=20", "flood.spacing=40.0"],
-                     "erosim.viz.flood", "plot_flood_maps", ["figures/hazard.png", "maps/hazard.tif"],
+                     "erosim.scenarios.flood.outputs", "plot_flood_maps", ["figures/hazard.png", "maps/hazard.tif"],
                      marks=pytest.mark.slow),  # a flood run, about 15 s
     ],
 )  # fmt: skip

@@ -29,7 +29,7 @@ def test_every_frame_has_the_same_colour_scale(tmp_path, monkeypatch):
         seen.append(kwargs["speed_max"])
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(plots, "snapshot", spy)
+    monkeypatch.setattr(callbacks, "snapshot", spy)  # the name the callback calls
     for speed in (0.1, 3.0):  # frames whose own maxima differ 30-fold
         cb = callbacks.Snapshots(
             IterationInterval(1), _Fluid(speed), tmp_path, lo=[0, 0], hi=[1.0, 0.5], spacing=0.05, title="t", g=9.81

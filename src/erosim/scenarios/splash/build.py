@@ -5,7 +5,7 @@ The terrain (a DEM, a generated map, or — with ``[drop]`` — a flat patch sca
 the SPH frame of :mod:`erosim.scenarios.sph_terrain.build` (x east, y north, z up, rows
 northward). The fluid feels the ground as the heightmap's particle-free wall; porous ground particles
 (:class:`~erosim.coupling.porous_ground.PorousGround`) lie in layers under it; every ``run.every``
-steps :class:`~erosim.coupling.splash_coupler.WetGround` digs the craters of the particles that
+steps the coupler of :class:`~erosim.coupling.splash_coupler.WetGround` digs the craters of the particles that
 strike the ground, scours, lets water seep in and spread, and mixes mud.
 
 A DEM's nodata cells are outside the terrain: no ground particle stands there, no rain falls there,
@@ -281,7 +281,7 @@ def setup(scenario, out) -> Setup:
         xy = geo.to_local(inf.position, f"inflows.{name}.position")
         callbacks.append(PointInflow(IterationInterval(1), solver, r, geo.terrain, xy, inf.discharge,
                                      inf.radius, inf.height, name))  # fmt: skip
-    callbacks.append(wet)
+    callbacks.extend(wet.callbacks)  # the coupler, then the moisture pass
     run = cfg.run
     if run.output_interval > 0:
         callbacks.append(SplashFrames(TimeInterval(run.output_interval), solver, wet, out.path / "particles"))
