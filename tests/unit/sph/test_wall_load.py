@@ -65,10 +65,11 @@ def test_face_area_uses_the_walls_own_step():
 def test_a_sensor_at_the_foot_of_a_wall_feels_the_corner():
     """Sensors 3 and 15 mm above the floor on the tank's side walls (H/16, after 0.6 s at rest). Their patch
     reaches the floor: its area is the wetted face's alone, and the load includes the particles behind the face
-    under the floor (the corner), which the fluid at the face's foot pushes on. Each reads the mean of
-    ρ₀g(H − z) over its face, ρ₀g(H − z̄) with z̄ the face particles' mean height, within 1 % as the tank's other
-    walls (measured 0.2 % here, 0.4 % at H/40); before, counting the corner's area and not its load, the 3 mm
-    sensor read 0.50 of it (0.66 at H/40), the 15 mm one 0.67."""
+    under the floor (the corner), which the fluid at the face's foot pushes on. The face's mean load, ρ₀g(H − z̄)
+    with z̄ the wetted face's mean height, is carried hydrostatically to the sensor: each reads ρ₀g(H − z) at its
+    own height within 1 % as the tank's other walls (measured 0.2 % here); before, counting the corner's area and
+    not its load, the 3 mm sensor read 0.50 of ρ₀g(H − z̄) (0.66 at H/40), the 15 mm one 0.67, and without
+    the carry the 3 mm one read 0.92 of ρ₀g(H − z)."""
     from erosim.sph.wall_load import at_the_face_end
 
     dx = 0.2 / 16
@@ -82,5 +83,24 @@ def test_a_sensor_at_the_foot_of_a_wall_feels_the_corner():
         idx = patch(bpos, q, normal, s.h, s.h, solid)
         face, corner = at_the_face_end(bpos, idx, q, normal, s.h, s.h, s.lo, s.hi, dx)
         assert bpos[face, 1].min() > 0 and len(corner) and np.all(bpos[corner, 1] < 0)
-        exact = 1000 * 9.81 * (0.2 - bpos[face, 1].mean())
+        exact = 1000 * 9.81 * (0.2 - q[1])
         assert wall_pressure(s, q, normal, s.h, solid) == pytest.approx(exact, rel=0.01), q
+
+
+def test_the_face_in_the_gap_under_a_held_off_fluid_is_dry():
+    """Dynamic walls hold the fluid off by a gap that grows under impacts (docs/sph.md, "At the foot of a
+    wall"). A wall at x = 0 (three layers behind it) and a fluid lattice in front of it whose lowest layer
+    sits 12 mm above the floor (Δx = 7.5 mm, h = 22.5 mm): the wall particles level with the fluid's layers,
+    or under ¾Δx from one, are wet; the column at 3.75 mm (8.25 mm below the fluid) is dry in every layer."""
+    from scipy.spatial import cKDTree
+
+    from erosim.sph.wall_load import wetted
+
+    dx, h = 0.0075, 0.0225
+    zb = 0.5 * dx + dx * np.arange(6)  # 3.75 … 41.25 mm
+    wall = np.array([[0.5 * dx + k * dx, z] for k in range(3) for z in zb])
+    fluid = np.array([[-(0.5 * dx + 2 * k * dx), 0.012 + j * dx] for k in range(3) for j in range(6)])
+    wet = wetted(wall, [0.0, 0.003], cKDTree(fluid), np.array([-1.0, 0.0]), h, dx)
+    assert not wet[np.isclose(wall[:, 1], 0.5 * dx)].any()  # 12 − 3.75 = 8.25 mm > ¾Δx = 5.6 mm
+    assert wet[wall[:, 1] > dx].all()
+    assert not wetted(wall, [0.0, 0.003], cKDTree(fluid + [0.0, 1.0]), np.array([-1.0, 0.0]), h, dx).any()
