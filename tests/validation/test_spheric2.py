@@ -102,9 +102,11 @@ def _level_errors(tmp_path, spacing):
 
 
 #: coarse (Δx = 0.05 m) errors measured 2026-11-24, and their scatter: the spread of each metric when
-#: the time step is changed by ±5 % (sph.cfl 0.19 / 0.21), which reorders the flow's small splashes
+#: the time step is changed by ±5 % (sph.cfl 0.19 / 0.21), which reorders the flow's small splashes; the
+#: pressures re-measured 2026-11-28 when the box's sensors came to read the wetted face with the
+#: hydrostatic carry (P1 0.2852 -> 0.2641, P3 0.2488 -> 0.2557; the flow is unchanged)
 COARSE_LEVEL = {"H1": (0.1168, 0.020), "H2": (0.0588, 0.003), "H3": (0.0713, 0.005), "H4": (0.0635, 0.005)}
-COARSE_PRESSURE = {"P1": (0.2852, 0.010), "P3": (0.2488, 0.015)}
+COARSE_PRESSURE = {"P1": (0.2641, 0.010), "P3": (0.2557, 0.015)}
 
 
 @pytest.fixture(scope="module")
@@ -127,7 +129,7 @@ def test_coarse_case_against_the_experiment(coarse):
     for p, (measured, scatter) in COARSE_PRESSURE.items():
         assert result["pressure_rms_rel"][p] <= measured + scatter, (p, result["pressure_rms_rel"])
     assert result["value"] == max(result["wire_level_rms_rel"].values())
-    # coarse misses H1's wetted length (measured 63 mm) and P1 (29 %): it fails and says it is not expected to
+    # coarse misses H1's wetted length (measured 63 mm), P1 and P3 (26 %): it fails and says it is not expected to
     assert not result["passed"] and "H1 level" in result["verdict"] and "not expected" in result["verdict"]
     # the wetted length equals the column wherever no hollow or jet is on the line; jets crossing it put
     # it at most 3 mm further from the lab than the column at any spacing run (H3 at 0.02 m), and the
@@ -150,7 +152,8 @@ def test_water_level_error_shrinks_with_resolution(tmp_path, coarse):
 def test_default_resolution_meets_the_targets(tmp_path):
     """Δx = 0.025 m (43 120 particles, about 4 min on two threads): every gauge's wetted length within the
     issue's 10 % of H (measured 49 / 13 / 30 / 21 mm) and the box's P1 and P3 within 25 % of ρ₀gH
-    (measured 13 %, 18 %). H1's column reading stays above (64 mm): it stops under the air pocket."""
+    (measured 12 %, 17 %; 13 %, 18 % before the sensors read the wetted face with the hydrostatic carry). H1's
+    column reading stays above (64 mm): it stops under the air pocket."""
     result = sp.run("default", tmp_path / "v", progress=False)
     assert result["passed"] and result["spacing"] == 0.025, result["verdict"]
     for g in sp.GAUGES:
