@@ -396,7 +396,8 @@ def test_a_final_output_that_fails_is_a_warning_in_the_report(cli_runner, tmp_pa
     ("kind", "sets", "module", "function", "kept"),
     [
         ("particle-stream", ["terrain.size=48", "emitters.main.particles=40", "emitters.main.steps=30"],
-         "erosim.scenarios.particle_stream.outputs", "hillshade_figure", ["figures/canyon.png", "figures/erosion.png", "maps/erosion.tif"]),
+         "erosim.scenarios.particle_stream.outputs", "hillshade_figure",
+         ["figures/canyon.png", "figures/erosion.png", "maps/erosion.tif"]),
         pytest.param("flood", ["run.t_end=20.0", "run.map_frames=1", "flood.settle_steps=20", "flood.spacing=40.0"],
                      "erosim.scenarios.flood.outputs", "plot_flood_maps", ["figures/hazard.png", "maps/hazard.tif"],
                      marks=pytest.mark.slow),  # a flood run, about 15 s
