@@ -98,7 +98,7 @@ def swe_signatures():
         ("swe.max1", ks.max1, (D1, i, D1)),
         ("swe.max_moved", ks.max_moved, (A2, A2, i, D1)),
         ("swe.lists_broken", ks.lists_broken, (A2, A2, D1, D1, i, D1, I1)),
-        ("swe.depth_and_support", ks.depth_and_support, (A2, D1, D1, i, I1, I1, f, f, f, f, i, D1, D1)),
+        ("swe.depth_and_support", ks.depth_and_support, (A2, D1, D1, i, I1, I1, D1, f, f, f, i, D1, D1)),
         ("swe.accelerations", ks.accelerations, (A2, A2, D1, D1, D1, D1, i, I1, I1, G, f, f, f, A2)),
         ("swe.kick", ks.kick, (A2, A2, D1, G, f, A2, i, f, f, f)),
         ("swe.drift", ks.drift, (A2, A2, i, f, f, boolean[:, :]) + (boolean,) * 4 + (boolean[:], I1, I1)),

@@ -625,7 +625,9 @@ def bench_voxel(particles, steps, every, sediment, law, as_json):
 @bench.command(name="flood")
 @click.option("--t-end", type=click.FloatRange(min=1), default=4000.0, show_default=True, help="Simulated seconds.")
 @click.option("--spacing", type=click.FloatRange(min=5), default=20.0, show_default=True, help="Particle spacing (m).")
-@click.option("--split/--no-split", default=False, show_default=True, help="Particle splitting where the flow thins.")
+@click.option(
+    "--split/--no-split", default=None, help="Particle splitting where the flow thins (default: the scenario's, on)."
+)
 @_device_option("Where the shallow-water SPH steps run: cpu or cuda")
 @click.option("--json", "as_json", is_flag=True)
 def bench_flood(t_end, spacing, split, device, as_json):

@@ -30,13 +30,16 @@ def test_the_arrival_map_follows_ritters_front():
     """The arrival-time map of a dam break on a flat, frictionless channel against Ritter's front
     x_f = 2 √(g h₀) t (Ritter 1892): the cells along the channel first get wet at x / (2 √(g h₀)).
 
-    h₀ = 10 m, particles of 1 m (h₀/10) on 1 m cells, splitting on (without it the thin tip is
-    under-resolved and the map is about 46 % late: docs/flood.md), 5 s (the front travels 99 m); under a
-    second. Checked between 0.4 and 0.9 of the reach: nearer the dam the start-up delay (the front
+    h₀ = 10 m, particles of 1 m (h₀/10) on 1 m cells, splitting at every depth with the daughters' H
+    relaxing over half a crossing time (``split_depth = h₀``, ``split_relax = 0.5``), 5 s (the front
+    travels 99 m); a few seconds. Without splitting the thin tip is under-resolved and the map is 40–42 %
+    late with 38 % of the window dry; with the defaults (split below 1 m = 0.1 h₀ only, relax over five
+    crossing times) 17–27 % late with 8 % dry (measured; docs/flood.md, "The gradual split").
+    Checked between 0.4 and 0.9 of the reach: nearer the dam the start-up delay (the front
     leaves the lattice over its first steps) is a larger share of a short time, beyond 0.9 the tip is
     thinner than the wet depth. The 10 % tolerance: the map records when the depth first passes
     flood.wet_depth w = 0.01 m, which Ritter's fan reaches at x / (2c₀ − 3√(g w)), 4.7 % after the
-    front at h₀ = 10 m, plus the start-up delay (measured −3.4 % … +2.5 % in this window).
+    front at h₀ = 10 m, plus the start-up delay (measured −3.3 % … +6.6 % in this window).
     """
     import math
 
@@ -52,9 +55,7 @@ def test_the_arrival_map_follows_ritters_front():
     nx, ny = int(round((upstream + downstream) / dx)) + 2, int(round(width / dx)) + 2  # + the wall cells
     dam = 0.5 * dx + upstream
     x, y = (a.ravel() for a in np.meshgrid(np.arange(dx, dam, dx), np.arange(dx, 0.5 * dx + width, dx)))
-    # splitting measured at max_support 1.5, where its daughters follow the front: at the default 2.0 the
-    # split front runs ahead and this map is 10–14 % early (measured; docs/flood.md, "What the split does")
-    prm = ShallowWaterParams(split=True, max_support=1.5)
+    prm = ShallowWaterParams(split=True, split_depth=h0, split_relax=0.5)
     vol = lattice_volume(np.full(x.size, h0), dx, prm.support, prm.max_support)
     swe = ShallowWaterSPH(np.zeros((ny, nx)), dx, np.column_stack([x, y]), vol, dx, prm, surface=h0)
     maps = HazardMaps((ny, nx), 0.01)

@@ -52,9 +52,11 @@ def valley_dem(floor_width: float = 1000.0, seed: int = 7):
     return Heightmap(z=z, cell_size=CELL, transform=default_transform(ny, nx, CELL))
 
 
-def setup(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, device: str = "cpu", overrides=()):
+def setup(
+    t_end: float = 4000.0, spacing: float = 20.0, *, split: bool | None = None, device: str = "cpu", overrides=()
+):
     """(site, solver, cfg, setup seconds): the benchmark's flood built and settled, ready to run
-    (``overrides``: more ``key=value`` settings of the scenario)."""
+    (``split``: None keeps the scenario's default; ``overrides``: more ``key=value`` settings of the scenario)."""
 
     hm = valley_dem()
     level = FLOOR_SLOPE * (LENGTH - DAM_Y) + DEPTH_AT_DAM
@@ -70,7 +72,7 @@ def setup(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, 
                 f"reservoir.barrier=[[0.0, {DAM_Y!r}], [{WIDTH!r}, {DAM_Y!r}]]",
                 "outflow.edges=['north']",
                 f"flood.spacing={spacing!r}",
-                f"flood.split={'true' if split else 'false'}",
+                *([] if split is None else [f"flood.split={'true' if split else 'false'}"]),
                 f"run.t_end={t_end!r}",
                 f"run.device={device}",
                 *overrides,
@@ -84,7 +86,7 @@ def setup(t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, 
 
 
 def run(
-    t_end: float = 4000.0, spacing: float = 20.0, *, split: bool = False, device: str = "cpu", overrides=()
+    t_end: float = 4000.0, spacing: float = 20.0, *, split: bool | None = None, device: str = "cpu", overrides=()
 ) -> dict:
     """Run the benchmark flood; returns the JSON-able result (keys in the module docstring)."""
     import numba

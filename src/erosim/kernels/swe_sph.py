@@ -185,9 +185,11 @@ def scan_pairs(pos, hsup, n, x0, y0, cell, ncx, ncy, cell_start, order, bin_max,
 
 @njit(parallel=True, cache=True)
 def depth_and_support(pos, vol, hsup, n, start, nbr, k2, h_min, h_max, tol, max_iter, depth, omega):
-    """Depth d_i = Σ_j V_j W(r_ij, H_i) (self included) with H_i = k·√(V_i/(d_i + δ_i)), by Newton.
+    """Depth d_i = Σ_j V_j W(r_ij, H_i) (self included) with H_i = k_i·√(V_i/(d_i + δ_i)), by Newton.
 
-    δ_i = k²V_i/h_max² bounds H smoothly by h_max as the water thins (a particle alone on dry ground
+    ``k2`` holds k_i² per particle (the support factor squared: ``flood.support``² for every particle but
+    a split's daughters, whose k_i starts where their H equals the parent's and relaxes back).
+    δ_i = k_i²V_i/h_max² bounds H smoothly by h_max as the water thins (a particle alone on dry ground
     gets H → h_max) and leaves deep water untouched; a hard clamp would make H(d) kink where it binds,
     and particles on a lake's shore chatter across the kink for ever. Residual
     R(H) = Σ_j V_j W(r_ij, H) + δ_i − k²V_i/H², R'(H) = Σ_j V_j ∂W/∂H + 2k²V_i/H³ (Vacondio et al.
@@ -207,7 +209,8 @@ def depth_support_particle(i, pos, vol, hsup, start, nbr, k2, h_min, h_max, tol,
     """Particle i's Newton solve of :func:`depth_and_support`; returns its iterations."""
     h = min(max(hsup[i], h_min), h_max)
     vi = vol[i]
-    delta = k2 * vi / (h_max * h_max)
+    k2i = k2[i]
+    delta = k2i * vi / (h_max * h_max)
     s = 0.0
     ds = 0.0
     it = 0
@@ -222,8 +225,8 @@ def depth_support_particle(i, pos, vol, hsup, start, nbr, k2, h_min, h_max, tol,
             if r < h:
                 s += vol[j] * wendland_w_2d(r, h)
                 ds += vol[j] * dw_dh(r, h)
-        res = s + delta - k2 * vi / (h * h)
-        der = ds + 2.0 * k2 * vi / (h * h * h)
+        res = s + delta - k2i * vi / (h * h)
+        der = ds + 2.0 * k2i * vi / (h * h * h)
         if der <= 0.0:
             hn = h * 1.2 if res < 0.0 else h * 0.8
         else:

@@ -32,7 +32,7 @@ from erosim.sph import kernels_cuda, kernels_swe_cuda
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterSPH
 
 _FIELDS = ("pos", "vel", "hsup", "depth", "omega", "acc")  # what the device changes
-_CONSTANT = ("vol",)  # per particle, changed only on the host (removal)
+_CONSTANT = ("vol", "k2")  # per particle, changed only on the host (removal)
 _MAXIMA = ("max_depth", "max_speed", "max_dv", "arrival")  # the hazard maps' arrays
 
 
@@ -269,7 +269,7 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
                 self._neighbours(margin)
             ks.copy1[bl, tpb](d["hsup"], d["prev"], n)
             ks.depth_and_support[bl, tpb](
-                d["pos"], d["vol"], d["hsup"], n, d["start"], d["nbr"], prm.support**2, self.h_min, self.h_cap,
+                d["pos"], d["vol"], d["hsup"], n, d["start"], d["nbr"], d["k2"], self.h_min, self.h_cap,
                 prm.tolerance, 40, d["depth"], d["omega"],
             )  # fmt: skip
             if self._lists_hold():

@@ -14,8 +14,8 @@ Measured at t_end along the channel's centre line (depth by SPH interpolation,
 to h₀ (threshold 5 %); and the front (Ritter: furthest point with depth ≥ 5 % h₀ against the analytic
 position of that depth, 2c₀t − 3t√(0.05 g h₀)) or the bore (Stoker: where the depth crosses
 (h_m + h₁)/2) — reported with their error relative to the distance travelled. Particle splitting is
-off (its default); the dry front's thin tip is then under-resolved and lags, which the front error
-shows.
+on (its default, the gradual split): without it the dry front's thin tip is under-resolved, which the
+front error shows (+15.6 % against −4.3 % with it, Δx = h₀/4).
 """
 
 from __future__ import annotations
