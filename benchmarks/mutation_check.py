@@ -433,7 +433,7 @@ MUTATIONS = (
         "kernels/friction_manning.py",
         (("    return 1.0 + dt * g * n * n * speed / depth ** (4.0 / 3.0)",
           "    return 1.0 + dt * g * n * speed / depth ** (4.0 / 3.0)"),),  # fmt: skip
-        ("tests/unit/sph/test_swe_sph.py", "tests/unit/sph/test_depth_columns.py"),
+        ("tests/unit/sph/test_kernels_swe.py", "tests/unit/sph/test_depth_columns.py"),
         "the floods' Manning friction (both solvers) grows with n, not n² (g n u|u| / d^{4/3})",
     ),
     Mutation(
@@ -514,28 +514,28 @@ MUTATIONS = (
     ),
     Mutation(
         "flood-map-particle-depth",
-        "kernels/swe_sph.py",
+        "sph/kernels_swe.py",
         (
             (
                 "                    sums[0, r - r_lo, c - c_lo] += w\n",
                 "                    sums[0, r - r_lo, c - c_lo] = max(sums[0, r - r_lo, c - c_lo], depth[j])\n",
             ),
         ),
-        ("tests/unit/sph/test_swe_sph.py",),
+        ("tests/unit/sph/test_kernels_swe.py",),
         "the flood's maps take the deepest particle's own depth in reach, not the SPH depth at the cell centre",
     ),
     Mutation(
         "flood-map-no-surface-cut",
-        "kernels/swe_sph.py",
+        "sph/kernels_swe.py",
         (("    d = min(d, se / s - bed[r, c])\n", "    d = min(d, se / s - bed[r, c] + 1e9)\n"),),
-        ("tests/unit/sph/test_swe_sph.py",),
+        ("tests/unit/sph/test_kernels_swe.py",),
         "the flood's maps are wet up banks above the water surface, wherever the kernel reaches",
     ),
     Mutation(
         "flood-map-through-walls",
-        "kernels/swe_sph.py",
+        "sph/kernels_swe.py",
         (("if wall_dist[r, c] <= h + cell_size and wall_between(", "if False and wall_between("),),
-        ("tests/unit/sph/test_swe_sph.py",),
+        ("tests/unit/sph/test_kernels_swe.py",),
         "the flood's maps see water through walls (a dam's downstream cells wet at t = 0)",
     ),
     Mutation(

@@ -1,6 +1,6 @@
 """Thin water in the shallow-water SPH's hazard maps against known answers (issue 37): the mapped depth
 is the SPH interpolant at the cell centres, cut where the ground stands above the water surface
-(:func:`erosim.kernels.swe_sph.grid_maxima`).
+(:func:`erosim.sph.kernels_swe.grid_maxima`).
 
 * a uniform sheet flow on a planar slope with Manning friction reaches its normal depth
   d = (q n / √S)^(3/5) (Manning 1891), for d = 0.05, 0.2 and 0.5 m at particles five times d apart;
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from erosim.analysis.hazard import HazardMaps
-from erosim.kernels.swe_sph import step_limit
+from erosim.sph.kernels_swe import step_limit
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, lattice_volume
 from erosim.validation import swe_dam_break as dam
 from erosim.validation import thacker

@@ -31,7 +31,7 @@ from erosim.core.errors import ConfigError
 from erosim.coupling.raster import Raster
 from erosim.coupling.sampling import sample
 from erosim.coupling.sources import EdgeOutflow
-from erosim.kernels import swe_sph as K
+from erosim.sph import kernels_swe as K
 from erosim.sph.boundaries.heightfield import HeightfieldGround
 from erosim.sph.boundaries.planes import PlaneWalls
 from erosim.sph.depth_columns import column_fields

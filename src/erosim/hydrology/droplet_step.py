@@ -20,7 +20,7 @@ minimum: ``ENDED``), otherwise returns ``MOVED``.
 The functions here take plain scalars, arrays and a tuple of constants (:func:`constants`) and
 are inlined where they are called; they are not cached on their own, so that numba-cuda can
 compile the same source as a device function (as the shallow-water kernels do with
-:mod:`erosim.kernels.swe_sph`). The seed preset's serial loop keeps its latency-tuned form of the
+:mod:`erosim.sph.kernels_swe`). The seed preset's serial loop keeps its latency-tuned form of the
 same model for whole steps and a one-cell footprint
 (:func:`erosim.hydrology.droplets.descend_cell`, which agrees with this step to rounding, tested).
 """

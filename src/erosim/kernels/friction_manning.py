@@ -8,7 +8,7 @@ deceleration −g n² |u| u / d^{4/3} of the depth-averaged velocity u (Manning'
 
 with u* the velocity before friction: D ≥ 1 only divides, so friction can stop water but never
 reverse it, however thin. :func:`manning_divisor` is D for one particle or column; the
-shallow-water SPH kick (:func:`erosim.kernels.swe_sph.kick_particle`, also inlined into the GPU
+shallow-water SPH kick (:func:`erosim.sph.kernels_swe.kick_particle`, also inlined into the GPU
 kernels) and the 3-D solver's columns (:class:`erosim.sph.manning_columns.ManningColumns`) both call
 it, the columns its Python source on NumPy arrays (``manning_divisor.py_func``: one expression for
 every column at once, evaluated as before this function was shared, so their results are unchanged

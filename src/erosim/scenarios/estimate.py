@@ -33,10 +33,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from erosim.core.errors import ConfigError
-from erosim.kernels.swe_sph import step_limit
 from erosim.scenarios.flood.build import FloodSetUp
 from erosim.scenarios.schema_common import build_terrain as heightmap
 from erosim.scenarios.voxel.schema import at_dem_scale, band_for, overflow_head
+from erosim.sph.kernels_swe import step_limit
 from erosim.sph.params import SPHParams
 from erosim.terrain.voxel import memory_bytes
 

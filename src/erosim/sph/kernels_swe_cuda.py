@@ -3,7 +3,7 @@
 Why hand-written numba-cuda kernels: as for the 3-D step (:mod:`erosim.sph.kernels_cuda`, whose
 prefix sum, scatter and per-cell sort these reuse), the only library primitives that would fit are a
 sort and a scan, and a second GPU stack is not worth them. The physics is not rewritten: each kernel
-calls the CPU path's own per-particle function of :mod:`erosim.kernels.swe_sph` (the pair search,
+calls the CPU path's own per-particle function of :mod:`erosim.sph.kernels_swe` (the pair search,
 the depth and smoothing-length Newton solve, the pair forces, the bed's C¹ surface, the Manning kick,
 the drift with its walls and open edges, the CFL scale and a map cell's hazard maxima), so both
 devices solve the same equations over the same neighbour lists in the same order.
@@ -24,8 +24,8 @@ import types
 import numpy as np
 from numba import cuda
 
-from erosim.kernels import swe_sph as K
 from erosim.sph import kernels_cuda
+from erosim.sph import kernels_swe as K
 from erosim.sph.kernels_cuda import SIMULATOR, TPB, _dev, _helper
 
 
@@ -43,7 +43,7 @@ _block_max = _here(kernels_cuda._block_max)
 _pairs = _dev(K.pairs_particle)
 _depth_support = _dev(K.depth_support_particle)
 _pair_forces = _dev(K.pair_forces_particle)
-_bed = _helper(K.bed_c1.py_func)  # inlined here (the CPU calls it: see erosim.kernels.swe_sph)
+_bed = _helper(K.bed_c1.py_func)  # inlined here (the CPU calls it: see erosim.sph.kernels_swe)
 _kick = _dev(K.kick_particle)
 _drift = _dev(K.drift_particle)
 _cfl = _dev(K.cfl_scale)
@@ -63,7 +63,7 @@ else:
 
 @cuda.jit
 def cell_ids(pos, n, x0, y0, cell, ncx, ncy, pcell, counts):
-    """pcell[i] = cy·ncx + cx, the cell of :func:`erosim.kernels.swe_sph.bin_particles`; counts[c] += 1."""
+    """pcell[i] = cy·ncx + cx, the cell of :func:`erosim.sph.kernels_swe.bin_particles`; counts[c] += 1."""
     i = cuda.grid(1)
     if i < n:
         cx = min(max(int((pos[i, 0] - x0) / cell), 0), ncx - 1)

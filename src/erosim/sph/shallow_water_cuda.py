@@ -27,8 +27,8 @@ import numpy as np
 
 from erosim.core import devices
 from erosim.core.errors import ConfigError, InstabilityError
-from erosim.kernels import swe_sph as K
 from erosim.sph import kernels_cuda, kernels_swe_cuda
+from erosim.sph import kernels_swe as K
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterSPH
 
 _FIELDS = ("pos", "vel", "hsup", "depth", "omega", "acc")  # what the device changes

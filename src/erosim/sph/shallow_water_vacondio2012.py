@@ -47,7 +47,7 @@ from scipy import ndimage
 
 from erosim.core.config import Section, param
 from erosim.core.errors import InputError, InstabilityError
-from erosim.kernels import swe_sph as K
+from erosim.sph import kernels_swe as K
 
 _SPLIT_CENTRE = 0.178  # Vacondio et al. 2013: the centre daughter's share of the parent's volume
 _SPLIT_RADIUS = 0.4  # hexagon radius in units of the parent's spacing √(V/d)
@@ -121,7 +121,7 @@ class ShallowWaterSPH:
     """A :class:`~erosim.simulation.Simulation` model: shallow-water SPH over a DEM.
 
     ``bed`` is the DEM (rows north → south, float64), ``cell_size`` its cell in metres; positions
-    are in the cell frame of :mod:`erosim.kernels.swe_sph` (x = column·Δ, y = row·Δ). ``wall`` marks
+    are in the cell frame of :mod:`erosim.sph.kernels_swe` (x = column·Δ, y = row·Δ). ``wall`` marks
     cells water cannot enter, ``manning`` is n per cell, ``open_edges`` the edges water leaves by,
     ``surface`` the highest water surface at the start (walls are raised above it; default: the bed's top).
     """
@@ -513,8 +513,8 @@ class ShallowWaterSPH:
         """Raise the hazard maxima and arrival times of ``maps`` (arrays on the DEM grid) at time t from
         the SPH depth at the cell centres, d(x) = Σ_j V_j W(|x − x_j|, H_j), cut where the ground stands
         above the water, and the Shepard mean speed with the same weights (the formulas:
-        :func:`erosim.kernels.swe_sph.grid_maxima`; here summed particle by particle,
-        :func:`~erosim.kernels.swe_sph.scatter_sums`); the wall cells are never marked.
+        :func:`erosim.sph.kernels_swe.grid_maxima`; here summed particle by particle,
+        :func:`~erosim.sph.kernels_swe.scatter_sums`); the wall cells are never marked.
 
         The interpolant, not each particle's own depth d_i: d_i cannot fall below about
         V_i·7/(π H_max²) (one particle alone in its support), so cells under the particles' squares

@@ -31,8 +31,8 @@ from scipy.optimize import brentq
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
-from erosim.kernels.swe_sph import step_limit
 from erosim.scenarios import estimate
+from erosim.sph.kernels_swe import step_limit
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, lattice_volume
 from erosim.viz.plots import save_figure
 

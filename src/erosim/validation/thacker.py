@@ -25,8 +25,8 @@ import numpy as np
 from erosim.core import atomic
 from erosim.core.errors import ConfigError
 from erosim.io.runfolder import RunFolder, default_out
-from erosim.kernels.swe_sph import step_limit
 from erosim.scenarios import estimate
+from erosim.sph.kernels_swe import step_limit
 from erosim.sph.shallow_water_vacondio2012 import ShallowWaterParams, ShallowWaterSPH, equal_volumes
 from erosim.viz.plots import save_figure
 

@@ -53,7 +53,7 @@ def _solver(pos, vel, vol):
 
 def test_manning_columns_slow_a_sheet_as_the_shallow_water_law():
     """A 2 m sheet at 1.1 m/s: every column's velocity becomes u/(1 + Δt g n²|u|/D^{4/3}), the
-    shallow-water solver's semi-implicit Manning step (erosim.kernels.swe_sph.kick)."""
+    shallow-water solver's semi-implicit Manning step (erosim.sph.kernels_swe.kick)."""
     pos, vel, vol = _sheet(u=(1.0, -0.5))
     solver = _solver(pos, vel, vol)
     n, dt, g = 0.035, 0.01, 9.81

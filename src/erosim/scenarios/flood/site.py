@@ -11,9 +11,9 @@ import numpy as np
 from erosim.core.errors import InputError
 from erosim.core.heightmap import cell_of, default_transform, fractional_cell
 from erosim.io.gauge_points import read_gauge_points
-from erosim.kernels.swe_sph import bed_at
 from erosim.scenarios.flood.schema import FloodScenario
 from erosim.scenarios.schema_common import build_terrain
+from erosim.sph.kernels_swe import bed_at
 from erosim.sph.shallow_water_vacondio2012 import equal_volumes
 from erosim.terrain.reservoir import barrier_mask, cut_breach, fill_reservoir
 

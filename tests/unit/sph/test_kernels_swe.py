@@ -206,7 +206,7 @@ def test_manning_kick_decelerates_a_uniform_sheet_at_the_laws_rate():
     gives exactly 1/u_{k+1} = 1/u_k + Δt g n² / d^{4/3}, so after any number of steps it equals the
     solution to rounding (1e-12 relative); two halves of the map with their own n and depth check
     the nearest-cell lookup, n² and d^{4/3}."""
-    from erosim.kernels.swe_sph import kick
+    from erosim.sph.kernels_swe import kick
 
     g, dt, steps = 9.81, 0.05, 40
     manning = np.full((4, 8), 0.05)
@@ -265,7 +265,7 @@ def test_the_maps_hold_the_sph_interpolant_where_the_ground_is_level():
 
 def _interpolant(m):
     """Σ_j V_j W(|x − x_j|, H_j) on the DEM's nodes, uncut and through walls."""
-    from erosim.kernels import swe_sph as K
+    from erosim.sph import kernels_swe as K
 
     out = np.zeros_like(m.bed)
     K.splat_depth(m.pos, m.vol, m.hsup, m.n, m.inv_cell, m.cell, out)
@@ -314,7 +314,7 @@ def test_the_maps_gather_and_scatter_agree():
     the CPU's (``scatter_sums``: each particle adds to the cells within its support) give the same
     maxima to rounding (1e-12 relative) on a random cloud over a wavy bed with a wall."""
     from erosim.analysis.hazard import HazardMaps
-    from erosim.kernels import swe_sph as K
+    from erosim.sph import kernels_swe as K
 
     rng = np.random.default_rng(5)
     yy, xx = np.mgrid[0:30, 0:30]
