@@ -322,17 +322,23 @@ def run_droplets_general(
     )  # fmt: skip
 
 
+FLOOD_LEFT = 8  # batch_floods with mark_left: the droplet's lake drained it off the world (a tile's halo)
+
+
 @njit(cache=True)
 def batch_floods(
     start, count, res, z2, lake_of, level, area, mroot, broot, hkey, hcell, hleft, hright, hrank, hs,
-    stack, walk, B, P, margin, lake_cap,
+    stack, walk, B, P, margin, lake_cap, mark_left=False,
 ):  # fmt: skip
     """Phase 2b of a batch round (:mod:`erosim.hydrology.batch`), serial in droplet order from
     ``start``: each droplet that stopped floods (HY-2) as in :func:`run_droplets` — it ends in a
     lake, or drains, walks off the drain (floods again at once where that walk ends in a
     depression) and is marked ``NEXT`` for another descent; one that ended settles. Returns the
     index reached: below ``count`` when the heap pool or the lake table needs a rebuild first (the
-    caller rebuilds and calls again from there)."""
+    caller rebuilds and calls again from there). ``mark_left`` (a tile of a tiled build): a droplet
+    whose lake drains it off the world on dry land (not into the sea) is marked ``FLOOD_LEFT`` with
+    the cell it flooded at (R_X, R_Y) and the water and sediment it took off (R_V, R_S), for
+    :meth:`erosim.tiles.exchange.TileExchange.record_floods`."""
     ny, nx = z2.shape
     zf = z2.reshape(-1)
     spill = int(P[P_SPILL])
@@ -360,11 +366,34 @@ def batch_floods(
                     c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack
                 )
                 break
+            left0 = B[B_LEFT]
+            carried = S if mark_left else 0.0  # a tile floods the water alone, the sediment follows below
             res_f, cell, V, S = flood(
-                c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, P[P_SEA], P[P_EDGE], P[P_CA],
+                c, V, S - carried, nx, ny, zf, lake_of, level, area, mroot, broot, B, P[P_SEA], P[P_EDGE], P[P_CA],
                 P[P_DRAIN], hkey, hcell, hleft, hright, hrank, hs, stack, walk,
             )  # fmt: skip
             B[B_FLOODS] += 1
+            if mark_left:
+                # As flood does, except that water drained off the world through the halo keeps its sediment
+                # (it is passed on): flood would leave 90 % of it on the cell where the water entered, and a
+                # lake touching a tile's border always drains, so that cell would grow without bound.
+                if res_f == pools.LEFT and zf[c] >= P[P_SEA]:
+                    B[B_CARRIED] += carried
+                    status = FLOOD_LEFT
+                    x = float(c % nx)
+                    y = float(c // nx)
+                    V = B[B_LEFT] - left0
+                    S = carried
+                    break
+                if res_f == pools.LEFT:  # into the sea
+                    B[B_CARRIED] += carried
+                elif res_f == DRAIN:  # 90 % settles where the water entered the lake, 10 % goes on
+                    _settle(c, 0.0, 0.9 * carried, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft,
+                            hright, hrank, hs, stack)  # fmt: skip
+                    S = 0.1 * carried
+                else:  # the water stayed in the lake: its sediment settles on the lake's bed
+                    _settle(c, 0.0, carried, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft,
+                            hright, hrank, hs, stack)  # fmt: skip
             if res_f != DRAIN:
                 break
             cell, at_min = walk_down(cell, nwalk, zf, lake_of, level, P[P_SEA], nx, ny)
@@ -382,7 +411,13 @@ def batch_floods(
                 continue
             status = NEXT
             break
-        if status == NEXT:
+        if status == FLOOD_LEFT:
+            res[i, R_STATUS] = FLOOD_LEFT
+            res[i, R_X] = x
+            res[i, R_Y] = y
+            res[i, R_V] = V
+            res[i, R_S] = S
+        elif status == NEXT:
             res[i, R_STATUS] = NEXT
             res[i, R_X] = x
             res[i, R_Y] = y
@@ -514,6 +549,7 @@ class HydrologyModel:
         self.device = "cpu" if gpu is None else "cuda"
         self._gpu = None if gpu is None else gpu(self)  # the batches' descents on the GPU
         self._work = work_arrays(self.batch, n) if self.batch > 0 and self._gpu is None else None
+        self.exchange = None  # a tile of a tiled build: its droplet exchange (attach_exchange)
 
     # ----------------------------------------------------------------------------- internals
     def _alloc_pool(self, size: int) -> None:
@@ -584,15 +620,22 @@ class HydrologyModel:
             if k < count:
                 self._rebuild()  # heap pool or lake table full: compact, then go on
 
-    def _run_batch(self, first: int, nb: int) -> None:
+    def _run_batch(self, first: int, nb: int, inject: np.ndarray | None = None) -> None:
         """Droplets first … first + nb − 1 in batch rounds (:mod:`erosim.hydrology.batch`):
-        parallel descents, then serially their logs applied and their floods."""
+        parallel descents, then serially their logs applied and their floods. ``inject``: instead of
+        spawning, nb droplets that enter from a neighbouring tile, rows (cycle, x, y, vx, vy, V, S)
+        (:mod:`erosim.tiles.exchange`): they start as droplets that go on descending (NEXT)."""
         ny, nx = self.z.shape
         zf = self.z.reshape(-1)
         res, lc, ldz, bd, ov = self._work
         res[:nb, R_STATUS] = NEW
         res[:nb, R_ROUNDS] = self.p.spill
-        self.budget[B_RAINED] += nb * self.P[P_V0]
+        if inject is None:
+            self.budget[B_RAINED] += nb * self.P[P_V0]
+        else:
+            res[:nb, R_STATUS] = NEXT
+            for col, k in ((R_X, 1), (R_Y, 2), (R_VX, 3), (R_VY, 4), (R_V, 5), (R_S, 6)):
+                res[:nb, col] = inject[:, k]
         foot = int(self.P[P_FOOT])
         old = numba.set_parallel_chunksize(4)  # dynamic scheduling: droplets differ in length
         try:
@@ -600,17 +643,21 @@ class HydrologyModel:
             while True:
                 descend(first, nb, self.seed, self.z, self.stream, self.cover, self.erod, self.lake_of,
                         self.level, self.rain_cdf, self.P, res, lc, ldz, bd, ov)  # fmt: skip
+                if self.exchange is not None:  # droplets that left into the halo go to the neighbour
+                    self.exchange.record(self.cycles, res, bd, nb)
                 apply_logs(nb, nx, ny, foot, zf, self.lake_of, self.track, res, lc, ldz, bd, self.budget)
                 k = 0
                 while True:
                     k = batch_floods(
                         k, nb, res, self.z, self.lake_of, self.level, self.area, self.mroot, self.broot, self.hkey,
                         self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk,
-                        self.budget, self.P, self.margin, self.lake_cap,
+                        self.budget, self.P, self.margin, self.lake_cap, self.exchange is not None,
                     )  # fmt: skip
                     if k >= nb:
                         break
                     self._rebuild()  # heap pool or lake table full: compact, then go on
+                if self.exchange is not None:  # lakes that drained droplets into the halo
+                    self.exchange.record_floods(self.cycles, res, nb, self.lake_of, FLOOD_LEFT, DONE)
                 status = res[:nb, R_STATUS]
                 left = np.count_nonzero((status == NEXT) | (status == PAUSED))
                 if left == 0:
@@ -618,6 +665,39 @@ class HydrologyModel:
                 descend = descend_batch_serial if left < SERIAL_BELOW else descend_batch
         finally:
             numba.set_parallel_chunksize(old)
+
+    def attach_exchange(self, exchange) -> None:
+        """Make this model a tile of a tiled build (:class:`erosim.tiles.exchange.TileExchange`): the
+        cells outside the tile's core (its halo) become outside the world (``lake_of`` = OUTSIDE, no rain:
+        droplets reaching them leave, and are recorded to enter the neighbour), rain falls on the core
+        only, as many droplets per cycle as on the core's area, and the droplets entering from the
+        neighbours run every cycle. Needs the batch path (``hydrology.batch`` unset or > 0)."""
+        if self.batch <= 0:
+            raise InputError(
+                "A tiled build passes droplets between tiles on the batch path only; leave hydrology.batch "
+                "unset (or > 0) for a tiled build."
+            )
+        if self._gpu is not None:
+            raise InputError(
+                "A tiled build passes droplets between tiles on the CPU only; leave run.device = 'cpu' for a "
+                "tiled build."
+            )
+        ny, nx = self.z.shape
+        r0, r1, c0, c1 = exchange.core
+        halo = np.ones((ny, nx), bool)
+        halo[r0:r1, c0:c1] = False
+        flat = halo.ravel()
+        self.lake_of[flat] = pools.OUTSIDE
+        r = np.ones(self.n) if self.rain_cdf.size == 0 else np.diff(self.rain_cdf, prepend=0.0)
+        r = np.where(flat | (self.lake_of == pools.OUTSIDE), 0.0, r)
+        self.rain_cdf = np.cumsum(r)
+        self.per_cycle = droplets_per_cycle(self.p, (r1 - r0, c1 - c0), self.cell_size)
+        self.batch = batch_size(self.p, self.per_cycle)
+        if self.batch <= 0:
+            raise InputError("A tiled build needs hydrology.batch unset or > 0.")
+        self._work = work_arrays(self.batch, self.n)
+        exchange.prepare(self.z)
+        self.exchange = exchange
 
     # ----------------------------------------------------------------------------- public API
     def cycle(self) -> None:
@@ -642,6 +722,12 @@ class HydrologyModel:
                 todo -= nb
             if gpu is not None:
                 gpu.pull_track()
+        if self.exchange is not None:  # droplets entering from the neighbouring tiles this cycle
+            incoming = self.exchange.incoming(self.cycles)
+            for a in range(0, incoming.shape[0], batch):
+                part = incoming[a : a + batch]
+                self._run_batch(self.droplets, part.shape[0], inject=part)
+            self.exchange.entered(incoming)
         streams.update(self.stream, self.track, self.p.stream_rate)
         if self._creep > 0.0:
             moved = creep_step(self.z, self.erod, self._creep, self.lake_of)  # dry land only
@@ -703,8 +789,10 @@ class HydrologyModel:
         in_lakes = float(self.lake_depth().sum() * ca)
         evaporated = float(B[B_EVAP] + B[B_RESID])
         left = float(B[B_LEFT])
-        closure = abs(rained - in_lakes - evaporated - left) / rained if rained > 0 else 0.0
-        return {
+        entered = float(self.exchange.flow[0]) if self.exchange is not None else 0.0
+        supplied = rained + entered
+        closure = abs(supplied - in_lakes - evaporated - left) / supplied if supplied > 0 else 0.0
+        out = {
             "unit": "m3",
             "rained": rained,
             "in_lakes": in_lakes,
@@ -715,6 +803,9 @@ class HydrologyModel:
             "ended_in_droplets": float(B[B_RESID]),
             "in_lakes_tracked": float(B[B_TO_LAKES]),
         }
+        if self.exchange is not None:  # a tile: closure = |rained + entered − in lakes − evaporated − left|
+            out.update(entered_from_tiles=entered, passed_to_tiles=float(self.exchange.flow[2]))
+        return out
 
     def sediment_budget(self) -> dict:
         B = self.budget
@@ -722,9 +813,10 @@ class HydrologyModel:
         eroded = float(B[B_ERODED])
         deposited = float(B[B_DEPOSITED])
         carried = float(B[B_CARRIED])
-        closure = abs(eroded - deposited - carried) / eroded if eroded > 0 else 0.0
+        entered = float(self.exchange.flow[1]) if self.exchange is not None else 0.0
+        closure = abs(eroded + entered - deposited - carried) / eroded if eroded > 0 else 0.0
         change = float(np.sum(self.z - self.z0) * ca)
-        return {
+        out = {
             "unit": "m3",
             "eroded": eroded,
             "deposited": deposited,
@@ -734,11 +826,16 @@ class HydrologyModel:
             "terrain_change_rel_error": abs(change - (deposited - eroded)) / eroded if eroded > 0 else 0.0,
             "moved_by_creep": float(B[pools.B_CREPT]),
         }
+        if self.exchange is not None:  # a tile: closure = |eroded + entered − deposited − carried off|
+            out.update(entered_from_tiles=entered, passed_to_tiles=float(self.exchange.flow[3]))
+        return out
 
     def sediment_in_transit(self) -> tuple[float, float]:
         """(sediment held in the water, sediment carried off the map) so far, m³. Droplets are not kept
-        between cycles, so after a whole cycle nothing is held: the terrain's change is −carried off."""
-        return 0.0, float(self.budget[B_CARRIED])
+        between cycles, so after a whole cycle nothing is held: the terrain's change is −carried off
+        (in a tile of a tiled build: the sediment that entered from its neighbours less that)."""
+        entered = float(self.exchange.flow[1]) if self.exchange is not None else 0.0
+        return 0.0, float(self.budget[B_CARRIED]) - entered
 
     def stats(self) -> dict:
         B = self.budget
@@ -784,6 +881,7 @@ class HydrologyModel:
             "hright": self.hright[:used].copy(),
             "hrank": self.hrank[:used].copy(),
             "built": np.int64(self._built),
+            **(self.exchange.state_dict() if self.exchange is not None else {}),
         }
 
     def load_state_dict(self, st: dict) -> None:
@@ -808,6 +906,8 @@ class HydrologyModel:
         self.droplets = int(st["droplets"])
         self.cycles = int(st["cycles"])
         self._built = bool(int(st.get("built", 1)))
+        if self.exchange is not None:
+            self.exchange.load_state_dict(st)
 
     def flood_seconds(self) -> float:
         return float(self.budget[B_FLOOD_NS]) * 1e-9

@@ -155,6 +155,33 @@ class HydrologyOutputs(Callback):
         return {"outputs": write_outputs(self.model, self.terrain, sim.out)}
 
 
+class TileExits(Callback):
+    """A tile of a tiled build: writes the droplets that left it (``exits.npy``) when it completes."""
+
+    def __init__(self, exchange):
+        super().__init__(Schedule(), name="tile_exits")
+        self.exchange = exchange
+
+    def finalize(self, sim) -> dict[str, Any]:
+        from erosim.tiles.exchange import EXITS, write_exits
+
+        write_exits(sim.out.path, self.exchange)
+        return {"tile_exchange": {"exits": EXITS, "flow_m3": [float(v) for v in self.exchange.flow]}}
+
+
+def _tile_member(model, member: str) -> TileExits:
+    """Attach a tile's exchange (:mod:`erosim.tiles.exchange`) and its starting stream map."""
+    from erosim.tiles.exchange import load_member
+    from erosim.tiles.rasters import read_window
+
+    exchange, stream = load_member(member)
+    model.attach_exchange(exchange)
+    if stream is not None:  # rounds ≥ 2 go on from the last round's stream map
+        s = read_window(stream, (0, model.z.shape[0], 0, model.z.shape[1]))
+        model.stream[...] = np.clip(np.nan_to_num(s), 0.0, 1.0)
+    return TileExits(exchange)
+
+
 def setup(scenario, out) -> Setup:
     """The model and callbacks of a ``hydrology`` run (see the module docstring)."""
     cfg = scenario.config
@@ -164,6 +191,9 @@ def setup(scenario, out) -> Setup:
             "from Python call erosim.tiles.build.run_tiled, or set tiles.size=0 for one run."
         )
     terrain, model = build_model(cfg)
+    callbacks: list = []
+    if cfg.tiles.member:  # one tile of a tiled build: droplets pass to and from its neighbours
+        callbacks.append(_tile_member(model, cfg.tiles.member))
     warnings = list(terrain.notes)
     facts, assumed = terrain_facts(terrain, cfg.terrain)
     if facts["nodata_cells"]:
@@ -184,7 +214,6 @@ def setup(scenario, out) -> Setup:
             "droplet footprints are large and the run is slow; set terrain.cell_size to the DEM's "
             "real cell size or lower hydrology.length_scale."
         )
-    callbacks: list = []
     if cfg.run.frames > 0:
         interval = max(1, cfg.run.cycles // cfg.run.frames)
         callbacks.append(
