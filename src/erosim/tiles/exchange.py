@@ -14,9 +14,10 @@ neighbour's (the last round's mosaic), so a droplet's gradient at the border is 
 Budgets per tile: rained + entered = in lakes + evaporated + left (left includes what passed to the
 neighbours); eroded + entered sediment = deposited + carried off. What a tile passes on in round k
 enters the neighbour in round k + 1: water crossing B borders needs B + 1 rounds to reach its last
-tile (docs/tiles.md). Water that leaves a tile through a lake's outlet into the halo
-(:func:`erosim.hydrology.pools.flood` draining at an outside cell) is not passed on (it leaves the
-build, counted in the tile's ``left_edges``).
+tile (docs/tiles.md). Water that a lake drains into the halo (:func:`erosim.hydrology.pools.flood`
+draining at an outside cell) is passed on too, from the lowest halo cell next to the lake, with no
+velocity and 10 % of the droplet's sediment (:meth:`TileExchange.record_floods`,
+:func:`erosim.hydrology.model.batch_floods`).
 
 What the droplet step exposes (and must keep exposing): after a batch's parallel descent, for each
 droplet i, ``res[i, R_STATUS] == LEFT`` when it left; then ``res[i, R_X], res[i, R_Y]`` is the cell it
