@@ -85,6 +85,9 @@ def main() -> None:
     ap.add_argument("--away", type=int, default=16, help="cells from every tile border for the height figures")
     ap.add_argument("--out", default="/tmp/tile-seams")
     ap.add_argument("--skip-untiled", action="store_true", help="reuse the untiled runs already in --out")
+    ap.add_argument("--build", default=None,
+                    help="measure this finished tiled build folder (e.g. one made by another version of erosim with "
+                    "the same settings) instead of running one")  # fmt: skip
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -104,14 +107,16 @@ def main() -> None:
     common = ["--set", f"terrain.file={dem}", "--set", f"run.cycles={args.cycles}", "--set", "run.frames=0"]
     result: dict = {"size": args.size, "tile": args.tile, "overlap": args.overlap, "rounds": args.rounds,
                     "cycles": args.cycles, "workers": args.workers, "cores": os.cpu_count()}  # fmt: skip
-    tiled = out / f"tiled{args.size}_r{args.rounds}"
-    cmd = [*erosim, *common, "--tile", str(args.tile), "--overlap", str(args.overlap),
-           "--set", f"tiles.rounds={args.rounds}", "--workers", str(args.workers), "--out", str(tiled),
-           "--overwrite"]  # fmt: skip
-    result["tiled_run"] = measured(cmd)
+    tiled = Path(args.build) if args.build else out / f"tiled{args.size}_r{args.rounds}"
+    if args.build is None:
+        cmd = [*erosim, *common, "--tile", str(args.tile), "--overlap", str(args.overlap),
+               "--set", f"tiles.rounds={args.rounds}", "--workers", str(args.workers), "--out", str(tiled),
+               "--overwrite"]  # fmt: skip
+        result["tiled_run"] = measured(cmd)
+    result["build"] = str(tiled)
     report = json.loads((tiled / "report.json").read_text())
     result["tiles"] = len(report["plan"]["tiles"])
-    result["exchange_per_round"] = [r["entered"] for r in report["rounds"]]
+    result["exchange_per_round"] = [r.get("entered") for r in report["rounds"]]
     runs = {seed: out / f"untiled{args.size}_s{seed}" for seed in (1, 2)}
     for seed, folder in runs.items():
         if not (args.skip_untiled and (folder / "maps" / "height.tif").is_file()):
@@ -123,7 +128,8 @@ def main() -> None:
     shape = (args.size, args.size)
     tiles = plan(shape, args.tile, args.overlap)
     maps = runs[1] / "maps"
-    result["seams"] = {"tiled": report["seams"],
+    hmaps = tiled / "maps"
+    result["seams"] = {"tiled": seams.figures(hmaps / "height.tif", hmaps / "stream.tif", tiles, shape),
                        "untiled_at_the_same_lines": seams.figures(maps / "height.tif", maps / "stream.tif", tiles,
                                                                   shape)}  # fmt: skip
     rows, cols = borders(tiles)

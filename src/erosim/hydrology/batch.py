@@ -44,9 +44,9 @@ import numpy as np
 from numba import njit, prange
 
 from erosim.hydrology.counter_rng import spawn_base, spawn_point
-from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, lower, step
+from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, dry, lower, step
 from erosim.hydrology.params import P_FOOT, P_MAXSTEPS, P_V0
-from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_SIZE, B_STEPS, NO_LAKE
+from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_SIZE, B_STEPS
 
 PAUSED = 3  # the droplet's log is full: it goes on descending in the next round
 NEW = 4  # spawns and descends in the next round
@@ -87,6 +87,12 @@ def descend_logged(x, y, vx, vy, V, S, used, z2, zf, ov, stream, roots, erod, la
         ldz[steps] = dz
         steps += 1
         if st == LEFT:
+            if moved > 0.0:  # a step into a tile's halo makes its transfer (droplet_step.step)
+                eroded += moved
+            elif moved < 0.0:
+                deposited -= moved
+            evap += V - vn  # 0 for every other exit: V is returned unchanged
+            V = vn
             bd[B_LEFT] += V
             bd[B_CARRIED] += S
             V, S = 0.0, 0.0
@@ -183,7 +189,8 @@ def descend_batch_serial(first, count, seed, z2, stream, roots, erod, lake_of, l
 
 @njit(cache=True)
 def apply_logs(count, nx, ny, m, zf, lake_of, track, res, lc, ldz, bd, B):
-    """Phase 2a, serial in droplet order: apply the logged height changes to the dry cells of each
+    """Phase 2a, serial in droplet order: apply the logged height changes to the dry cells
+    (:func:`~erosim.hydrology.droplet_step.dry`) of each
     logged footprint, mark the footprints visited (HY-4) and add each droplet's budget row."""
     for i in range(count):
         for k in range(int(res[i, R_NLOG])):
@@ -193,7 +200,7 @@ def apply_logs(count, nx, ny, m, zf, lake_of, track, res, lc, ldz, bd, B):
                 for ii in range(i_lo, i_hi):
                     c = j * nx + ii
                     track[c] = 1
-                    if dz != 0.0 and lake_of[c] == NO_LAKE:
+                    if dz != 0.0 and dry(lake_of[c]):
                         zf[c] -= dz
         for k in range(B_SIZE):
             B[k] += bd[i, k]

@@ -322,23 +322,24 @@ def run_droplets_general(
     )  # fmt: skip
 
 
-FLOOD_LEFT = 8  # batch_floods with mark_left: the droplet's lake drained it off the world (a tile's halo)
+FLOOD_LEFT = 8  # batch_floods: the droplet's lake drained it into a tile's halo, or its walk off a drain went there
 
 
 @njit(cache=True)
 def batch_floods(
     start, count, res, z2, lake_of, level, area, mroot, broot, hkey, hcell, hleft, hright, hrank, hs,
-    stack, walk, B, P, margin, lake_cap, mark_left=False,
+    stack, walk, B, P, margin, lake_cap,
 ):  # fmt: skip
     """Phase 2b of a batch round (:mod:`erosim.hydrology.batch`), serial in droplet order from
     ``start``: each droplet that stopped floods (HY-2) as in :func:`run_droplets` — it ends in a
     lake, or drains, walks off the drain (floods again at once where that walk ends in a
     depression) and is marked ``NEXT`` for another descent; one that ended settles. Returns the
     index reached: below ``count`` when the heap pool or the lake table needs a rebuild first (the
-    caller rebuilds and calls again from there). ``mark_left`` (a tile of a tiled build): a droplet
-    whose lake drains it off the world on dry land (not into the sea) is marked ``FLOOD_LEFT`` with
-    the cell it flooded at (R_X, R_Y) and the water and sediment it took off (R_V, R_S), for
-    :meth:`erosim.tiles.exchange.TileExchange.record_floods`."""
+    caller rebuilds and calls again from there). In a tile of a tiled build a droplet whose lake
+    drains it into the tile's halo (:func:`erosim.hydrology.pools.flood`, over the halo cell's own
+    height), or whose walk off a drain steps into the halo, is marked ``FLOOD_LEFT`` with that halo
+    cell (R_X, R_Y) and the water and sediment it took there (R_V, R_S), for
+    :meth:`erosim.hydrology.tile_exchange.TileExchange.record_floods`."""
     ny, nx = z2.shape
     zf = z2.reshape(-1)
     spill = int(P[P_SPILL])
@@ -367,42 +368,29 @@ def batch_floods(
                 )
                 break
             left0 = B[B_LEFT]
-            carried = S if mark_left else 0.0  # a tile floods the water alone, the sediment follows below
+            carried0 = B[B_CARRIED]
             res_f, cell, V, S = flood(
-                c, V, S - carried, nx, ny, zf, lake_of, level, area, mroot, broot, B, P[P_SEA], P[P_EDGE], P[P_CA],
+                c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, P[P_SEA], P[P_EDGE], P[P_CA],
                 P[P_DRAIN], hkey, hcell, hleft, hright, hrank, hs, stack, walk,
             )  # fmt: skip
             B[B_FLOODS] += 1
-            if mark_left:
-                # As flood does (90 % of the sediment settles where the water entered the lake, 10 % goes on
-                # with the water that drains), but settled after the flood, on the lake it made (spread over
-                # its bed) rather than on the dry cell it entered: a lake touching a tile's border always
-                # drains, and single cells there grew by 100–160 m in a 1024² build. Water drained off the
-                # world through the halo is passed on (FLOOD_LEFT) with its 10 %.
-                if res_f == pools.LEFT and zf[c] >= P[P_SEA]:
-                    _settle(c, 0.0, 0.9 * carried, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft,
-                            hright, hrank, hs, stack)  # fmt: skip
-                    B[B_CARRIED] += 0.1 * carried
-                    status = FLOOD_LEFT
-                    x = float(c % nx)
-                    y = float(c // nx)
-                    V = B[B_LEFT] - left0
-                    S = 0.1 * carried
-                    break
-                if res_f == pools.LEFT:  # into the sea
-                    B[B_CARRIED] += carried
-                elif res_f == DRAIN:  # 90 % settles where the water entered the lake, 10 % goes on
-                    _settle(c, 0.0, 0.9 * carried, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft,
-                            hright, hrank, hs, stack)  # fmt: skip
-                    S = 0.1 * carried
-                else:  # the water stayed in the lake: its sediment settles on the lake's bed
-                    _settle(c, 0.0, carried, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft,
-                            hright, hrank, hs, stack)  # fmt: skip
+            if res_f == pools.LEFT and lake_of[cell] == pools.HALO:  # into a tile's halo: passed on
+                status = FLOOD_LEFT
+                x = float(cell % nx)
+                y = float(cell // nx)
+                V = B[B_LEFT] - left0
+                S = B[B_CARRIED] - carried0
+                break
             if res_f != DRAIN:
                 break
             cell, at_min = walk_down(cell, nwalk, zf, lake_of, level, P[P_SEA], nx, ny)
             x = float(cell % nx)
             y = float(cell // nx)
+            if lake_of[cell] == pools.HALO:  # the walk off the drain left the tile: passed on from there
+                B[B_LEFT] += V
+                B[B_CARRIED] += S
+                status = FLOOD_LEFT
+                break
             rounds -= 1
             if rounds <= 0:
                 _settle(
@@ -628,7 +616,7 @@ class HydrologyModel:
         """Droplets first … first + nb − 1 in batch rounds (:mod:`erosim.hydrology.batch`):
         parallel descents, then serially their logs applied and their floods. ``inject``: instead of
         spawning, nb droplets that enter from a neighbouring tile, rows (cycle, x, y, vx, vy, V, S)
-        (:mod:`erosim.tiles.exchange`): they start as droplets that go on descending (NEXT)."""
+        (:mod:`erosim.hydrology.tile_exchange`): they start as droplets that go on descending (NEXT)."""
         ny, nx = self.z.shape
         zf = self.z.reshape(-1)
         res, lc, ldz, bd, ov = self._work
@@ -655,13 +643,13 @@ class HydrologyModel:
                     k = batch_floods(
                         k, nb, res, self.z, self.lake_of, self.level, self.area, self.mroot, self.broot, self.hkey,
                         self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk,
-                        self.budget, self.P, self.margin, self.lake_cap, self.exchange is not None,
+                        self.budget, self.P, self.margin, self.lake_cap,
                     )  # fmt: skip
                     if k >= nb:
                         break
                     self._rebuild()  # heap pool or lake table full: compact, then go on
                 if self.exchange is not None:  # lakes that drained droplets into the halo
-                    self.exchange.record_floods(self.cycles, res, nb, self.lake_of, FLOOD_LEFT, DONE)
+                    self.exchange.record_floods(self.cycles, res, nb, FLOOD_LEFT, DONE)
                 status = res[:nb, R_STATUS]
                 left = np.count_nonzero((status == NEXT) | (status == PAUSED))
                 if left == 0:
@@ -671,9 +659,10 @@ class HydrologyModel:
             numba.set_parallel_chunksize(old)
 
     def attach_exchange(self, exchange) -> None:
-        """Make this model a tile of a tiled build (:class:`erosim.tiles.exchange.TileExchange`): the
-        cells outside the tile's core (its halo) become outside the world (``lake_of`` = OUTSIDE, no rain:
-        droplets reaching them leave, and are recorded to enter the neighbour), rain falls on the core
+        """Make this model a tile of a tiled build (:class:`erosim.hydrology.tile_exchange.TileExchange`): the
+        cells outside the tile's core (its halo) become ``lake_of`` = HALO (no rain, no erosion; droplets
+        reaching them leave, and are recorded to enter the neighbour; a lake drains into them over their
+        own height, :func:`erosim.hydrology.pools.flood`), rain falls on the core
         only, as many droplets per cycle as on the core's area, and the droplets entering from the
         neighbours run every cycle. Needs the batch path (``hydrology.batch`` unset or > 0)."""
         if self.batch <= 0:
@@ -691,7 +680,7 @@ class HydrologyModel:
         halo = np.ones((ny, nx), bool)
         halo[r0:r1, c0:c1] = False
         flat = halo.ravel()
-        self.lake_of[flat] = pools.OUTSIDE
+        self.lake_of[flat & (self.lake_of != pools.OUTSIDE)] = pools.HALO
         r = np.ones(self.n) if self.rain_cdf.size == 0 else np.diff(self.rain_cdf, prepend=0.0)
         r = np.where(flat | (self.lake_of == pools.OUTSIDE), 0.0, r)
         self.rain_cdf = np.cumsum(r)
@@ -700,8 +689,23 @@ class HydrologyModel:
         if self.batch <= 0:
             raise InputError("A tiled build needs hydrology.batch unset or > 0.")
         self._work = work_arrays(self.batch, self.n)
-        exchange.prepare(self.z)
+        self._halo = np.flatnonzero(self.lake_of == pools.HALO)
         self.exchange = exchange
+
+    def _creep_tile(self) -> None:
+        """Creep in a tile of a tiled build: its halo creeps as dry land, so that soil crosses the tile's
+        border as it would untiled (a step at a border is smoothed from both sides), but only the core's
+        change is kept — the halo's heights are put back (the neighbour creeps its own core; faces inside
+        the halo are its). What the core gained across the border is counted in the exchange
+        (``flow[4]``, m³) and closes the tile's terrain budget."""
+        halo = self._halo
+        before = self.z.reshape(-1)[halo]
+        lake = np.where(self.lake_of == pools.HALO, pools.NO_LAKE, self.lake_of)
+        moved = creep_step(self.z, self.erod, self._creep, lake)
+        self.budget[pools.B_CREPT] += moved * self.cell_size**2
+        zf = self.z.reshape(-1)
+        self.exchange.flow[4] += float(np.sum(before - zf[halo])) * self.cell_size**2
+        zf[halo] = before
 
     # ----------------------------------------------------------------------------- public API
     def cycle(self) -> None:
@@ -733,7 +737,9 @@ class HydrologyModel:
                 self._run_batch(self.droplets, part.shape[0], inject=part)
             self.exchange.entered(incoming)
         streams.update(self.stream, self.track, self.p.stream_rate)
-        if self._creep > 0.0:
+        if self._creep > 0.0 and self.exchange is not None:
+            self._creep_tile()
+        elif self._creep > 0.0:
             moved = creep_step(self.z, self.erod, self._creep, self.lake_of)  # dry land only
             self.budget[pools.B_CREPT] += moved * self.cell_size**2
         if self.veg.enabled:
@@ -820,6 +826,7 @@ class HydrologyModel:
         entered = float(self.exchange.flow[1]) if self.exchange is not None else 0.0
         closure = abs(eroded + entered - deposited - carried) / eroded if eroded > 0 else 0.0
         change = float(np.sum(self.z - self.z0) * ca)
+        crept_in = float(self.exchange.flow[4]) if self.exchange is not None else 0.0  # a tile: creep across its border
         out = {
             "unit": "m3",
             "eroded": eroded,
@@ -827,19 +834,21 @@ class HydrologyModel:
             "carried_off": carried,
             "closure_rel": closure,
             "terrain_change": change,
-            "terrain_change_rel_error": abs(change - (deposited - eroded)) / eroded if eroded > 0 else 0.0,
+            "terrain_change_rel_error": abs(change - (deposited - eroded + crept_in)) / eroded if eroded > 0 else 0.0,
             "moved_by_creep": float(B[pools.B_CREPT]),
         }
         if self.exchange is not None:  # a tile: closure = |eroded + entered − deposited − carried off|
-            out.update(entered_from_tiles=entered, passed_to_tiles=float(self.exchange.flow[3]))
+            out.update(entered_from_tiles=entered, passed_to_tiles=float(self.exchange.flow[3]), crept_in=crept_in)
         return out
 
     def sediment_in_transit(self) -> tuple[float, float]:
         """(sediment held in the water, sediment carried off the map) so far, m³. Droplets are not kept
         between cycles, so after a whole cycle nothing is held: the terrain's change is −carried off
-        (in a tile of a tiled build: the sediment that entered from its neighbours less that)."""
-        entered = float(self.exchange.flow[1]) if self.exchange is not None else 0.0
-        return 0.0, float(self.budget[B_CARRIED]) - entered
+        (in a tile of a tiled build: the sediment that entered from its neighbours, and the soil that crept
+        in across its border, less that)."""
+        if self.exchange is None:
+            return 0.0, float(self.budget[B_CARRIED])
+        return 0.0, float(self.budget[B_CARRIED]) - float(self.exchange.flow[1]) - float(self.exchange.flow[4])
 
     def stats(self) -> dict:
         B = self.budget

@@ -163,22 +163,20 @@ class TileExits(Callback):
         self.exchange = exchange
 
     def finalize(self, sim) -> dict[str, Any]:
-        from erosim.tiles.exchange import EXITS, write_exits
+        from erosim.hydrology.tile_exchange import EXITS, write_exits
 
         write_exits(sim.out.path, self.exchange)
         return {"tile_exchange": {"exits": EXITS, "flow_m3": [float(v) for v in self.exchange.flow]}}
 
 
 def _tile_member(model, member: str) -> TileExits:
-    """Attach a tile's exchange (:mod:`erosim.tiles.exchange`) and its starting stream map."""
-    from erosim.tiles.exchange import load_member
-    from erosim.tiles.rasters import read_window
+    """Attach a tile's exchange (:mod:`erosim.hydrology.tile_exchange`) and its starting stream map."""
+    from erosim.hydrology.tile_exchange import load_member, read_stream
 
     exchange, stream = load_member(member)
     model.attach_exchange(exchange)
     if stream is not None:  # rounds ≥ 2 go on from the last round's stream map
-        s = read_window(stream, (0, model.z.shape[0], 0, model.z.shape[1]))
-        model.stream[...] = np.clip(np.nan_to_num(s), 0.0, 1.0)
+        model.stream[...] = read_stream(stream)
     return TileExits(exchange)
 
 

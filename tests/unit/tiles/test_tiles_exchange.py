@@ -52,8 +52,12 @@ def upstream():
 
 def test_rain_falls_on_the_core_and_droplets_leave_into_the_halo(upstream):
     m = upstream
-    halo = np.s_[:, 32:]  # A's halo: the 4 columns of B's core
-    assert (m.z[halo] == m.z0[halo]).all()  # nothing eroded or deposited there
+    # A's halo (the 4 columns of B's core): only its first column changes, where the 2×2 footprints
+    # (ℓ = 2 cells) of droplets on the core's last column reach over the border and spread their
+    # transfer over all their dry cells, the halo's included (the build hands that change to B)
+    assert (m.z[:, 33:] == m.z0[:, 33:]).all()
+    # the step into the halo is a whole step: its transfer lands on the old footprint, halo included
+    assert (m.z[:, 32] != m.z0[:, 32]).any()
     # no droplet walked there: only the 2×2 footprints (ℓ = 2 cells) of droplets on the core's last
     # column mark the halo's first column
     assert (m.stream[:, 33:] == 0).all() and (m.stream[:, 32] > 0).any()
@@ -116,3 +120,23 @@ def test_the_serial_order_is_refused_for_a_tile():
     m = HydrologyModel(Heightmap(z=_terrain()[:, :36].copy(), cell_size=20.0), p, VegetationParams(), 1)
     with pytest.raises(InputError, match="hydrology.batch"):
         m.attach_exchange(TileExchange((0, NY, 0, 32), (0, 0)))
+
+
+def test_creep_crosses_the_border_and_leaves_the_halo_to_the_neighbour():
+    """A 40 m step at the border (A's core low, its halo high): creep moves soil down it into the core's
+    last column as an untiled run would (flux c·Δz a face), the halo keeps its heights (B creeps its own
+    core), and the volume that crossed closes the tile's terrain budget."""
+    z = np.full((NY, NX), 100.0)
+    z[:, 32:] = 140.0
+    m = _model(A, z=z)
+    before = m.z.copy()
+    m._creep_tile()
+    c = m._creep  # κ/Δx² per cycle
+    gained = m.z[:, 31] - before[:, 31]
+    # one explicit step: the last core column gains c·40 m from its face with the halo (its other faces
+    # are flat); rows 0 and NY−1 have the same single face across
+    np.testing.assert_allclose(gained, c * 40.0, rtol=1e-12)
+    assert (m.z[:, 32:] == before[:, 32:]).all() and (m.z[:, :31] == before[:, :31]).all()
+    assert m.exchange.flow[4] == pytest.approx(gained.sum() * 20.0**2, rel=1e-12)
+    m.run(2)
+    _budgets_close(m)
