@@ -175,6 +175,8 @@ def test_a_stopped_tiled_build_resumes_the_rest(stop, tiled, dem, client, tmp_pa
         (["--workers", "2"], "apply to tiled builds"),
         (["--tile", "48", "SPH"], 'apply to kind = "hydrology" scenarios'),
         (["--tile", "48", "--overlap", "12", "NPY"], "is not a GeoTIFF"),
+        (["--tile", "48", "--overlap", "12", "FILE", "--set", "run.device=cuda"], "on the CPU only"),
+        (["--tile", "48", "--overlap", "12", "FILE", "--set", "hydrology.batch=0"], "batch path only"),
     ],
 )
 def test_bad_input_is_one_sentence_and_leaves_nothing(args, words, dem, tmp_path):

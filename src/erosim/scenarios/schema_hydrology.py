@@ -91,6 +91,11 @@ class HydrologyScenario(Section):
                 "A tiled build passes droplets between tiles on the batch path only; leave hydrology.batch unset "
                 "(or > 0) instead of 0 (the simplehydrology-2020 preset's serial order)."
             )
+        if self.run.device != "cpu":
+            raise ConfigError(
+                f"A tiled build passes droplets between tiles on the CPU only; leave run.device = 'cpu' instead of "
+                f"'{self.run.device}' for a tiled build."
+            )
         if self.inputs.rain_map or self.inputs.hardness_map:
             raise ConfigError(
                 "A tiled build does not cut inputs.rain_map or inputs.hardness_map into tiles yet; leave them out "
