@@ -21,7 +21,9 @@ the final surface (terrain + lake depth, closed basins filled with a 10⁻⁵ sl
 Barnes et al. 2014); the finer run's is brought to the coarse grid by the block maximum (a channel
 crossing a block carries its largest area). Prints one JSON object: IoU of the main-river masks of
 the two runs (``main_rivers_iou_top2pct``; issue target ≥ 0.6), the same for the initial terrains
-(the rivers the landscape has before any erosion: the baseline), for the runs' stream maps (top 2 %,
+(the rivers the landscape has before any erosion: the baseline), with the finer run's surface
+block-averaged to the coarse grid before D8 (``surface_on_coarse_grid``: its rivers drawn at the
+coarse cell, free of the finer grid's D8 paths), for the runs' stream maps (top 2 %,
 stream brought to the coarse grid by the block mean), with a one-cell tolerance (a coarse cell counts
 as matched when a main-river cell of the other run lies among its 8 neighbours), and the runs' wall
 times.
@@ -116,8 +118,11 @@ def compare(coarse: Path, fine: Path, f: int, cell_c: float, cell_f: float) -> d
         a_c = flow_area(z_c, cell_c)
         a_f = _blocks(flow_area(z_f, cell_f), f, np.max)
         m_c, m_f = _top(a_c), _top(a_f)
+        m_s = _top(flow_area(_blocks(z_f, f, np.mean), cell_c))  # the finer surface seen on the coarse grid
         out[when] = {"main_rivers_iou_top2pct": _iou(m_c, m_f), "within_one_cell": _tolerant_iou(m_c, m_f),
-                     "cells": [int(m_c.sum()), int(m_f.sum())]}  # fmt: skip
+                     "cells": [int(m_c.sum()), int(m_f.sum())],
+                     "surface_on_coarse_grid_iou": _iou(m_c, m_s),
+                     "surface_on_coarse_grid_within_one_cell": _tolerant_iou(m_c, m_s)}  # fmt: skip
     s_c = _read(coarse / "maps" / "stream.tif")
     s_f = _blocks(_read(fine / "maps" / "stream.tif"), f, np.mean)
     out["stream_top2pct"] = {"iou": _iou(_top(s_c), _top(s_f)), "within_one_cell": _tolerant_iou(_top(s_c), _top(s_f))}
@@ -154,7 +159,7 @@ def main() -> None:
             import subprocess
 
             t0 = time.perf_counter()
-            subprocess.run(cmd, check=True)
+            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)  # its summary table: not this JSON
             result["runs"][str(n)] = {"wall_s": round(time.perf_counter() - t0, 1), "command": " ".join(cmd[1:])}
         report = json.loads((folder / "report.json").read_text())
         result["runs"].setdefault(str(n), {})["droplets"] = report.get("statistics", {}).get("droplets")
