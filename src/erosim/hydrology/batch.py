@@ -44,9 +44,9 @@ import numpy as np
 from numba import njit, prange
 
 from erosim.hydrology.counter_rng import spawn_base, spawn_point
-from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, dry, lower, step
+from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, lower, step
 from erosim.hydrology.params import P_FOOT, P_MAXSTEPS, P_V0
-from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_SIZE, B_STEPS
+from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_SIZE, B_STEPS, NO_LAKE
 
 PAUSED = 3  # the droplet's log is full: it goes on descending in the next round
 NEW = 4  # spawns and descends in the next round
@@ -189,8 +189,7 @@ def descend_batch_serial(first, count, seed, z2, stream, roots, erod, lake_of, l
 
 @njit(cache=True)
 def apply_logs(count, nx, ny, m, zf, lake_of, track, res, lc, ldz, bd, B):
-    """Phase 2a, serial in droplet order: apply the logged height changes to the dry cells
-    (:func:`~erosim.hydrology.droplet_step.dry`) of each
+    """Phase 2a, serial in droplet order: apply the logged height changes to the dry cells of each
     logged footprint, mark the footprints visited (HY-4) and add each droplet's budget row."""
     for i in range(count):
         for k in range(int(res[i, R_NLOG])):
@@ -200,7 +199,7 @@ def apply_logs(count, nx, ny, m, zf, lake_of, track, res, lc, ldz, bd, B):
                 for ii in range(i_lo, i_hi):
                     c = j * nx + ii
                     track[c] = 1
-                    if dz != 0.0 and dry(lake_of[c]):
+                    if dz != 0.0 and lake_of[c] == NO_LAKE:
                         zf[c] -= dz
         for k in range(B_SIZE):
             B[k] += bd[i, k]

@@ -160,20 +160,12 @@ def box(code, m, nx, ny):
 
 
 @njit(inline="always")
-def dry(k):
-    """Whether a cell of ``lake_of`` code k takes a droplet's transfer: dry land, or a tile's halo (dry land
-    of the neighbouring tile, which the build hands its change: :mod:`erosim.tiles.build`); not a lake
-    or a nodata cell."""
-    return k == NO_LAKE or k == HALO
-
-
-@njit(inline="always")
 def lower(dst, lake_of, code, m, nx, ny, dz):
-    """dst −= dz on the dry (:func:`dry`) cells of footprint ``code``: a step's transfer applied."""
+    """dst −= dz on the dry (non-lake) cells of footprint ``code``: a step's transfer applied."""
     j_lo, j_hi, i_lo, i_hi = box(code, m, nx, ny)
     for j in range(j_lo, j_hi):
         for i in range(i_lo, i_hi):
-            if dry(lake_of[j * nx + i]):
+            if lake_of[j * nx + i] == NO_LAKE:
                 dst[j * nx + i] -= dz
 
 
@@ -186,8 +178,8 @@ def step(x, y, vx, vy, V, S, speed, z2, zf, ov, has_ov, stream, roots, erod, lak
     old position (:func:`origin`), ``dz`` the height each of its dry cells loses (0 when nothing
     moves; the caller applies it), ``moved`` the sediment taken up (m³, negative: deposited). On
     ``LEFT`` (x, y) is the last position on the map and V, S are the water and sediment leaving; a
-    step into a tile's halo (``HALO``) is a whole step, its transfer made on the old footprint as in
-    the map beyond (the border's last cells erode as they would untiled), then ``LEFT`` at the halo
+    step into a tile's halo (``HALO``) is a whole step, its transfer made on the old footprint's dry
+    cells (the halo's are not the tile's: never changed) as in the map beyond, then ``LEFT`` at the halo
     cell; every other exit moves nothing (``dz`` = ``moved`` = 0).
     ``K``: :func:`constants`."""
     ny, nx = z2.shape
@@ -255,7 +247,7 @@ def step(x, y, vx, vy, V, S, speed, z2, zf, ov, has_ov, stream, roots, erod, lak
         cnt = 0
         for j in range(j_lo, j_hi):
             for i in range(i_lo, i_hi):
-                if dry(lake_of[j * nx + i]):
+                if lake_of[j * nx + i] == NO_LAKE:
                     cnt += 1
         if cnt > 0:  # lake cells are never eroded or filled by descent
             dz = amt / (cnt * ca)

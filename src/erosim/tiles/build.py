@@ -27,8 +27,7 @@ sediment and velocity, and the next round injects it into the neighbour whose co
 the same cycle (:mod:`erosim.hydrology.tile_exchange`, :mod:`erosim.tiles.exchange`); a lake at the
 border fills to the halo's height before it spills into it; creep moves soil across the border. The
 halo's heights are the neighbours' (the last round's mosaic), so gradients at a border are the map's.
-The mosaics take every tile's core; the height mosaic adds to it what the neighbours' droplets changed
-there through their halos (a footprint at a border reaches over it).
+The mosaics take every tile's core (a tile never changes its halo).
 """
 
 from __future__ import annotations
@@ -52,7 +51,7 @@ from erosim.sweep.member import FINISHED, MemberTask, read_report, record, run_m
 from erosim.sweep.runner import MemberProgress, plan_threads
 from erosim.tiles import exchange as xch
 from erosim.tiles import rasters, seams
-from erosim.tiles.plan import Tile, covering, cycles_per_round, plan
+from erosim.tiles.plan import Tile, cycles_per_round, plan
 from erosim.tiles.rasters import read_window
 
 PLAN_FILE = "tiles.json"
@@ -168,8 +167,8 @@ def run_tiled(
                     for name, path in (("height", source), ("stream", stream_src)):
                         if not path.is_file():
                             f = _map(prev, name)
-                            of = (lambda t, f=f: _core(f, t)) if name == "stream" else _heights(tiles, prev)
-                            rasters.write_by_cores(tiles, rasters.grid_profile(dem), path, of, cog=False)
+                            rasters.write_by_cores(tiles, rasters.grid_profile(dem), path,
+                                                   lambda t, f=f: _core(f, t), cog=False)  # fmt: skip
                 tasks, records = [], {}
                 exchange = {"droplets": 0, "water_m3": 0.0, "sediment_m3": 0.0}
                 bar.set_note(f"round {k}/{len(shares)}")
@@ -265,28 +264,6 @@ def _core(path_of, t: Tile) -> np.ndarray:
     return read_window(path_of(t), (r0 - wr0, r1 - wr0, c0 - wc0, c1 - wc0))
 
 
-def _heights(tiles: list[Tile], rdir: Path):
-    """``t`` → the heights over tile t's core after round ``rdir``: t's own, plus the change every other
-    tile made there through its halo (the footprints of its droplets near the border reach into the
-    halo, :func:`erosim.hydrology.droplet_step.dry`; each tile's halo changes only so), so that what
-    a droplet moved across a border is kept on both sides."""
-    height, initial = _map(rdir, "height"), _map(rdir, "height_initial")
-
-    def of(t: Tile) -> np.ndarray:
-        z = _core(height, t)
-        r0, _, c0, _ = t.core
-        for s, (a0, a1, b0, b1) in covering(tiles, t.core):
-            if s == t:
-                continue
-            wr0, _, wc0, _ = s.window
-            win = (a0 - wr0, a1 - wr0, b0 - wc0, b1 - wc0)
-            change = read_window(height(s), win) - read_window(initial(s), win)
-            z[a0 - r0 : a1 - r0, b0 - c0 : b1 - c0] += np.nan_to_num(change)
-        return z
-
-    return of
-
-
 def _exits(rdir: Path, t: Tile) -> np.ndarray:
     return np.load(rdir / t.name / xch.EXITS)
 
@@ -303,8 +280,7 @@ def _mosaic(folder: Path, dem: Path, tiles: list[Tile], overlap: int, last: Path
             continue
         rdir = _round_dir(folder, 1) if name == "height_initial" else last
         path_of = _map(rdir, name)
-        of = _heights(tiles, last) if name == "height" else (lambda t, f=path_of: _core(f, t))
-        rasters.write_by_cores(tiles, grid, maps / f"{name}.tif", of)
+        rasters.write_by_cores(tiles, grid, maps / f"{name}.tif", lambda t, f=path_of: _core(f, t))
     for name in sorted(derived):
         sign = 1.0 if name == "erosion" else -1.0
 
