@@ -1,6 +1,7 @@
 """A tiled hydrology build (erosim.tiles) against an untiled run of the same DEM: the mosaic's grid,
-heights away from borders, seam figures, resume per tile, bad input. One local Dask worker serves
-every build of the module; the resume test (a second build) is marked slow."""
+heights away from borders, seam figures, droplets passed between tiles in rounds, resume per tile and
+round, bad input. One local Dask worker serves every build of the module; the resume tests (more
+builds) are marked slow."""
 
 import itertools
 import json
@@ -23,7 +24,7 @@ from erosim.tiles.build import run_tiled
 sys.path.insert(0, str(Path(__file__).parent))
 import tile_members  # noqa: E402
 
-N, TILE, OVERLAP = 96, 48, 12
+N, TILE, OVERLAP, ROUNDS = 96, 48, 12, 2
 # 40 cycles of 18 droplets on 96² cells at 40 m (≈ 1 s a run): rivers (stream ≥ 0.2) form, heights move
 # by tens of metres; a faster stream map (0.1) so that 40 cycles draw the rivers
 RUN = {"run.cycles": 40, "run.frames": 0, "hydrology.cycle_droplets": 500, "hydrology.stream_rate": 0.1}
@@ -32,6 +33,10 @@ UTM = 32633
 
 def _sets(dem) -> list[str]:
     return [f"terrain.file={json.dumps(str(dem))}"] + [f"{k}={v}" for k, v in RUN.items()]
+
+
+def _tiled_sets(dem) -> list[str]:
+    return _sets(dem) + [f"tiles.size={TILE}", f"tiles.overlap={OVERLAP}", f"tiles.rounds={ROUNDS}"]
 
 
 def _read(path) -> np.ndarray:
@@ -60,8 +65,7 @@ def client():
 @pytest.fixture(scope="module")
 def tiled(dem, client, tmp_path_factory):
     out = tmp_path_factory.mktemp("tiled") / "build"
-    sets = _sets(dem) + [f"tiles.size={TILE}", f"tiles.overlap={OVERLAP}"]
-    folder, summary = run_tiled("hydrology", sets, out=str(out), progress=False, client=client)
+    folder, summary = run_tiled("hydrology", _tiled_sets(dem), out=str(out), progress=False, client=client)
     return folder, summary
 
 
@@ -75,7 +79,7 @@ def untiled(dem, tmp_path_factory):
 
 def test_mosaic_is_one_cog_per_map_on_the_dems_grid(tiled, dem):
     folder, summary = tiled
-    assert summary["tiles"] == 4 and summary["ran_now"] == 4
+    assert summary["tiles"] == 4 and summary["ran_now"] == 4 * ROUNDS
     with rasterio.open(dem) as ds:
         grid = (ds.shape, ds.crs, ds.transform)
     names = {p.stem for p in (folder / "maps").glob("*.tif")}
@@ -92,7 +96,7 @@ def test_mosaic_is_one_cog_per_map_on_the_dems_grid(tiled, dem):
                 assert ds.crs == src.crs and ds.shape == (r1 - r0, c1 - c0)
                 assert ds.transform == src.transform @ src.transform.translation(c0, r0)
                 np.testing.assert_array_equal(ds.read(1), src.read(1)[r0:r1, c0:c1])
-    # all tiles start from the DEM's heights: the blend of equal values is those values (float32)
+    # the mosaic of the tiles' cores of round 1's initial heights is the DEM (float32)
     np.testing.assert_allclose(_read(folder / "maps" / "height_initial.tif"), _read(dem), rtol=1e-6)
 
 
@@ -136,28 +140,31 @@ def test_seam_figures_are_reported_and_measured_right(tiled):
     touching = int(river[:, TILE - 1].sum() + river[:, TILE].sum() + river[TILE - 1].sum() + river[TILE].sum())
     assert seams["river_cells_at_borders"] == touching
     # the issue's seam target on this build: no jump across a border larger than the 99.9th percentile
-    # of the jumps inside tiles (the feathered blend leaves no step)
+    # of the jumps inside tiles (the droplets crossing a border erode both sides of it)
     assert seams["border_jump_max_m"] <= seams["inside_p999_m"]
 
 
-@pytest.mark.slow  # a second build of four tiles (~5 s warm, more on a loaded machine)
-def test_a_tiled_build_stopped_after_one_tile_resumes_the_rest(tiled, dem, client, tmp_path):
+@pytest.mark.slow  # a second build of four tiles in two rounds (~10 s warm, more on a loaded machine)
+@pytest.mark.parametrize("stop", ["stop_after_first", "stop_in_round_2"])
+def test_a_stopped_tiled_build_resumes_the_rest(stop, tiled, dem, client, tmp_path):
     out = tmp_path / "build"
-    sets = _sets(dem) + [f"tiles.size={TILE}", f"tiles.overlap={OVERLAP}"]
     with pytest.raises(Interrupted, match="erosim run --resume"):
-        run_tiled("hydrology", sets, out=str(out), progress=False, client=client,
-                  member_function=tile_members.stop_after_first)  # fmt: skip
-    first = out / "tiles" / "r0_c0" / "report.json"
+        run_tiled("hydrology", _tiled_sets(dem), out=str(out), progress=False, client=client,
+                  member_function=getattr(tile_members, stop))  # fmt: skip
+    rdir = out / "tiles" if stop == "stop_after_first" else out / "tiles" / "round2"
+    first = rdir / "r0_c0" / "report.json"
     assert json.loads(first.read_text())["status"] == "completed"
     assert json.loads((out / "report.json").read_text())["status"] == "interrupted"
     assert not (out / "maps").exists()
     stamp = first.stat().st_mtime_ns
     folder, summary = run_tiled(None, resume=str(out), progress=False, client=client)
-    assert summary["ran_now"] == 3 and first.stat().st_mtime_ns == stamp  # the finished tile kept
-    actions = {r["member"]: r["action"] for r in json.loads((out / "report.json").read_text())["rounds"][0]["tiles"]}
+    assert summary["ran_now"] == (3 + 4 if stop == "stop_after_first" else 3) and first.stat().st_mtime_ns == stamp
+    k = 0 if stop == "stop_after_first" else 1
+    actions = {r["member"]: r["action"] for r in json.loads((out / "report.json").read_text())["rounds"][k]["tiles"]}
     assert actions == {"r0_c0": "kept", "r0_c1": "ran", "r1_c0": "ran", "r1_c1": "ran"}
-    # the same build as the one that ran in one go (tiles are seeded runs, one thread's order)
+    # the same build as the one that ran in one go (tiles are seeded runs, inflows in a fixed order)
     np.testing.assert_array_equal(_read(out / "maps" / "height.tif"), _read(tiled[0] / "maps" / "height.tif"))
+    np.testing.assert_array_equal(_read(out / "maps" / "stream.tif"), _read(tiled[0] / "maps" / "stream.tif"))
 
 
 @pytest.mark.parametrize(
@@ -168,6 +175,8 @@ def test_a_tiled_build_stopped_after_one_tile_resumes_the_rest(tiled, dem, clien
         (["--workers", "2"], "apply to tiled builds"),
         (["--tile", "48", "SPH"], 'apply to kind = "hydrology" scenarios'),
         (["--tile", "48", "--overlap", "12", "NPY"], "is not a GeoTIFF"),
+        (["--tile", "48", "--overlap", "12", "FILE", "--set", "run.device=cuda"], "on the CPU only"),
+        (["--tile", "48", "--overlap", "12", "FILE", "--set", "hydrology.batch=0"], "batch path only"),
     ],
 )
 def test_bad_input_is_one_sentence_and_leaves_nothing(args, words, dem, tmp_path):
@@ -185,19 +194,37 @@ def test_bad_input_is_one_sentence_and_leaves_nothing(args, words, dem, tmp_path
     assert not out.exists()
 
 
-@pytest.mark.slow  # two rounds of four tiles (~7 s warm)
-def test_a_second_round_starts_from_the_blended_heights(dem, client, tmp_path):
-    sets = _sets(dem) + [f"tiles.size={TILE}", f"tiles.overlap={OVERLAP}", "tiles.rounds=2"]
-    folder, summary = run_tiled("hydrology", sets, out=str(tmp_path / "r2"), progress=False, client=client)
-    assert summary["ran_now"] == 8
+def test_the_second_round_starts_from_the_first_and_gets_every_droplet_that_crossed(tiled, dem):
+    folder, _ = tiled
     report = json.loads((folder / "report.json").read_text())
     assert [r["cycles"] for r in report["rounds"]] == [20, 20]  # run.cycles split over the rounds
-    start = _read(folder / "tiles" / "round2" / "start_height.tif")
+    start, stream = (_read(folder / "tiles" / "round2" / f"start_{m}.tif") for m in ("height", "stream"))
+    exits, inflow = [], []
     for t in report["plan"]["tiles"]:
         r0, r1, c0, c1 = t["window"]
-        tile = folder / "tiles" / "round2" / t["name"]
-        np.testing.assert_array_equal(_read(tile / "input.tif"), start[r0:r1, c0:c1])
-        assert json.loads((tile / "report.json").read_text())["statistics"]["cycles"] == 20
+        one, two = folder / "tiles" / t["name"], folder / "tiles" / "round2" / t["name"]
+        np.testing.assert_array_equal(_read(two / "input.tif"), start[r0:r1, c0:c1])
+        np.testing.assert_array_equal(_read(two / "stream_in.tif"), stream[r0:r1, c0:c1])
+        # round 1's heights mosaicked: the tile's core of its own result (a tile never changes its halo)
+        q0, q1, p0, p1 = t["core"]
+        z1 = _read(one / "maps" / "height.tif")
+        np.testing.assert_array_equal(start[q0:q1, p0:p1], z1[q0 - r0 : q1 - r0, p0 - c0 : p1 - c0])
+        halo = z1 - _read(one / "maps" / "height_initial.tif")
+        halo[q0 - r0 : q1 - r0, p0 - c0 : p1 - c0] = 0.0
+        assert (halo == 0.0).all()
+        assert json.loads((two / "report.json").read_text())["statistics"]["cycles"] == 20
+        e, i = np.load(one / "exits.npy"), np.load(two / "inflow.npy")
+        exits.append(e)
+        inflow.append(i)
+        # every droplet a tile takes in starts in its core (window coordinates)
+        row, col = np.floor(i[:, 2] + 0.5) + r0, np.floor(i[:, 1] + 0.5) + c0
+        assert ((row >= q0) & (row < q1) & (col >= p0) & (col < p1)).all()
+    exits, inflow = np.concatenate(exits), np.concatenate(inflow)
+    # every droplet that left a tile into its halo enters a neighbour, with its water and sediment
+    assert exits.shape[0] > 0 and inflow.shape[0] == exits.shape[0]
+    assert inflow[:, 5].sum() == pytest.approx(exits[:, 5].sum(), rel=1e-12)
+    assert inflow[:, 6].sum() == pytest.approx(exits[:, 6].sum(), rel=1e-12)
+    assert report["rounds"][1]["entered"]["droplets"] == inflow.shape[0]
     # the initial height is the DEM's, the erosion is measured from it over both rounds
     z0, z = _read(dem), _read(folder / "maps" / "height.tif")
     np.testing.assert_allclose(_read(folder / "maps" / "height_initial.tif"), z0, rtol=1e-6)
@@ -220,10 +247,10 @@ def test_the_python_api_refuses_a_tiled_scenario_instead_of_running_it_whole(dem
 def test_a_scheduler_address_runs_the_same_build(tiled, dem, tmp_path):
     from distributed import LocalCluster
 
-    sets = _sets(dem) + [f"tiles.size={TILE}", f"tiles.overlap={OVERLAP}"]
+    sets = _tiled_sets(dem)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         folder, summary = run_tiled(
             "hydrology", sets, out=str(tmp_path / "remote"), progress=False, scheduler=cluster.scheduler_address
         )
-    assert summary["workers"] == "remote" and summary["ran_now"] == 4
+    assert summary["workers"] == "remote" and summary["ran_now"] == 4 * ROUNDS
     np.testing.assert_array_equal(_read(folder / "maps" / "height.tif"), _read(tiled[0] / "maps" / "height.tif"))

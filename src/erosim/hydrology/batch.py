@@ -87,6 +87,12 @@ def descend_logged(x, y, vx, vy, V, S, used, z2, zf, ov, stream, roots, erod, la
         ldz[steps] = dz
         steps += 1
         if st == LEFT:
+            if moved > 0.0:  # a step into a tile's halo makes its transfer (droplet_step.step)
+                eroded += moved
+            elif moved < 0.0:
+                deposited -= moved
+            evap += V - vn  # 0 for every other exit: V is returned unchanged
+            V = vn
             bd[B_LEFT] += V
             bd[B_CARRIED] += S
             V, S = 0.0, 0.0

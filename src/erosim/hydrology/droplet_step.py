@@ -13,9 +13,9 @@ droplet's own changes, :mod:`erosim.hydrology.batch`). It does not write the ter
 the footprint (:func:`origin`, cells by :func:`box`) and the height ``dz`` each of its dry cells
 loses, and each caller applies that its own way — the serial loop and the batches with
 :func:`lower` (into the terrain, into the overlay), the GPU kernel with atomic adds
-(:mod:`erosim.hydrology.droplets_cuda`). The step tests the exits (map edge, sea or nodata:
-``LEFT``; a lake, or a slow droplet in a strong stream or in a pit: ``STOP``; volume below the
-minimum: ``ENDED``), otherwise returns ``MOVED``.
+(:mod:`erosim.hydrology.droplets_cuda`). The step tests the exits (map edge, sea, nodata or a
+tile's halo: ``LEFT``; a lake, or a slow droplet in a strong stream or in a pit: ``STOP``; volume
+below the minimum: ``ENDED``), otherwise returns ``MOVED``.
 
 The functions here take plain scalars, arrays and a tuple of constants (:func:`constants`) and
 are inlined where they are called; they are not cached on their own, so that numba-cuda can
@@ -50,7 +50,7 @@ from erosim.hydrology.params import (
     P_V0,
     P_VMIN,
 )
-from erosim.hydrology.pools import NO_LAKE, OUTSIDE
+from erosim.hydrology.pools import HALO, NO_LAKE, OUTSIDE
 
 MOVED = -1  # the sub-step is done and the droplet goes on
 ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
@@ -110,7 +110,9 @@ def surface(c, zf, ov, has_ov, lake_of, level, sea_level):
 @njit(inline="always")
 def walk_down(c, max_walk, zf, ov, has_ov, lake_of, level, sea_level, nx, ny):
     """:func:`erosim.hydrology.pools.walk_down` over the terrain (+ overlay: the pit test sees the
-    droplet's own deposits): steepest-descent D8 walk of the surface; (cell, at a minimum)."""
+    droplet's own deposits): steepest-descent D8 walk of the surface; (cell, at a minimum). A walk
+    into a tile's halo ends there, not at a minimum: the pit the droplet may be in lies beyond the
+    tile, so it goes on descending (and leaves there) instead of flooding."""
     for _ in range(max_walk):
         iy = c // nx
         ix = c - iy * nx
@@ -128,6 +130,8 @@ def walk_down(c, max_walk, zf, ov, has_ov, lake_of, level, sea_level, nx, ny):
         if best == c:
             return c, True
         c = best
+        if lake_of[c] == HALO:
+            return c, False
     return c, False
 
 
@@ -173,7 +177,10 @@ def step(x, y, vx, vy, V, S, speed, z2, zf, ov, has_ov, stream, roots, erod, lak
     Returns (status, x, y, vx, vy, V, S, speed, code, dz, moved): ``code`` the footprint of the
     old position (:func:`origin`), ``dz`` the height each of its dry cells loses (0 when nothing
     moves; the caller applies it), ``moved`` the sediment taken up (m³, negative: deposited). On
-    ``LEFT`` (x, y) is the last position on the map and V, S are the water and sediment leaving.
+    ``LEFT`` (x, y) is the last position on the map and V, S are the water and sediment leaving; a
+    step into a tile's halo (``HALO``) is a whole step, its transfer made on the old footprint's dry
+    cells (the halo's are not the tile's: never changed) as in the map beyond, then ``LEFT`` at the halo
+    cell; every other exit moves nothing (``dz`` = ``moved`` = 0).
     ``K``: :func:`constants`."""
     ny, nx = z2.shape
     dt, inv_dx, ca, mf, maxstep, vmin, sea, fric, evp, cap, root, pit, kd, inv_v0, acc_num, amin2 = K
@@ -214,10 +221,11 @@ def step(x, y, vx, vy, V, S, speed, z2, zf, ov, has_ov, stream, roots, erod, lak
     zn = zf[cn] + ov[cn] if has_ov else zf[cn]
     if zn < sea or lake_of[cn] == OUTSIDE:
         return LEFT, x, y, vx, vy, V, S, speed, code, 0.0, 0.0
-    if (stream[cn] > 0.5 and a2 < amin2) or lake_of[cn] >= 0:
+    out = lake_of[cn] == HALO  # into a tile's halo: this step's transfer is made, then the droplet leaves
+    if not out and ((stream[cn] > 0.5 and a2 < amin2) or lake_of[cn] >= 0):
         return STOP, x, y, vx, vy, V, S, speed, code, 0.0, 0.0
     speed = math.sqrt(vx * vx + vy * vy)
-    if speed * h < pit:
+    if not out and speed * h < pit:
         wc, at_min = walk_down(cn, 2 * m + 1, zf, ov, has_ov, lake_of, level, sea, nx, ny)
         if at_min:
             return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S, speed, code, 0.0, 0.0
@@ -246,4 +254,6 @@ def step(x, y, vx, vy, V, S, speed, z2, zf, ov, has_ov, stream, roots, erod, lak
             moved = amt
             S += amt
     V = V * (1.0 - h * ee)
+    if out:
+        return LEFT, x, y, vx, vy, V, S, speed, code, dz, moved
     return (ENDED if V < vmin else MOVED), x, y, vx, vy, V, S, speed, code, dz, moved

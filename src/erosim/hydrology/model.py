@@ -322,6 +322,9 @@ def run_droplets_general(
     )  # fmt: skip
 
 
+FLOOD_LEFT = 8  # batch_floods: the droplet's lake drained it into a tile's halo, or its walk off a drain went there
+
+
 @njit(cache=True)
 def batch_floods(
     start, count, res, z2, lake_of, level, area, mroot, broot, hkey, hcell, hleft, hright, hrank, hs,
@@ -332,7 +335,11 @@ def batch_floods(
     lake, or drains, walks off the drain (floods again at once where that walk ends in a
     depression) and is marked ``NEXT`` for another descent; one that ended settles. Returns the
     index reached: below ``count`` when the heap pool or the lake table needs a rebuild first (the
-    caller rebuilds and calls again from there)."""
+    caller rebuilds and calls again from there). In a tile of a tiled build a droplet whose lake
+    drains it into the tile's halo (:func:`erosim.hydrology.pools.flood`, over the halo cell's own
+    height), or whose walk off a drain steps into the halo, is marked ``FLOOD_LEFT`` with that halo
+    cell (R_X, R_Y) and the water and sediment it took there (R_V, R_S), for
+    :meth:`erosim.hydrology.tile_exchange.TileExchange.record_floods`."""
     ny, nx = z2.shape
     zf = z2.reshape(-1)
     spill = int(P[P_SPILL])
@@ -360,16 +367,30 @@ def batch_floods(
                     c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack
                 )
                 break
+            left0 = B[B_LEFT]
+            carried0 = B[B_CARRIED]
             res_f, cell, V, S = flood(
                 c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, P[P_SEA], P[P_EDGE], P[P_CA],
                 P[P_DRAIN], hkey, hcell, hleft, hright, hrank, hs, stack, walk,
             )  # fmt: skip
             B[B_FLOODS] += 1
+            if res_f == pools.LEFT and lake_of[cell] == pools.HALO:  # into a tile's halo: passed on
+                status = FLOOD_LEFT
+                x = float(cell % nx)
+                y = float(cell // nx)
+                V = B[B_LEFT] - left0
+                S = B[B_CARRIED] - carried0
+                break
             if res_f != DRAIN:
                 break
             cell, at_min = walk_down(cell, nwalk, zf, lake_of, level, P[P_SEA], nx, ny)
             x = float(cell % nx)
             y = float(cell // nx)
+            if lake_of[cell] == pools.HALO:  # the walk off the drain left the tile: passed on from there
+                B[B_LEFT] += V
+                B[B_CARRIED] += S
+                status = FLOOD_LEFT
+                break
             rounds -= 1
             if rounds <= 0:
                 _settle(
@@ -382,7 +403,13 @@ def batch_floods(
                 continue
             status = NEXT
             break
-        if status == NEXT:
+        if status == FLOOD_LEFT:
+            res[i, R_STATUS] = FLOOD_LEFT
+            res[i, R_X] = x
+            res[i, R_Y] = y
+            res[i, R_V] = V
+            res[i, R_S] = S
+        elif status == NEXT:
             res[i, R_STATUS] = NEXT
             res[i, R_X] = x
             res[i, R_Y] = y
@@ -514,6 +541,7 @@ class HydrologyModel:
         self.device = "cpu" if gpu is None else "cuda"
         self._gpu = None if gpu is None else gpu(self)  # the batches' descents on the GPU
         self._work = work_arrays(self.batch, n) if self.batch > 0 and self._gpu is None else None
+        self.exchange = None  # a tile of a tiled build: its droplet exchange (attach_exchange)
 
     # ----------------------------------------------------------------------------- internals
     def _alloc_pool(self, size: int) -> None:
@@ -584,15 +612,22 @@ class HydrologyModel:
             if k < count:
                 self._rebuild()  # heap pool or lake table full: compact, then go on
 
-    def _run_batch(self, first: int, nb: int) -> None:
+    def _run_batch(self, first: int, nb: int, inject: np.ndarray | None = None) -> None:
         """Droplets first … first + nb − 1 in batch rounds (:mod:`erosim.hydrology.batch`):
-        parallel descents, then serially their logs applied and their floods."""
+        parallel descents, then serially their logs applied and their floods. ``inject``: instead of
+        spawning, nb droplets that enter from a neighbouring tile, rows (cycle, x, y, vx, vy, V, S)
+        (:mod:`erosim.hydrology.tile_exchange`): they start as droplets that go on descending (NEXT)."""
         ny, nx = self.z.shape
         zf = self.z.reshape(-1)
         res, lc, ldz, bd, ov = self._work
         res[:nb, R_STATUS] = NEW
         res[:nb, R_ROUNDS] = self.p.spill
-        self.budget[B_RAINED] += nb * self.P[P_V0]
+        if inject is None:
+            self.budget[B_RAINED] += nb * self.P[P_V0]
+        else:
+            res[:nb, R_STATUS] = NEXT
+            for col, k in ((R_X, 1), (R_Y, 2), (R_VX, 3), (R_VY, 4), (R_V, 5), (R_S, 6)):
+                res[:nb, col] = inject[:, k]
         foot = int(self.P[P_FOOT])
         old = numba.set_parallel_chunksize(4)  # dynamic scheduling: droplets differ in length
         try:
@@ -600,6 +635,8 @@ class HydrologyModel:
             while True:
                 descend(first, nb, self.seed, self.z, self.stream, self.cover, self.erod, self.lake_of,
                         self.level, self.rain_cdf, self.P, res, lc, ldz, bd, ov)  # fmt: skip
+                if self.exchange is not None:  # droplets that left into the halo go to the neighbour
+                    self.exchange.record(self.cycles, res, bd, nb)
                 apply_logs(nb, nx, ny, foot, zf, self.lake_of, self.track, res, lc, ldz, bd, self.budget)
                 k = 0
                 while True:
@@ -611,6 +648,8 @@ class HydrologyModel:
                     if k >= nb:
                         break
                     self._rebuild()  # heap pool or lake table full: compact, then go on
+                if self.exchange is not None:  # lakes that drained droplets into the halo
+                    self.exchange.record_floods(self.cycles, res, nb, FLOOD_LEFT, DONE)
                 status = res[:nb, R_STATUS]
                 left = np.count_nonzero((status == NEXT) | (status == PAUSED))
                 if left == 0:
@@ -618,6 +657,55 @@ class HydrologyModel:
                 descend = descend_batch_serial if left < SERIAL_BELOW else descend_batch
         finally:
             numba.set_parallel_chunksize(old)
+
+    def attach_exchange(self, exchange) -> None:
+        """Make this model a tile of a tiled build (:class:`erosim.hydrology.tile_exchange.TileExchange`): the
+        cells outside the tile's core (its halo) become ``lake_of`` = HALO (no rain, no erosion; droplets
+        reaching them leave, and are recorded to enter the neighbour; a lake drains into them over their
+        own height, :func:`erosim.hydrology.pools.flood`), rain falls on the core
+        only, as many droplets per cycle as on the core's area, and the droplets entering from the
+        neighbours run every cycle. Needs the batch path (``hydrology.batch`` unset or > 0)."""
+        if self.batch <= 0:
+            raise InputError(
+                "A tiled build passes droplets between tiles on the batch path only; leave hydrology.batch "
+                "unset (or > 0) for a tiled build."
+            )
+        if self._gpu is not None:
+            raise InputError(
+                "A tiled build passes droplets between tiles on the CPU only; leave run.device = 'cpu' for a "
+                "tiled build."
+            )
+        ny, nx = self.z.shape
+        r0, r1, c0, c1 = exchange.core
+        halo = np.ones((ny, nx), bool)
+        halo[r0:r1, c0:c1] = False
+        flat = halo.ravel()
+        self.lake_of[flat & (self.lake_of != pools.OUTSIDE)] = pools.HALO
+        r = np.ones(self.n) if self.rain_cdf.size == 0 else np.diff(self.rain_cdf, prepend=0.0)
+        r = np.where(flat | (self.lake_of == pools.OUTSIDE), 0.0, r)
+        self.rain_cdf = np.cumsum(r)
+        self.per_cycle = droplets_per_cycle(self.p, (r1 - r0, c1 - c0), self.cell_size)
+        self.batch = batch_size(self.p, self.per_cycle)
+        if self.batch <= 0:
+            raise InputError("A tiled build needs hydrology.batch unset or > 0.")
+        self._work = work_arrays(self.batch, self.n)
+        self._halo = np.flatnonzero(self.lake_of == pools.HALO)
+        self.exchange = exchange
+
+    def _creep_tile(self) -> None:
+        """Creep in a tile of a tiled build: its halo creeps as dry land, so that soil crosses the tile's
+        border as it would untiled (a step at a border is smoothed from both sides), but only the core's
+        change is kept — the halo's heights are put back (the neighbour creeps its own core; faces inside
+        the halo are its). What the core gained across the border is counted in the exchange
+        (``flow[4]``, m³) and closes the tile's terrain budget."""
+        halo = self._halo
+        before = self.z.reshape(-1)[halo]
+        lake = np.where(self.lake_of == pools.HALO, pools.NO_LAKE, self.lake_of)
+        moved = creep_step(self.z, self.erod, self._creep, lake)
+        self.budget[pools.B_CREPT] += moved * self.cell_size**2
+        zf = self.z.reshape(-1)
+        self.exchange.flow[4] += float(np.sum(before - zf[halo])) * self.cell_size**2
+        zf[halo] = before
 
     # ----------------------------------------------------------------------------- public API
     def cycle(self) -> None:
@@ -642,8 +730,16 @@ class HydrologyModel:
                 todo -= nb
             if gpu is not None:
                 gpu.pull_track()
+        if self.exchange is not None:  # droplets entering from the neighbouring tiles this cycle
+            incoming = self.exchange.incoming(self.cycles)
+            for a in range(0, incoming.shape[0], batch):
+                part = incoming[a : a + batch]
+                self._run_batch(self.droplets, part.shape[0], inject=part)
+            self.exchange.entered(incoming)
         streams.update(self.stream, self.track, self.p.stream_rate)
-        if self._creep > 0.0:
+        if self._creep > 0.0 and self.exchange is not None:
+            self._creep_tile()
+        elif self._creep > 0.0:
             moved = creep_step(self.z, self.erod, self._creep, self.lake_of)  # dry land only
             self.budget[pools.B_CREPT] += moved * self.cell_size**2
         if self.veg.enabled:
@@ -703,8 +799,10 @@ class HydrologyModel:
         in_lakes = float(self.lake_depth().sum() * ca)
         evaporated = float(B[B_EVAP] + B[B_RESID])
         left = float(B[B_LEFT])
-        closure = abs(rained - in_lakes - evaporated - left) / rained if rained > 0 else 0.0
-        return {
+        entered = float(self.exchange.flow[0]) if self.exchange is not None else 0.0
+        supplied = rained + entered
+        closure = abs(supplied - in_lakes - evaporated - left) / supplied if supplied > 0 else 0.0
+        out = {
             "unit": "m3",
             "rained": rained,
             "in_lakes": in_lakes,
@@ -715,6 +813,9 @@ class HydrologyModel:
             "ended_in_droplets": float(B[B_RESID]),
             "in_lakes_tracked": float(B[B_TO_LAKES]),
         }
+        if self.exchange is not None:  # a tile: closure = |rained + entered − in lakes − evaporated − left|
+            out.update(entered_from_tiles=entered, passed_to_tiles=float(self.exchange.flow[2]))
+        return out
 
     def sediment_budget(self) -> dict:
         B = self.budget
@@ -722,23 +823,32 @@ class HydrologyModel:
         eroded = float(B[B_ERODED])
         deposited = float(B[B_DEPOSITED])
         carried = float(B[B_CARRIED])
-        closure = abs(eroded - deposited - carried) / eroded if eroded > 0 else 0.0
+        entered = float(self.exchange.flow[1]) if self.exchange is not None else 0.0
+        closure = abs(eroded + entered - deposited - carried) / eroded if eroded > 0 else 0.0
         change = float(np.sum(self.z - self.z0) * ca)
-        return {
+        crept_in = float(self.exchange.flow[4]) if self.exchange is not None else 0.0  # a tile: creep across its border
+        out = {
             "unit": "m3",
             "eroded": eroded,
             "deposited": deposited,
             "carried_off": carried,
             "closure_rel": closure,
             "terrain_change": change,
-            "terrain_change_rel_error": abs(change - (deposited - eroded)) / eroded if eroded > 0 else 0.0,
+            "terrain_change_rel_error": abs(change - (deposited - eroded + crept_in)) / eroded if eroded > 0 else 0.0,
             "moved_by_creep": float(B[pools.B_CREPT]),
         }
+        if self.exchange is not None:  # a tile: closure = |eroded + entered − deposited − carried off|
+            out.update(entered_from_tiles=entered, passed_to_tiles=float(self.exchange.flow[3]), crept_in=crept_in)
+        return out
 
     def sediment_in_transit(self) -> tuple[float, float]:
         """(sediment held in the water, sediment carried off the map) so far, m³. Droplets are not kept
-        between cycles, so after a whole cycle nothing is held: the terrain's change is −carried off."""
-        return 0.0, float(self.budget[B_CARRIED])
+        between cycles, so after a whole cycle nothing is held: the terrain's change is −carried off
+        (in a tile of a tiled build: the sediment that entered from its neighbours, and the soil that crept
+        in across its border, less that)."""
+        if self.exchange is None:
+            return 0.0, float(self.budget[B_CARRIED])
+        return 0.0, float(self.budget[B_CARRIED]) - float(self.exchange.flow[1]) - float(self.exchange.flow[4])
 
     def stats(self) -> dict:
         B = self.budget
@@ -784,6 +894,7 @@ class HydrologyModel:
             "hright": self.hright[:used].copy(),
             "hrank": self.hrank[:used].copy(),
             "built": np.int64(self._built),
+            **(self.exchange.state_dict() if self.exchange is not None else {}),
         }
 
     def load_state_dict(self, st: dict) -> None:
@@ -808,6 +919,8 @@ class HydrologyModel:
         self.droplets = int(st["droplets"])
         self.cycles = int(st["cycles"])
         self._built = bool(int(st.get("built", 1)))
+        if self.exchange is not None:
+            self.exchange.load_state_dict(st)
 
     def flood_seconds(self) -> float:
         return float(self.budget[B_FLOOD_NS]) * 1e-9

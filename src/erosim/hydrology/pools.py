@@ -74,6 +74,7 @@ OFF = -1  # heap cell code offset: off-map entries are stored as -(edge cell + 2
 # lake_of codes besides a lake's index
 NO_LAKE = -1  # a dry cell
 OUTSIDE = -2  # a nodata cell of the DEM: outside the world, like the map's edge (water reaching it leaves)
+HALO = -3  # a tile's halo in a tiled build: water reaching it leaves to the neighbouring tile, over its own surface
 
 # flood results
 SPENT = 0  # volume went into a lake
@@ -175,7 +176,8 @@ def walk_down(c, max_walk, zf, lake_of, level, sea_level, nx, ny):
 
     Returns (cell, at_minimum) after at most ``max_walk`` moves. Used to move a droplet off a
     drain (so that it does not slide back onto the bed of the lake it just left) and to find the
-    bottom of the depression a slow droplet sits in (``pit_flood``).
+    bottom of the depression a slow droplet sits in (``pit_flood``). A walk that steps into a tile's
+    halo (``HALO``) ends there, as at a minimum: the caller passes the droplet on to the neighbour.
     """
     for _ in range(max_walk):
         iy = c // nx
@@ -194,6 +196,8 @@ def walk_down(c, max_walk, zf, lake_of, level, sea_level, nx, ny):
         if best == c:
             return c, True
         c = best
+        if lake_of[c] == HALO:  # the walk left the tile: the caller passes the droplet on from there
+            return c, True
     return c, False
 
 
@@ -371,7 +375,12 @@ def flood(
 
     Returns (result, cell, V, S): SPENT (V went into the lake, S settled on its bed), DRAIN (the
     particle is at ``cell``, a drain, with V and the kept 10 % of S) or LEFT (drained off the
-    world).
+    world; ``cell`` is c, or the halo cell it drained into in a tile of a tiled build).
+
+    A tile's halo cells (``lake_of`` = HALO) are boundary entries keyed by their own surface, like any
+    dry cell beyond the lake, not off-map entries at −∞: a lake cut by a tile's border fills to the
+    height of its lowest halo neighbour (the map's spill level on that side) before its water leaves
+    there to the neighbouring tile, with the kept 10 % of the sediment; a halo cell never joins a lake.
     """
     # the seed keeps 10 % of the sediment when the particle drains on; the rest settles where it
     # entered the lake (the seed deletes it; settling keeps the sediment budget closed)
@@ -446,7 +455,8 @@ def flood(
                 continue
         L = level[k]
         sea = (not offmap) and lake_of[b] < 0 and zf[b] < sea_level
-        if offmap or sea or e < L:
+        halo = (not offmap) and lake_of[b] == HALO
+        if offmap or sea or e < L or (halo and e <= L):
             # drain: lower the level slowly toward the drain's surface, the particle moves there
             if offmap:
                 edge_cell = -b - 2
@@ -476,10 +486,10 @@ def flood(
             )
             B[B_TO_LAKES] -= rel
             V += rel
-            if offmap or sea:
+            if offmap or sea or halo:
                 B[B_LEFT] += V
                 B[B_CARRIED] += S
-                return LEFT, c, 0.0, 0.0
+                return LEFT, (b if halo and not sea else c), 0.0, 0.0
             return DRAIN, b, V, S
         need = area[k] * (e - L) * cell_area
         if V <= need:
@@ -527,6 +537,8 @@ def flood(
         level[k] = e
         V -= need
         B[B_TO_LAKES] += need
+        if halo:  # the lake is at its spill level into the halo: the next pass drains the rest there
+            continue
         broot[k] = pop(top, hkey, hleft, hright, hrank, hs, stack)
         j = lake_of[b]
         if j >= 0:

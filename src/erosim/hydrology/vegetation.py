@@ -34,7 +34,7 @@ from numba import njit
 
 from erosim.hydrology.counter_rng import unit
 from erosim.hydrology.params import VegetationParams
-from erosim.hydrology.pools import OUTSIDE
+from erosim.hydrology.pools import HALO, OUTSIDE
 
 
 @functools.lru_cache(maxsize=8)
@@ -54,9 +54,9 @@ def disc_offsets(radius_cells: float) -> tuple[np.ndarray, np.ndarray, float]:
 
 @njit(cache=True, inline="always")
 def _wet_at(c, zf, lake_of, level, sea_level):
-    """Under a lake or the sea, or outside the world (a nodata cell): no tree there."""
+    """Under a lake or the sea, or outside the world (a nodata cell, a tile's halo): no tree there."""
     k = lake_of[c]
-    return (k >= 0 and level[k] > zf[c]) or zf[c] < sea_level or k == OUTSIDE
+    return (k >= 0 and level[k] > zf[c]) or zf[c] < sea_level or k == OUTSIDE or k == HALO
 
 
 @njit(cache=True, inline="always")

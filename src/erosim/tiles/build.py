@@ -5,24 +5,29 @@ The build folder::
 
     <out>/scenario.toml          the resolved scenario, [tiles] included (``--resume`` reads it)
     <out>/tiles.json             the plan: the DEM's grid, every tile's core and window
-    <out>/tiles/rR_cC/           round 1: input.tif (the tile's window + halo of the DEM, CRS and
-                                 transform kept) and an ordinary hydrology run folder around it
-    <out>/tiles/roundK/          rounds K ≥ 2: start_height.tif (round K−1's mosaicked height) and
-                                 rR_cC/ as above, cut from it
+    <out>/tiles/rR_cC/           round 1: input.tif (the tile's window = core + halo of the DEM, CRS and
+                                 transform kept), inflow.npy (empty in round 1), exchange.json, and an
+                                 ordinary hydrology run folder around them, exits.npy included
+    <out>/tiles/roundK/          rounds K ≥ 2: start_height.tif and start_stream.tif (round K−1's
+                                 mosaics) and rR_cC/ as above, cut from them, inflow.npy = the droplets
+                                 that left the neighbours into this tile's core in round K−1
     <out>/maps/NAME.tif          one Cloud-Optimized GeoTIFF per map on the DEM's grid, CRS, transform
-    <out>/report.json            plan, per-tile status and wall time, seam figures
+    <out>/report.json            plan, per round the exchange and every tile's status and wall time,
+                                 seam figures
 
 Only the DEM's header is read whole; tiles are cut with windowed reads and the mosaics are written
 core by core (:mod:`erosim.tiles.rasters`), so the build's own memory is bounded by a tile; each Dask
 worker holds one tile's run. Tiles are sweep members (:mod:`erosim.sweep.member`): a finished tile is
 kept and an interrupted one resumed from its checkpoint when the build is run again with
-``erosim run --resume <out>``.
+``erosim run --resume <out>``, round by round.
 
-Each round runs ``run.cycles / rounds`` cycles in every tile. What crosses a border is the terrain of
-the halo: a tile erodes its window, its neighbours' cores included, and with ``rounds > 1`` every later
-round starts from the blended heights, so it sees what its neighbours eroded. Droplets and their
-sediment do not cross: a droplet that reaches the halo's edge leaves the tile as it leaves the map, and
-a river's catchment beyond the halo is missing downstream.
+Each round runs ``run.cycles / rounds`` cycles in every tile. A tile's halo is not its own: rain falls
+on its core, a droplet that steps into the halo leaves the tile there and is recorded with its water,
+sediment and velocity, and the next round injects it into the neighbour whose core holds that cell, in
+the same cycle (:mod:`erosim.hydrology.tile_exchange`, :mod:`erosim.tiles.exchange`); a lake at the
+border fills to the halo's height before it spills into it; creep moves soil across the border. The
+halo's heights are the neighbours' (the last round's mosaic), so gradients at a border are the map's.
+The mosaics take every tile's core (a tile never changes its halo).
 """
 
 from __future__ import annotations
@@ -44,9 +49,10 @@ from erosim.scenarios import loader
 from erosim.sweep import dask_executor
 from erosim.sweep.member import FINISHED, MemberTask, read_report, record, run_member
 from erosim.sweep.runner import MemberProgress, plan_threads
+from erosim.tiles import exchange as xch
 from erosim.tiles import rasters, seams
 from erosim.tiles.plan import Tile, cycles_per_round, plan
-from erosim.tiles.rasters import blend
+from erosim.tiles.rasters import read_window
 
 PLAN_FILE = "tiles.json"
 OUTPUTS = ("tiles", "maps", "report.json", PLAN_FILE, "scenario.toml")
@@ -154,36 +160,47 @@ def run_tiled(
         with context as cl:
             for k, cycles in enumerate(shares, start=1):
                 rdir = _round_dir(folder, k)
-                source = dem
+                source, stream_src, prev = dem, None, None
                 if k > 1:
-                    source = rdir / "start_height.tif"
-                    if not source.is_file():
-                        prev = _round_dir(folder, k - 1)
-                        rasters.write_by_cores(
-                            tiles, rasters.grid_profile(dem), source,
-                            lambda t, prev=prev: blend(tiles, cfg.tiles.overlap, _map(prev, "height"), t), cog=False,
-                        )  # fmt: skip
+                    prev = _round_dir(folder, k - 1)
+                    source, stream_src = rdir / "start_height.tif", rdir / "start_stream.tif"
+                    for name, path in (("height", source), ("stream", stream_src)):
+                        if not path.is_file():
+                            f = _map(prev, name)
+                            rasters.write_by_cores(tiles, rasters.grid_profile(dem), path,
+                                                   lambda t, f=f: _core(f, t), cog=False)  # fmt: skip
                 tasks, records = [], {}
+                exchange = {"droplets": 0, "water_m3": 0.0, "sediment_m3": 0.0}
                 bar.set_note(f"round {k}/{len(shares)}")
                 for i, t in enumerate(tiles):
                     tdir = (rdir / t.name).resolve()
+                    member = tdir / xch.MEMBER
+                    if not member.is_file():  # its inputs: the window's heights (and stream), the inflow
+                        rasters.cut(source, t, tdir / "input.tif", header["cell_size"])
+                        inflow = np.zeros((0, len(xch.COLUMNS)))
+                        if k > 1:
+                            rasters.cut(stream_src, t, tdir / "stream_in.tif", header["cell_size"])
+                            inflow = xch.route(tiles, i, lambda s, prev=prev: _exits(prev, s), cycles)
+                        xch.write_member(tdir, t, inflow, "stream_in.tif" if k > 1 else None)
+                    inflow = np.load(tdir / xch.INFLOW, mmap_mode="r")
+                    exchange["droplets"] += int(inflow.shape[0])
+                    exchange["water_m3"] += float(inflow[:, 5].sum())
+                    exchange["sediment_m3"] += float(inflow[:, 6].sum())
                     report = read_report(tdir)
-                    if report is not None and report.get("status") in FINISHED:
+                    if report is not None and report.get("status") in FINISHED and (tdir / xch.EXITS).is_file():
                         records[i] = record(i, t.name, report, "kept")
                         bar.member_done(records[i])
                         continue
-                    if not (tdir / "input.tif").is_file():
-                        rasters.cut(source, t, tdir / "input.tif", header["cell_size"])
                     sets = (f"terrain.file={json.dumps(str(tdir / 'input.tif'))}",
                             f"terrain.cell_size={header['cell_size']!r}", "tiles.size=0", f"run.cycles={cycles}",
-                            "run.frames=0")  # fmt: skip
+                            "run.frames=0", f"tiles.member={json.dumps(str(member))}")  # fmt: skip
                     tasks.append(MemberTask(i, t.name, str(tdir), base, sets, threads))
                 if tasks:
                     done = dask_executor.run_tasks(cl, tasks, on_done=bar.member_done, member_function=member_function)
                     for rec in done:
                         records[rec["index"]] = rec
                 ordered = [records[i] for i in range(len(tiles))]
-                rounds.append({"round": k, "cycles": cycles, "tiles": ordered})
+                rounds.append({"round": k, "cycles": cycles, "entered": exchange, "tiles": ordered})
                 unfinished = [r for r in ordered if r["status"] not in ("completed",)]
                 if unfinished:
                     break
@@ -240,9 +257,20 @@ def _map(rdir: Path, name: str):
     return lambda t: rdir / t.name / "maps" / f"{name}.tif"
 
 
+def _core(path_of, t: Tile) -> np.ndarray:
+    """Tile ``t``'s core of the map ``path_of(t)`` (a tile's halo is outside its run: only its core is its)."""
+    wr0, _, wc0, _ = t.window
+    r0, r1, c0, c1 = t.core
+    return read_window(path_of(t), (r0 - wr0, r1 - wr0, c0 - wc0, c1 - wc0))
+
+
+def _exits(rdir: Path, t: Tile) -> np.ndarray:
+    return np.load(rdir / t.name / xch.EXITS)
+
+
 def _mosaic(folder: Path, dem: Path, tiles: list[Tile], overlap: int, last: Path) -> list[str]:
-    """One COG per map of the tiles' runs in ``<out>/maps/``: blended from the last round, the initial
-    height from round 1, erosion and deposition from those two (max(z₀ − z, 0), max(z − z₀, 0))."""
+    """One COG per map of the tiles' runs in ``<out>/maps/``: each tile's core from the last round, the
+    initial height from round 1, erosion and deposition from those two (max(z₀ − z, 0), max(z − z₀, 0))."""
     grid = rasters.grid_profile(dem)
     names = sorted(p.stem for p in (last / tiles[0].name / "maps").glob("*.tif"))
     maps = folder / "maps"
@@ -252,7 +280,7 @@ def _mosaic(folder: Path, dem: Path, tiles: list[Tile], overlap: int, last: Path
             continue
         rdir = _round_dir(folder, 1) if name == "height_initial" else last
         path_of = _map(rdir, name)
-        rasters.write_by_cores(tiles, grid, maps / f"{name}.tif", lambda t, f=path_of: blend(tiles, overlap, f, t))
+        rasters.write_by_cores(tiles, grid, maps / f"{name}.tif", lambda t, f=path_of: _core(f, t))
     for name in sorted(derived):
         sign = 1.0 if name == "erosion" else -1.0
 

@@ -6,7 +6,8 @@ holds between ``size/2`` and ``size`` cells; a tile's window is its core grown b
 on every side that is not the map's edge. With ``overlap ≤ size/2`` a halo reaches only into the
 neighbouring cores, so every cell is covered by at most two tiles per axis.
 
-Blending (:func:`weights`): along an axis, a tile's weight rises linearly from 0 at the outer edge of
+Blending (:func:`weights`; the first version's mosaics, kept for :func:`erosim.tiles.rasters.blend` —
+the build now takes each tile's core): along an axis, a tile's weight rises linearly from 0 at the outer edge of
 its halo to 1 at ``2·overlap`` cells inside it, w(d) = min(1, d / (2K)) with d the distance of a
 cell's centre from the halo's outer edge; on a side at the map's edge it is 1. Across a border at
 ``b`` the two tiles' windows overlap on [b − K, b + K) and their weights w_A = (b + K − x)/(2K),

@@ -117,7 +117,8 @@ def write_by_cores(
 
 
 def blend(tiles: list[Tile], overlap: int, path_of: Callable[[Tile], Path], core: Tile) -> np.ndarray:
-    """The feathered blend (:func:`erosim.tiles.plan.weights`) over ``core``'s core of the map that
+    """(Not used by the build since tiles pass droplets across borders: the mosaics take each tile's core.)
+    The feathered blend (:func:`erosim.tiles.plan.weights`) over ``core``'s core of the map that
     ``path_of(tile)`` holds for every tile: Σ wᵢ·vᵢ / Σ wᵢ over the tiles with data, NaN where none."""
     r0, r1, c0, c1 = core.core
     num = np.zeros((r1 - r0, c1 - c0))

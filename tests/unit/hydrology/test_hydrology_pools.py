@@ -199,3 +199,40 @@ def test_adding_water_to_a_lake_does_no_per_cell_work(side):
         assert res == pools.SPENT
     assert (m.hs[pools.HS_BUMP], m.hs[pools.HS_FREE]) == used
     assert m.lake_depth()[side // 2, side // 2] == pytest.approx(10.0 + 100.0 / side**2, rel=1e-12)
+
+
+def _halo_pit(code):
+    """A 1 m pit (4 × 6 cells) whose east side is a tile's border: the halo (columns 8–13, ``code``)
+    holds the neighbour's 4 m rim beside the pit and falls to 0 m beyond it."""
+    z = np.full((10, 14), 10.0)
+    z[3:7, 2:8] = 1.0
+    z[3:7, 8] = 4.0
+    z[:, 9:] = 0.0
+    m = _model(z)
+    m.lake_of.reshape(z.shape)[:, 8:] = code
+    return z, m
+
+
+def test_lake_cut_by_a_tile_border_fills_to_the_halo_before_it_spills():
+    """A tile's halo is a boundary at its own height, not an open edge: the pit fills to the 4 m rim
+    it shares with the neighbour, then spills there (the halo cell returned for the exchange), keeping
+    10 % of the sediment; a nodata side (OUTSIDE) drains the same pit at once."""
+    z, m = _halo_pit(pools.HALO)
+    res, cell, _V, _S = _flood(m, 5, 3, 100.0)
+    assert res == pools.LEFT
+    iy, ix = divmod(cell, z.shape[1])
+    assert ix == 8 and 3 <= iy <= 6  # the halo cell of the rim it spilled over
+    d = m.lake_depth()
+    assert (m.z + d)[5, 3] == pytest.approx(4.0, abs=1e-9)  # full to the rim (the drain's target is the level)
+    assert (d[:, 8:] == 0).all()  # the halo never joins the lake
+    assert d.sum() == pytest.approx(72.0, rel=1e-12)  # 24 cells × 3 m
+    assert m.budget[pools.B_LEFT] == pytest.approx(28.0, rel=1e-12)
+    # a droplet with sediment reaching the full lake: 90 % settles in it (the water it displaces goes
+    # on), 10 % leaves with the water into the halo
+    res, cell, _V, _S = _flood(m, 5, 3, 10.0, S=1.0)
+    assert res == pools.LEFT and cell % z.shape[1] == 8
+    assert m.budget[pools.B_CARRIED] == pytest.approx(0.1, rel=1e-12)
+    assert m.budget[pools.B_LEFT] == pytest.approx(28.0 + 10.0 + 0.9, rel=1e-12)
+    _z, open_side = _halo_pit(pools.OUTSIDE)
+    res, _c, _V, _S = _flood(open_side, 5, 3, 100.0)
+    assert res == pools.LEFT and open_side.lake_depth().sum() < 1.0  # drained at once

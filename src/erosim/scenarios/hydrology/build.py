@@ -24,8 +24,9 @@ from typing import Any
 from erosim.core.errors import ConfigError
 from erosim.core.schedules import IterationInterval, TimeInterval
 from erosim.hydrology.model import HydrologyModel
+from erosim.hydrology.tile_exchange import load_member, read_stream
 from erosim.io.heightmaps import read
-from erosim.scenarios.hydrology.outputs import HydrologyOutputs, frame_maps, thumbnail
+from erosim.scenarios.hydrology.outputs import HydrologyOutputs, TileExits, frame_maps, thumbnail
 from erosim.scenarios.schema_common import build_terrain, terrain_facts
 from erosim.scenarios.setup import Setup
 from erosim.simulation.callbacks import Animation, BudgetCheck, MapFrames
@@ -58,6 +59,15 @@ def build_model(cfg, *, timing: bool = False):
     return terrain, model
 
 
+def tile_member(model, member: str) -> TileExits:
+    """Attach a tile's exchange (:mod:`erosim.hydrology.tile_exchange`) and its starting stream map."""
+    exchange, stream = load_member(member)
+    model.attach_exchange(exchange)
+    if stream is not None:  # rounds ≥ 2 go on from the last round's stream map
+        model.stream[...] = read_stream(stream)
+    return TileExits(exchange)
+
+
 def setup(scenario, out) -> Setup:
     """The model and callbacks of a ``hydrology`` run (see the module docstring)."""
     cfg = scenario.config
@@ -67,6 +77,9 @@ def setup(scenario, out) -> Setup:
             "from Python call erosim.tiles.build.run_tiled, or set tiles.size=0 for one run."
         )
     terrain, model = build_model(cfg)
+    callbacks: list = []
+    if cfg.tiles.member:  # one tile of a tiled build: droplets pass to and from its neighbours
+        callbacks.append(tile_member(model, cfg.tiles.member))
     warnings = list(terrain.notes)
     facts, assumed = terrain_facts(terrain, cfg.terrain)
     if facts["nodata_cells"]:
@@ -87,7 +100,6 @@ def setup(scenario, out) -> Setup:
             "droplet footprints are large and the run is slow; set terrain.cell_size to the DEM's "
             "real cell size or lower hydrology.length_scale."
         )
-    callbacks: list = []
     if cfg.run.frames > 0:
         interval = max(1, cfg.run.cycles // cfg.run.frames)
         callbacks.append(

@@ -12,6 +12,7 @@ from erosim.core.callbacks import Callback
 from erosim.core.schedules import Schedule
 from erosim.hydrology import pools, vegetation
 from erosim.hydrology.params import P_SEA
+from erosim.hydrology.tile_exchange import EXITS, write_exits
 from erosim.io import heightmaps as hio
 from erosim.viz.maps import DARK_BLUE, FOREST, GROUND, LIGHT_BLUE, hydrology_map
 from erosim.viz.plots import change_figure, extent_of, hillshade_figure, map_figure
@@ -104,3 +105,15 @@ class HydrologyOutputs(Callback):
 
     def finalize(self, sim) -> dict[str, Any]:
         return {"outputs": write_outputs(self.model, self.terrain, sim.out)}
+
+
+class TileExits(Callback):
+    """A tile of a tiled build: writes the droplets that left it (``exits.npy``) when it completes."""
+
+    def __init__(self, exchange):
+        super().__init__(Schedule(), name="tile_exits")
+        self.exchange = exchange
+
+    def finalize(self, sim) -> dict[str, Any]:
+        write_exits(sim.out.path, self.exchange)
+        return {"tile_exchange": {"exits": EXITS, "flow_m3": [float(v) for v in self.exchange.flow]}}

@@ -49,7 +49,12 @@ class Tiles(Section):
     )
     overlap: int = param(32, ge=0, unit="cells", doc="tiled build: halo cells around each tile (at most size/2)")
     rounds: int = param(
-        1, ge=1, unit="1", doc="tiled build: passes over all tiles, each on the last one's heights (run.cycles split)"
+        4, ge=1, unit="1",
+        doc="tiled build: passes over all tiles, each on the last one's heights and stream map and with the "
+        "droplets that left its neighbours in the last (run.cycles split; water crossing B borders needs B + 1)",
+    )  # fmt: skip
+    member: str = param(
+        "", doc="set by a tiled build for each of its tiles: the tile's exchange file (docs/tiles.md); leave empty"
     )
 
 
@@ -75,6 +80,21 @@ class HydrologyScenario(Section):
             raise ConfigError(
                 f"tiles.size = {t.size} with tiles.overlap = {t.overlap} is not valid; give a size of at least 16 "
                 "cells and an overlap of at most half the size."
+            )
+        if t.overlap < 2:
+            raise ConfigError(
+                f"tiles.overlap = {t.overlap} is too small for a tiled build; give at least 2 cells, the halo "
+                "a droplet crossing a border steps into before it is passed to the neighbouring tile."
+            )
+        if self.hydrology.batch == 0:
+            raise ConfigError(
+                "A tiled build passes droplets between tiles on the batch path only; leave hydrology.batch unset "
+                "(or > 0) instead of 0 (the simplehydrology-2020 preset's serial order)."
+            )
+        if self.run.device != "cpu":
+            raise ConfigError(
+                f"A tiled build passes droplets between tiles on the CPU only; leave run.device = 'cpu' instead of "
+                f"'{self.run.device}' for a tiled build."
             )
         if self.inputs.rain_map or self.inputs.hardness_map:
             raise ConfigError(
