@@ -42,9 +42,11 @@ Why hand-written Numba rather than ``scipy.ndimage.map_coordinates``: the SPH bo
 the erosion model call :func:`sample` one particle at a time from inside their own parallel loops,
 with the gradient from the same stencil, where a Python-level library call is impossible; and
 :func:`wall_distance` computes every particle's l and n in one parallel pass (VX-10: no extra
-neighbour loop). :func:`sample` and :func:`distance_normal` are compiled once as functions of their own
-(LLVM may still inline them), not inlined into every caller by Numba: three inlined copies of the
-stencil made the wall constraint's first compilation take 91 s instead of 12 s on the 2-core machine.
+neighbour loop). :func:`distance_normal` is compiled once as a function of its own (with :func:`sample`
+inlined into it), not inlined into each of its callers' call sites: three inlined copies of the stencil
+made the wall constraint's first compilation take 30 s instead of 6 s on the 2-core machine, for a voxel
+benchmark within its scatter (1.23 against 1.14 M particle-steps/s). Compiling :func:`sample` as a
+function of its own as well halved the voxel pass's throughput: keep it inlined.
 """
 
 from __future__ import annotations
@@ -110,7 +112,7 @@ def _central(dens, i, j, k):
             (dens[k1, j, i] - dens[k0, j, i]) / (k1 - k0))  # fmt: skip
 
 
-@njit(cache=True)
+@njit(inline="always", cache=True)
 def sample(dens, ox, oy, oz, inv, x, y, z):
     """(d, ∂d/∂x, ∂d/∂y, ∂d/∂z) at (x, y, z): d trilinear in the 8 nodes around it, ∇d the derivative of that
     polynomial, blended towards the trilinear interpolation of the nodes' central differences where the
