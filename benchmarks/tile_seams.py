@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from tiles_memory import measured  # noqa: E402
+from tiles_memory import measured, mountains_dem  # noqa: E402
 
 RIVER = 0.2  # erosim.analysis.terrain_metrics.RIVER_STREAM
 
@@ -91,18 +91,7 @@ def main() -> None:
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    dem = out / f"dem{args.size}.tif"
-    if not dem.exists():
-        from rasterio.crs import CRS
-
-        from erosim.io.heightmaps import write
-        from erosim.terrain.generate import generate
-
-        hm = generate("mountains", args.size, 20.0, 7)
-        hm.crs = CRS.from_epsg(32633).to_wkt()
-        hm.transform = (20.0, 0.0, 500000.0, 0.0, -20.0, 4000000.0)
-        write(dem, hm)
-        del hm
+    dem = mountains_dem(out, args.size)  # the same DEM as benchmarks/tiles_memory.py's
     erosim = [sys.executable, "-m", "erosim", "--quiet", "run", "hydrology"]
     common = ["--set", f"terrain.file={dem}", "--set", f"run.cycles={args.cycles}", "--set", "run.frames=0"]
     result: dict = {"size": args.size, "tile": args.tile, "overlap": args.overlap, "rounds": args.rounds,

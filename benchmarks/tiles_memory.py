@@ -70,6 +70,22 @@ def measured(cmd: list[str]) -> dict:
     return {"peak_rss_largest_process_mb": kb / 1024, "peak_rss_tree_mb": peak[0] / 2**20, "wall_s": wall}
 
 
+def mountains_dem(out: Path, size: int) -> Path:
+    """The benchmarks' test DEM (generated mountains, 20 m cells, UTM 33N) at ``out/dem<size>.tif``, made once."""
+    from rasterio.crs import CRS
+
+    from erosim.io.heightmaps import write
+    from erosim.terrain.generate import generate
+
+    dem = out / f"dem{size}.tif"
+    if not dem.exists():
+        hm = generate("mountains", size, 20.0, 7)
+        hm.crs = CRS.from_epsg(32633).to_wkt()
+        hm.transform = (20.0, 0.0, 500000.0, 0.0, -20.0, 4000000.0)
+        write(dem, hm)
+    return dem
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--size", type=int, default=2048)
@@ -83,18 +99,7 @@ def main() -> None:
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    dem = out / f"dem{args.size}.tif"
-    if not dem.exists():
-        from rasterio.crs import CRS
-
-        from erosim.io.heightmaps import write
-        from erosim.terrain.generate import generate
-
-        hm = generate("mountains", args.size, 20.0, 7)
-        hm.crs = CRS.from_epsg(32633).to_wkt()
-        hm.transform = (20.0, 0.0, 500000.0, 0.0, -20.0, 4000000.0)
-        write(dem, hm)
-        del hm
+    dem = mountains_dem(out, args.size)
     erosim = [sys.executable, "-m", "erosim", "--quiet", "run", "hydrology"]
     common = ["--set", f"terrain.file={dem}", "--set", f"run.cycles={args.cycles}", "--set", "run.frames=0"]
     result: dict = {"size": args.size, "tile": args.tile, "overlap": args.overlap, "cycles": args.cycles,
