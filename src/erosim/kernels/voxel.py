@@ -44,9 +44,8 @@ with the gradient from the same stencil, where a Python-level library call is im
 :func:`wall_distance` computes every particle's l and n in one parallel pass (VX-10: no extra
 neighbour loop). :func:`distance_normal` is compiled once as a function of its own (with :func:`sample`
 inlined into it), not inlined into each of its callers' call sites: three inlined copies of the stencil
-made the wall constraint's first compilation take 30 s instead of 6 s on the 2-core machine, for a voxel
-benchmark within its scatter (1.23 against 1.14 M particle-steps/s). Compiling :func:`sample` as a
-function of its own as well halved the voxel pass's throughput: keep it inlined.
+made the wall constraint's first compilation take 30 s instead of 6 s on the 2-core machine
+(``benchmarks/voxel_compile_time.py``), for a voxel benchmark within its scatter either way.
 """
 
 from __future__ import annotations
