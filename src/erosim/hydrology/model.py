@@ -685,9 +685,7 @@ class HydrologyModel:
         r = np.where(flat | (self.lake_of == pools.OUTSIDE), 0.0, r)
         self.rain_cdf = np.cumsum(r)
         self.per_cycle = droplets_per_cycle(self.p, (r1 - r0, c1 - c0), self.cell_size)
-        self.batch = batch_size(self.p, self.per_cycle)
-        if self.batch <= 0:
-            raise InputError("A tiled build needs hydrology.batch unset or > 0.")
+        self.batch = batch_size(self.p, self.per_cycle)  # > 0: a set batch was checked above, unset gives ≥ 1
         self._work = work_arrays(self.batch, self.n)
         self._halo = np.flatnonzero(self.lake_of == pools.HALO)
         self.exchange = exchange
