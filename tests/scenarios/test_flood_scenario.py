@@ -5,15 +5,17 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import rasterio
+from click.testing import CliRunner
 from rasterio.transform import Affine
 
 from erosim.analysis.hazard import classify
 from erosim.api import run
+from erosim.cli import cli
 
 QUICK = {"run.t_end": 120.0, "run.map_frames": 2, "flood.settle_steps": 60, "flood.spacing": 40.0}
 
@@ -168,10 +170,11 @@ def test_a_settled_lake_on_a_real_dem_stays_at_rest(tmp_path):
 
 
 def _cli(args, tmp_path):
+    """``erosim run flood`` in this process (the command's own entry point, without a new interpreter's
+    imports and kernel loads): the result's ``returncode`` and ``stderr``, and the run folder."""
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "erosim.cli", "run", "flood", "--out", str(out), *args],
-                          capture_output=True, text=True, timeout=300)  # fmt: skip
-    return proc, out
+    res = CliRunner().invoke(cli, ["run", "flood", "--out", str(out), *args], prog_name="erosim")
+    return SimpleNamespace(returncode=res.exit_code, stderr=res.stderr), out
 
 
 @pytest.mark.parametrize(

@@ -7,9 +7,11 @@ import math
 import numpy as np
 import pytest
 import rasterio
+from click.testing import CliRunner
 from rasterio.transform import Affine
 
 from erosim.api import run
+from erosim.cli import cli
 from erosim.core.errors import ConfigError, Interrupted
 from erosim.io import heightmaps as hio
 from erosim.io.runfolder import RunFolder
@@ -114,9 +116,6 @@ def test_rain_splash_on_a_users_dem_writes_wetness_on_its_grid(tmp_path):
 def test_rain_splash_through_the_cli_on_a_dem_with_nodata_and_a_60_degree_slope(tmp_path):
     """A DEM of 1 m cells whose north half climbs at 60°, with a nodata hole on the slope: the run ends
     (no NaN), nothing is laid or dug there, and wetness.tif has the DEM's grid with the hole as nodata."""
-    import subprocess
-    import sys
-
     n = 18
     y = np.arange(n, dtype=float)[::-1]  # northing in cells: row 0 is the north edge
     x = np.arange(n, dtype=float)
@@ -133,11 +132,11 @@ def test_rain_splash_through_the_cli_on_a_dem_with_nodata_and_a_60_degree_slope(
     out = tmp_path / "run"
     sets = {"terrain.file": dem, "run.t_end": 0.22, "rain.rate": 1e5, "rain.pattern": "uniform",
             "run.wetness_frames": 0, "ground.layers": 2, "run.output_interval": 1.0}  # fmt: skip
-    cmd = [sys.executable, "-m", "erosim", "run", "rain-splash", "--out", str(out)]
+    args = ["run", "rain-splash", "--out", str(out)]
     for k, v in sets.items():
-        cmd += ["--set", f"{k}={v}"]
-    done = subprocess.run(cmd, capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
+        args += ["--set", f"{k}={v}"]
+    done = CliRunner().invoke(cli, args, prog_name="erosim")  # the command, in this process
+    assert done.exit_code == 0, done.stderr
     assert "assumed: nodata: 9 cells" in done.stderr
     assert "rain-splash: about " in done.stderr and "of memory and" in done.stderr  # the estimate, before the run
     rep = json.loads((out / "report.json").read_text())

@@ -3,15 +3,15 @@ nodata kept in the outputs and counted, assumptions stated (issue 12)."""
 
 import json
 import re
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 import rasterio
+from click.testing import CliRunner
 from rasterio.transform import Affine
 
 from erosim.api import run
+from erosim.cli import cli
 from erosim.io import heightmaps as hio
 from erosim.terrain.generate import generate
 
@@ -69,12 +69,11 @@ def test_a_png_without_a_cell_size_is_an_assumption_said_aloud(tmp_path):
     png = tmp_path / "dem.png"  # a 16-bit PNG from another tool: heights, no cell size, no world file
     z = generate("hills", 48, 5.0, seed=1).z
     Image.fromarray((1000 * (z - z.min()) / np.ptp(z)).astype(np.uint16)).save(png)
-    done = subprocess.run(
-        [sys.executable, "-m", "erosim.cli", "run", "hydrology", "--set", f"terrain.file={png}",
-         "--set", "run.cycles=2", "--set", "run.frames=0", "--out", str(tmp_path / "run")],
-        capture_output=True, text=True,
+    done = CliRunner().invoke(
+        cli, ["run", "hydrology", "--set", f"terrain.file={png}", "--set", "run.cycles=2", "--set", "run.frames=0",
+              "--out", str(tmp_path / "run")], prog_name="erosim",
     )  # fmt: skip
-    assert done.returncode == 0, done.stderr
+    assert done.exit_code == 0, done.stderr
     err = done.stderr
     assert re.search(r"assumed: terrain: 48 × 48 cells of 1 m \(assumed: the file stores none", err)
     assert "warning: 'dem.png' stores no cell size, so 1 m was assumed" in err
