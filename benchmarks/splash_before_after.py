@@ -60,7 +60,7 @@ def measure(run: Path) -> dict:
     jj, ii = np.indices(theta.shape)
     w = theta / theta.sum()
     wet = radii(theta, (w * ii).sum(), (w * jj).sum(), lambda v: v >= 0.05, min(theta.shape) / 2 - 1) * s
-    imp = d["callback.wet_ground.impacts"]
+    imp = d["callback.wet_ground.eroder_impacts"]
     depth = float(-z.min())
     edge = radii(z, imp[:, 1].mean() / cell, imp[:, 2].mean() / cell, lambda v: v < -0.1 * depth,
                  min(0.12 / cell, min(z.shape) / 2 - 1)) * cell  # fmt: skip
