@@ -57,7 +57,9 @@ quantum q (default (d_solid − d_air)/255, the seed's byte) move to the field,
 
     Δd_i = −⌊P_i/q⌋·q  (at most d_i − d_air),      P_i ← P_i + Δd_i,
 
-so small rates are not lost to rounding and no call changes the field by less than a quantum; the
+so small rates are not lost to rounding and no call changes the field by less than a quantum; at the
+end of a run :meth:`ShearStressErosion.flush` applies what is still pending (the coupler calls it), so
+what was computed is eroded by the end; the
 total is kept: Σ accumulated = Σ transferred + Σ pending + Σ unmet, where *unmet* is the erosion
 asked of a node that ran out of material (its pending part is dropped, and counted). The float32
 field's rounding is absorbed: Δd is the exact difference of the new and old float32 values.
@@ -331,6 +333,25 @@ class ShearStressErosion:
         self.pending[cut] = 0.0
         dd[cut] = actual
         return refused
+
+    def flush(self, terrain) -> Increment:
+        """The erosion still pending below a quantum, applied whole (at the end of a run, by the coupler), at
+        most down to d_air and the plinth's floor (the rest becomes unmet); the accumulator is left empty."""
+        if terrain is not self.terrain:
+            raise ValueError("this eroder was built for another voxel terrain")
+        old = self.terrain.density
+        keep = np.full(old.shape, self.terrain.value_range[0], np.float64)
+        if self.floor is not None:
+            keep = np.maximum(keep, np.minimum(old, self.floor))
+        take = np.clip(np.minimum(self.pending, old - keep), 0.0, None)
+        dd = (old - take).astype(np.float32).astype(np.float64) - old
+        dd[take == 0.0] = 0.0
+        vpu = self.terrain.volume_per_unit
+        self.unmet_total += float((self.pending + dd).sum() * vpu)
+        self.pending[...] = 0.0
+        removed = float(-dd.sum() * vpu)
+        self.removed_total += removed
+        return Increment(dz=dd, suspended=0.0, carried_off=removed)
 
     def increments(self, terrain, fluid, dt: float) -> Increment:
         """The coupler's contract (:mod:`erosim.coupling.coupler`): :meth:`transfer` for the fluid particles
