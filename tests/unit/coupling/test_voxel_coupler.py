@@ -170,7 +170,8 @@ def _judge(tmp_path, preset, first, tops):
     from erosim.scenarios import loader
     from erosim.validation.overtopping import assess
 
-    cfg = loader.load("overtopping", ["sph.spacing=0.02", "voxels.cell_size=0.02"], preset=preset).config
+    cfg = loader.load("overtopping", ["sph.spacing=0.02", "voxels.cell_size=0.02", "erosion.morfac=1"],
+                      preset=preset).config  # the scripted times are the flow's: f = 1
     x = np.linspace(0.0, 1.0, 51)
     prof = np.concatenate([np.column_stack([np.full(51, t), x, np.minimum(top, 0.4 * x)])
                            for t, top in zip((0.0, 20.0, 40.0, 60.0), tops, strict=True)])  # fmt: skip

@@ -258,3 +258,20 @@ def test_flush_erodes_what_is_pending():
     ulp = float(np.spacing(np.float32(0.9)))
     assert abs(e.removed_total - asked) <= 0.5 * ulp * touched * vt.volume_per_unit
     assert e.removed_total > 0.9 * asked
+
+
+def test_byte_units_and_morfac_scale_the_accumulated_erosion():
+    """K_ε in the seed's bytes accumulates 1/255 of what the same K_ε as a solid fraction does, and a
+    morphological factor f multiplies it by f (both exact but for float64 rounding, 1e-12 relative)."""
+    rng = np.random.default_rng(3)
+    pos = rng.uniform(0.01, 0.07, (30, 3))
+    vel = rng.normal(size=(30, 3))
+    wl = rng.uniform(0.0, 0.01, 30)
+    held = []
+    for kw in ({}, {"k_eps_units": "byte"}, {"k_eps_units": "byte", "morfac": 10.0}):
+        e = ShearStressErosion(_block(), ShearStressParams(k_eps=0.05, tau_c=1.0, **kw), support=H_SUPPORT)
+        e.transfer(pos, vel, 1e-4, wl)
+        held.append(e.pending.sum() + e.removed_total / e.terrain.volume_per_unit)
+    assert held[0] > 0
+    assert held[1] == pytest.approx(held[0] / 255.0, rel=1e-12)
+    assert held[2] == pytest.approx(10.0 * held[1], rel=1e-12)
