@@ -46,7 +46,7 @@ CASES: dict[str, tuple[str, dict, str | None]] = {
     "voxel-overtopping": ("overtopping", {
         "sph.spacing": 0.04, "voxels.cell_size": 0.04, "run.t_end": 0.3, "run.output_interval": 0.15,
         "run.profile_interval": 0.05, "erosion.tau_c": 0.5, "erosion.k_eps": 2.0, "erosion.start": 0.05,
-        "erosion.every": 10}, "full"),
+        "erosion.every": 10, "erosion.k_eps_units": "fraction", "erosion.morfac": 1.0}, "full"),
     "splash-drop": ("splash-drop", {"run.t_end": 0.003}, None),
     "flood": ("flood", {
         "terrain.size": 64, "terrain.cell_size": 5.0, "terrain.relief": 20.0, "reservoir.level": 3.5,

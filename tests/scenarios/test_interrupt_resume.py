@@ -42,7 +42,7 @@ KINDS = {
     "splash": ["rain-splash", "run.t_end=0.35", "run.wetness_frames=2", "run.output_interval=0.15"],
     "voxel": ["overtopping", "preset=full", "sph.spacing=0.04", "voxels.cell_size=0.04", "run.t_end=0.3",
               "run.output_interval=0.15", "run.profile_interval=0.05", "erosion.tau_c=0.5", "erosion.k_eps=2.0",
-              "erosion.start=0.05", "erosion.every=10"],
+              "erosion.start=0.05", "erosion.every=10", "erosion.k_eps_units=fraction", "erosion.morfac=1"],
 }  # fmt: skip
 
 

@@ -25,6 +25,10 @@ declares its inputs the same way), ``increments(terrain, fluid, dt)``, and optio
 looks: a fluid laid on a lattice settles in its first moments, at speeds no still reservoir has, and
 that motion would otherwise scour a voxel field.
 
+An eroder that keeps erosion back below a transfer step (the voxel eroders' quantum) may have
+``flush(terrain) -> Increment``: at the end of a completed run the coupler applies what it still holds,
+so that all the erosion computed is eroded by the end.
+
 The coupler is a callback of :class:`~erosim.simulation.simulation.Simulation` (``schedule``,
 ``__call__(sim)``; checkpoint state: the terrain's, the budget's terms, the eroder's).
 """
@@ -79,8 +83,12 @@ class Coupler(Callback):
         self.last_t = now
         if self.eroder is None or now <= self.start:
             return
+        self._apply(self.eroder.increments(g.terrain, fluid, dt), now)
+
+    def _apply(self, inc, now: float) -> None:
+        """Check the increment ``inc`` and apply it at time ``now`` (steps 3 and 4 of the module docstring)."""
+        s, g = self.solver, self.terrain
         who = f"Erosion model '{self.eroder.name}'"
-        inc = self.eroder.increments(g.terrain, fluid, dt)
         terms = check_budget(inc, g.shape, g.unit_volume, who)
         g.refuse(inc, who)
         for field, values in inc.particles.items():
@@ -121,5 +129,8 @@ class Coupler(Callback):
         # no refresh: a boundary that stands for the terrain restores its own state with the solver
 
     def finalize(self, sim) -> dict[str, Any]:
+        flush = getattr(self.eroder, "flush", None)
+        if flush is not None and self.calls:
+            self._apply(flush(self.terrain.terrain), float(self.solver.t))
         key = self.terrain.report_key
         return {key: self.budget()} if key and self.eroder is not None else {}

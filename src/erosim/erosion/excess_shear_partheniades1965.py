@@ -200,7 +200,7 @@ class ExcessShearErosion(ShearStressErosion):
 
     def _accumulate(self, pos, vel, dt: float, wall_l, normals) -> None:
         """Add k_d (τ_b − τ_c)⁺ Δx² Δt of ground per particle on the bed to the accumulator (density units)."""
-        scale = self.params.erodibility * self.spacing**2 * dt / self.terrain.volume_per_unit
+        scale = self.params.erodibility * self.spacing**2 * dt * self.params.morfac / self.terrain.volume_per_unit
         self._retreat(pos, vel, wall_l, normals, scale, self.pending)
 
     def rates(self, pos, vel, wall_l=None) -> np.ndarray:

@@ -30,8 +30,26 @@ case at 2 cm it puts the first erosion higher on the downstream slope (docs/voxe
 M is the node's solid fraction, so its density changes by (d_solid − d_air)·dM; the area factor L_b²
 of Krištof's dM_b/dt = −Σ L_b² ε is constant on a voxel
 grid and folded into K_ε (units: solid fraction per second per unit of excess stress and particle).
-Grid points below ``non_erodible_below`` (m) are never eroded (the non-erodible base of the
-overtopping case), and neither are nodes already at d_air.
+Grid points below ``non_erodible_below`` = z_p (m) are never eroded (the non-erodible base of the
+overtopping case), and neither are nodes already at d_air. The surface itself never drops below z_p: every
+node keeps at least the density of the solid half-space z < z_p on the terrain's ramp,
+d_p(z) = d_air + (d_solid − d_air)·clamp(½ + (z_p − z)/(2b), 0, 1) (:func:`erosim.terrain.voxel.ramp`), or
+its density at the start if lower; the field then stays ≥ that half-space's field at every node, and
+trilinear interpolation being monotone in the node values, its iso-surface stays at or above z = z_p
+(a node just above the plinth can otherwise be emptied and pull the interpolated surface below it).
+Erosion asked beyond that floor is counted as *unmet*.
+
+Units of K_ε (``k_eps_units``): ``"fraction"`` — solid fraction per second per unit of excess stress and
+particle; ``"byte"`` — the seed's density units, one 255th of the range per second (seed 001 stores the
+field as bytes 0–255 and states M_b, and so K_ε, in them: its presets τ_c = 6, K_ε = 2 and τ_c = 1.2,
+K_ε = 0.05 erode 255 times more slowly than the same numbers read as fractions, which is why the seed
+needed its sub-byte "resolution per time step" accumulator at all).
+
+Morphological acceleration (``morfac`` = f, Roelvink 2006): every evaluation's erosion is multiplied by f,
+so t seconds of flow stand for f·t seconds of bed change (the *morphological* or physical time the run
+reports); valid while the bed changes little over one flow time scale (f·K_ε small against the flow's
+adjustment), the standard method of coastal morphodynamics (J.A. Roelvink, "Coastal morphodynamic
+evolution techniques", Coastal Engineering 53, 2006).
 
 Quantised transfer (the seed's "resolution per time step" fix): the erosion of each call,
 K_ε Σ(…)·Δt, is added to a per-node accumulator P (density units, float64); whole steps of the
@@ -39,7 +57,9 @@ quantum q (default (d_solid − d_air)/255, the seed's byte) move to the field,
 
     Δd_i = −⌊P_i/q⌋·q  (at most d_i − d_air),      P_i ← P_i + Δd_i,
 
-so small rates are not lost to rounding and no call changes the field by less than a quantum; the
+so small rates are not lost to rounding and no call changes the field by less than a quantum; at the
+end of a run :meth:`ShearStressErosion.flush` applies what is still pending (the coupler calls it), so
+what was computed is eroded by the end; the
 total is kept: Σ accumulated = Σ transferred + Σ pending + Σ unmet, where *unmet* is the erosion
 asked of a node that ran out of material (its pending part is dropped, and counted). The float32
 field's rounding is absorbed: Δd is the exact difference of the new and old float32 values.
@@ -68,6 +88,7 @@ from numba import njit
 from erosim.core.config import Section, param
 from erosim.core.increments import Increment
 from erosim.kernels.voxel import node_span, wall_distance
+from erosim.terrain.voxel import BAND_CELLS, ramp
 
 
 class ShearStressParams(Section):
@@ -85,7 +106,13 @@ class ShearStressParams(Section):
                                               "speed along the wall normal at the particle ('wall')")  # fmt: skip
     quantum: float = param(1.0 / 255.0, gt=0, le=1, unit="1", doc="transfer step as a fraction of the density range "
                            "(seed: one byte, 1/255)")  # fmt: skip
-    non_erodible_below: float | None = param(None, unit="m", doc="grid points below this elevation are not eroded")
+    non_erodible_below: float | None = param(None, unit="m", doc="grid points below this elevation are not eroded, "
+                                             "and the surface is never lowered below it")  # fmt: skip
+    k_eps_units: Literal["fraction", "byte"] = param("fraction", doc="what K_ε's density change is counted in: "
+                                                     "solid fraction ('fraction') or the seed's bytes, 1/255 of the "
+                                                     "range ('byte', seed 001's own units)")  # fmt: skip
+    morfac: float = param(1.0, ge=1, unit="1", doc="morphological acceleration factor f (Roelvink 2006): each "
+                          "evaluation's erosion times f; t seconds of flow stand for f·t of bed change")  # fmt: skip
     every: int = param(50, ge=1, unit="1", doc="SPH steps between erosion evaluations (VX-6: 50)")
 
 
@@ -193,8 +220,26 @@ class ShearStressErosion:
         self.quantum = p.quantum * (hi - lo)
         self.z_floor = -math.inf if p.non_erodible_below is None else float(p.non_erodible_below)
         self.pending = np.zeros(terrain.shape, np.float64)
+        self.floor = None if p.non_erodible_below is None else self.plinth_floor(terrain, self.z_floor)
         self.removed_total = 0.0  # m³ moved out of the field so far
         self.unmet_total = 0.0  # m³ of erosion asked of nodes with nothing left
+
+    @staticmethod
+    def plinth_floor(terrain, z_p: float) -> np.ndarray:
+        """d_p per node (float32, the field's shape): the density of the solid half-space z < ``z_p`` on the
+        terrain's ramp (module docstring), the least a node may be eroded to."""
+        band = terrain.band if terrain.band is not None else BAND_CELLS * terrain.cell_size
+        z = terrain.axes()[2]
+        col = ramp(z_p - z, band, terrain.value_range)
+        return np.ascontiguousarray(np.broadcast_to(col[:, None, None], terrain.shape))
+
+    @property
+    def rate_scale(self) -> float:
+        """Density units per unit of K_ε·Σ(…)·Δt: the range, or a 255th of it (``k_eps_units = 'byte'``),
+        times ``morfac``."""
+        lo, hi = self.terrain.value_range
+        per = (hi - lo) / 255.0 if self.params.k_eps_units == "byte" else hi - lo
+        return per * self.params.morfac
 
     def _args(self):
         t = self.terrain
@@ -235,8 +280,7 @@ class ShearStressErosion:
 
     def _accumulate(self, pos, vel, dt: float, wall_l, normals) -> None:
         """Add the erosion of ``dt`` seconds to the accumulator (density units): K_ε Δt (d_solid − d_air) Σ(…)."""
-        lo, hi = self.terrain.value_range
-        self._sums(pos, vel, wall_l, self.params.k_eps * dt * (hi - lo), self.pending, normals)
+        self._sums(pos, vel, wall_l, self.params.k_eps * dt * self.rate_scale, self.pending, normals)
 
     def threshold_speed(self) -> float:
         """The speed along the wall below which no particle erodes: l_min (τ_c/K)^(1/n) (m/s)."""
@@ -267,10 +311,46 @@ class ShearStressErosion:
         dd = np.zeros(self.terrain.shape)
         unmet = quantised_transfer(self.terrain.density.reshape(-1), self.pending.reshape(-1), self.quantum, lo,
                                    dd.reshape(-1))  # fmt: skip
+        if self.floor is not None:
+            unmet += self._keep_floor(dd)
         vpu = self.terrain.volume_per_unit
         removed = float(-dd.sum() * vpu)
         self.removed_total += removed
         self.unmet_total += float(unmet * vpu)
+        return Increment(dz=dd, suspended=0.0, carried_off=removed)
+
+    def _keep_floor(self, dd: np.ndarray) -> float:
+        """Cut the changes ``dd`` (in place) that would take a node below min(d, d_p) (the plinth's floor);
+        the erosion so refused, and the node's pending rest, become unmet (returned, density units)."""
+        old = self.terrain.density
+        keep = np.minimum(old, self.floor)
+        new = old.astype(np.float64) + dd
+        cut = new < keep
+        if not cut.any():
+            return 0.0
+        actual = keep[cut].astype(np.float64) - old[cut].astype(np.float64)
+        refused = float((actual - dd[cut] + self.pending[cut]).sum())
+        self.pending[cut] = 0.0
+        dd[cut] = actual
+        return refused
+
+    def flush(self, terrain) -> Increment:
+        """The erosion still pending below a quantum, applied whole (at the end of a run, by the coupler), at
+        most down to d_air and the plinth's floor (the rest becomes unmet); the accumulator is left empty."""
+        if terrain is not self.terrain:
+            raise ValueError("this eroder was built for another voxel terrain")
+        old = self.terrain.density
+        keep = np.full(old.shape, self.terrain.value_range[0], np.float64)
+        if self.floor is not None:
+            keep = np.maximum(keep, np.minimum(old, self.floor))
+        take = np.clip(np.minimum(self.pending, old - keep), 0.0, None)
+        dd = (old - take).astype(np.float32).astype(np.float64) - old
+        dd[take == 0.0] = 0.0
+        vpu = self.terrain.volume_per_unit
+        self.unmet_total += float((self.pending + dd).sum() * vpu)
+        self.pending[...] = 0.0
+        removed = float(-dd.sum() * vpu)
+        self.removed_total += removed
         return Increment(dz=dd, suspended=0.0, carried_off=removed)
 
     def increments(self, terrain, fluid, dt: float) -> Increment:

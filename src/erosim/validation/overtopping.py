@@ -28,6 +28,9 @@ at 1.7 cm/s and drive currents of 3–4 cm/s along the upstream face, above the 
 A run that goes unstable is judged on the time it ran (its ``status`` and ``t`` are in the rows) and the
 case is not passed; :func:`assess` judges a finished run folder, so the presets can also be run apart.
 
+Times (the crest's life, the profiles) are morphological: the flow's time times ``erosion.morfac``
+(the library case's 10, so its 20 s of flow stand for the seed's 200 s).
+
 Resolutions: ``coarse`` (the library's 4 cm particles and voxels, 20 s), ``default`` (2 cm, 60 s:
 at 4 cm the ``partial`` preset's τ_c is never exceeded, docs/voxel.md), ``fine`` (1.5 cm, 60 s).
 Writes ``figures/profiles_partial.png`` and ``profiles_full.png`` (the profiles every 20 s),
@@ -84,7 +87,8 @@ def assess(preset: str, cfg, sub: Path, t_end: float) -> dict:
         crest_z = e.base + e.height
         where_ok = fe is not None and lo - tol <= fe["x"] <= hi + tol and fe["z"] >= crest_z - 2 * cell - tol
         expected = f"crest: x in [{lo:.3g}, {hi:.3g}] m, z ≥ {crest_z - 2 * cell:.3g} m"
-    ran = t_end if rep["status"] == "completed" else float(rep["t"])  # a crest standing at a failure lived that long
+    # a crest standing at a failure lived that long; profile times are morphological (flow time × erosion.morfac)
+    ran = (t_end if rep["status"] == "completed" else float(rep["t"])) * cfg.erosion.morfac
     life, lowered = crest_life(prof, DROP, e.height, ran)
     return {
         "status": rep["status"],

@@ -9,7 +9,8 @@ import pytest
 from erosim.core.increments import check_budget
 from erosim.erosion.settling_voxel import SuspendedSediment, share_pickup
 
-COARSE = ["sph.spacing=0.04", "voxels.cell_size=0.04", "erosion.tau_c=0.5", "erosion.k_eps=2.0"]
+COARSE = ["sph.spacing=0.04", "voxels.cell_size=0.04", "erosion.tau_c=0.5", "erosion.k_eps=2.0",
+          "erosion.k_eps_units=fraction", "erosion.morfac=1"]  # fmt: skip
 
 
 def test_each_nodes_volume_is_shared_equally_among_the_particles_within_reach():

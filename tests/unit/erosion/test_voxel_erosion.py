@@ -7,7 +7,7 @@ import pytest
 
 from erosim.core.increments import check_budget
 from erosim.erosion.shear_stress_kristof2009 import ShearStressErosion, ShearStressParams
-from erosim.terrain.voxel import VoxelTerrain
+from erosim.terrain.voxel import Box, HalfSpace, VoxelTerrain
 
 H_SUPPORT = 0.02  # kernel support h (m) of the scripted fluid
 
@@ -94,8 +94,9 @@ def test_quantised_transfer_keeps_the_total():
 
 def test_non_erodible_base_and_empty_nodes():
     """Nodes below ``non_erodible_below`` keep their density; an eroded node stops at d_air and the
-    erosion it could not take is counted as unmet."""
-    vt = _block(value=0.05)
+    erosion it could not take is counted as unmet. (A ramp half-width of 5 mm, under the cell: the plinth's
+    floor density, that of the half-space z < 0.035 m, is then d_air at every node above it.)"""
+    vt = VoxelTerrain(np.full((9, 9, 9), 0.05, np.float32), 0.01, band=0.005)
     pos = np.array([[0.04, 0.04, 0.04]])
     vel = np.array([[3.0, 0.0, 0.0]])
     p = ShearStressParams(k_eps=100.0, tau_c=0.0, radius=0.03, non_erodible_below=0.035)
@@ -191,3 +192,86 @@ def test_parallel_speed_is_taken_along_the_wall_normal_from_the_field():
                               support=H_SUPPORT).rates(pos[None], vel[None])  # fmt: skip
     ratio = seed[reached] / rates[reached]  # the seed's v_p per point: |v| − |v·r̂| ∈ [0, |v| = 1.118]
     assert ratio.min() < 0.7 and ratio.max() > 1.05
+
+
+def _surface_heights(vt) -> np.ndarray:
+    """Per node column, the lowest z where the field's linear interpolation along the column falls to the
+    iso level (the trilinear surface on a node line)."""
+    d, z, c = vt.density.astype(np.float64), vt.axes()[2], vt.cell_size
+    out = np.full(d.shape[1:], np.nan)
+    for (j, i), _ in np.ndenumerate(out):
+        col = d[:, j, i]
+        k = int(np.argmax(col <= vt.iso)) if (col <= vt.iso).any() else len(col) - 1
+        out[j, i] = z[0] if k == 0 else z[k - 1] + c * (col[k - 1] - vt.iso) / (col[k - 1] - col[k])
+    return out
+
+
+def test_the_plinth_is_never_lowered():
+    """Known answer: the overtopping case's layers in 4 cm voxels (a floor at z = 0, a plinth to
+    ``non_erodible_below`` = z_p = 0.02 m, a body on it to 0.2 m), scoured by fast water (τ_c = 0) until
+    nothing above the plinth is left: the nodes below z_p keep their density, and the node at 0.04 m ends at
+    the plinth's own ramp density d_p = 0.4375 (the half-space z < 0.02 m, ramp half-width 0.16 m), so with
+    the node at z = 0 at 0.5625 the surface lies at 0.04·(0.5625 − ½)/(0.5625 − 0.4375) = 0.02 m = z_p in
+    every column (1e-6 m: the float32 field's rounding). Without the floor the node at 0.04 m empties and the
+    surface sinks to 0.04·0.0625/0.5625 = 0.0044 m, the 0.007–0.018 m of the overtopping run before."""
+    c, z_p = 0.04, 0.02
+    shapes = [HalfSpace((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)), Box((-1.0, -1.0, -1.0), (2.0, 2.0, z_p)),
+              Box((-1.0, -1.0, z_p), (2.0, 2.0, 0.2))]  # fmt: skip
+    vt = VoxelTerrain.from_shapes(shapes, (0.0, 0.0, -0.16), (0.4, 0.2, 0.4), c)
+    start = vt.density.copy()
+    g = np.arange(0.02, 0.4, 0.04)
+    pos = np.array([[x, y, zz] for x in g for y in g[:5] for zz in np.arange(0.03, 0.3, 0.04)])
+    vel = np.tile([3.0, 0.0, 0.0], (len(pos), 1))
+    e = ShearStressErosion(vt, ShearStressParams(k_eps=50.0, tau_c=0.0, non_erodible_below=z_p), support=0.08)
+    for _ in range(40):
+        inc = e.transfer(pos, vel, 1.0, np.zeros(len(pos)))
+        vt.density += inc.dz.astype(np.float32)
+    heights = _surface_heights(vt)[1:-1, 1:-1]  # columns under the water
+    assert np.allclose(heights, z_p, atol=1e-6, rtol=0)
+    below = vt.axes()[2] < z_p
+    assert np.array_equal(vt.density[below], start[below])
+    assert e.unmet_total > 0  # the erosion the floor refused is counted
+
+
+def test_flush_erodes_what_is_pending():
+    """At the end of a run the pending rest (below a quantum at every node) is applied: after ``flush``
+    nothing is pending, the field has lost exactly the removed volume, and that is what was computed but for
+    the float32 field's rounding (half an ulp at 0.9, 3e-8, per node touched; the difference is counted as
+    unmet); the flush's increment closes the contract's budget."""
+    vt = _block(value=0.9)
+    start = vt.solid_volume()
+    rng = np.random.default_rng(5)
+    pos = rng.uniform(0.01, 0.07, (40, 3))
+    vel = rng.normal(size=(40, 3))
+    wl = rng.uniform(0.0, 0.01, 40)
+    e = ShearStressErosion(vt, ShearStressParams(k_eps=0.02, tau_c=1.0), support=H_SUPPORT)
+    asked = e.rates(pos, vel, wl).sum() * 0.02 * 1e-3 * vt.cell_size**3
+    inc = e.transfer(pos, vel, 1e-3, wl)
+    assert inc.carried_off == 0.0 and e.pending_volume() == pytest.approx(asked, rel=1e-12)
+    touched = int((e.pending > 0).sum())
+    inc = e.flush(vt)
+    check_budget(inc, vt.shape, vt.volume_per_unit, "shear stress")
+    vt.density[...] = vt.density + inc.dz
+    assert e.pending_volume() == 0.0
+    assert start - vt.solid_volume() == pytest.approx(e.removed_total, rel=1e-9)
+    assert e.removed_total + e.unmet_total == pytest.approx(asked, rel=1e-12)
+    ulp = float(np.spacing(np.float32(0.9)))
+    assert abs(e.removed_total - asked) <= 0.5 * ulp * touched * vt.volume_per_unit
+    assert e.removed_total > 0.9 * asked
+
+
+def test_byte_units_and_morfac_scale_the_accumulated_erosion():
+    """K_ε in the seed's bytes accumulates 1/255 of what the same K_ε as a solid fraction does, and a
+    morphological factor f multiplies it by f (both exact but for float64 rounding, 1e-12 relative)."""
+    rng = np.random.default_rng(3)
+    pos = rng.uniform(0.01, 0.07, (30, 3))
+    vel = rng.normal(size=(30, 3))
+    wl = rng.uniform(0.0, 0.01, 30)
+    held = []
+    for kw in ({}, {"k_eps_units": "byte"}, {"k_eps_units": "byte", "morfac": 10.0}):
+        e = ShearStressErosion(_block(), ShearStressParams(k_eps=0.05, tau_c=1.0, **kw), support=H_SUPPORT)
+        e.transfer(pos, vel, 1e-4, wl)
+        held.append(e.pending.sum() + e.removed_total / e.terrain.volume_per_unit)
+    assert held[0] > 0
+    assert held[1] == pytest.approx(held[0] / 255.0, rel=1e-12)
+    assert held[2] == pytest.approx(10.0 * held[1], rel=1e-12)

@@ -252,7 +252,7 @@ def setup(scenario, out) -> Setup:
     x0 = cfg.embankment.x_toe if flume else 0.0
     y_mid = 0.5 * cfg.terrain.width if flume else 0.5 * (terrain.lo[1] + terrain.hi[1])
     profiles = Profiles(TimeInterval(run.profile_interval), terrain, solver, y_mid, x0,
-                        out.path / "profiles.csv")  # fmt: skip
+                        out.path / "profiles.csv", time_factor=e.morfac)  # fmt: skip
     outputs = VoxelOutputs(TimeInterval(run.output_interval if run.output_interval > 0 else run.t_end), terrain,
                            solver, out, cfg)  # fmt: skip
     profiles.figure = lambda p: profile_figure(cfg, p, out)

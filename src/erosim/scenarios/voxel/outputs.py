@@ -54,17 +54,19 @@ def _iso_top(terrain, slab: np.ndarray) -> np.ndarray:
 
 
 class Profiles(cb.Callback):
-    """The centre-line surface profile every ``interval`` (rows t, x from the toe, z) → ``profiles.csv``."""
+    """The centre-line surface profile every ``interval`` (rows t, x from the toe, z) → ``profiles.csv``; t is
+    the morphological time, the flow's time times ``time_factor`` (``erosion.morfac``)."""
 
-    def __init__(self, schedule, terrain, solver, y: float, x_toe: float, path: Path):
+    def __init__(self, schedule, terrain, solver, y: float, x_toe: float, path: Path, time_factor: float = 1.0):
         super().__init__(schedule, name="profiles")
         self.terrain, self.solver, self.y, self.x_toe, self.path = terrain, solver, y, x_toe, Path(path)
+        self.time_factor = float(time_factor)
         self.rows: list[np.ndarray] = []
         self.figure = None  # figure(self) at the end of a completed run
 
     def __call__(self, sim) -> None:
         x, z = surface_profile(self.terrain, self.y)
-        t = float(self.solver.t)
+        t = float(self.solver.t) * self.time_factor
         if self.rows and self.rows[-1][0, 0] == t:
             return
         self.rows.append(np.column_stack([np.full(len(x), t), x - self.x_toe, z]))
@@ -292,6 +294,8 @@ def reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x
         return {
             "t": float(solver.t),
             "t_end": cfg.run.t_end,
+            "morfac": cfg.erosion.morfac,
+            "t_morphological": float(solver.t) * cfg.erosion.morfac,
             "steps": int(solver.steps),
             "fluid_particles": st.n_fluid,
             "water": {"initial_particles": st.initial, "added": dict(st.added), "removed": dict(st.removed)},
@@ -341,11 +345,13 @@ def profile_figure(cfg: VoxelScenario, profiles: Profiles, out) -> None:
         return
     times = np.unique(tab[:, 0])
     every = cfg.run.figure_interval
-    keep = [t for t in times if abs(t / every - round(t / every)) * every < 0.5 * cfg.run.profile_interval]
+    f = cfg.erosion.morfac  # the table's times are morphological: flow time × f
+    keep = [t for t in times if abs(t / every - round(t / every)) * every < 0.5 * cfg.run.profile_interval * f]
     if times[-1] not in keep:
         keep.append(times[-1])
     curves = [(t, tab[tab[:, 0] == t, 1], tab[tab[:, 0] == t, 2]) for t in keep]
     flume = cfg.terrain.shape == "flume"
     along = "x from the upstream toe (m)" if flume else "x in the terrain's frame (m from its south-west node)"
     where = "Centre-line profiles" if flume else "Profiles along the middle row"
-    profiles_figure(out.figures / "profiles.png", curves, title=f"{where}, every {every:g} s", xlabel=along)
+    when = f"every {every:g} s" if f == 1 else f"every {every:g} s of morphological time (erosion.morfac = {f:g})"
+    profiles_figure(out.figures / "profiles.png", curves, title=f"{where}, {when}", xlabel=along)

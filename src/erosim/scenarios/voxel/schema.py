@@ -145,7 +145,8 @@ class VoxelRun(Section):
     output_interval: float = param(10.0, ge=0, unit="s", doc="meshes, density field and particle frames every "
                                    "this long (0: at the start and the end only)")  # fmt: skip
     profile_interval: float = param(1.0, gt=0, unit="s", doc="centre-line profiles (profiles.csv) every this long")
-    figure_interval: float = param(20.0, gt=0, unit="s", doc="profiles drawn in figures/profiles.png every this long")
+    figure_interval: float = param(20.0, gt=0, unit="s", doc="profiles drawn in figures/profiles.png every this long "
+                                   "(morphological time: flow time × erosion.morfac)")  # fmt: skip
     meshes: list[Literal["obj", "ply", "glb"]] = param(["glb"], doc="surface mesh formats written per output time")
     field_format: Literal["npz", "vti"] = param("npz", doc="density field format per output time")
     particle_frames: bool = param(True, doc="particle frames (.vtp) per output time")
