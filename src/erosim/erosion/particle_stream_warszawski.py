@@ -373,6 +373,10 @@ def _graded_depth(h, d, px, py, alpha, lam, depth, s0, n):
 
 
 # ----------------------------------------------------------------------------------- drivers
+#: :func:`advance`'s strata arguments (params, edges, hardness, floor) for a stream without strata
+NO_STRATA = (np.zeros(5), np.zeros(1), np.zeros(1), np.zeros((0, 0)))
+
+
 @njit(cache=True)
 def advance(h, d, table, st, serial, age, emitted, total, acc, seed, rounds, strata, edges, values, floor):
     """Run ``rounds`` round-robin sweeps over all pool slots.
@@ -382,10 +386,11 @@ def advance(h, d, table, st, serial, age, emitted, total, acc, seed, rounds, str
     ``acc[0]`` accumulates the summed lowering (m) impact by impact, so the total does not depend on
     how the run is cut into calls. Returns (impacts done, rounds done before the stream ran dry).
 
-    Hardness: a fixed map when ``floor`` is ``None`` (Numba compiles that case without the strata
-    branch); else strata re-read from each lowered cell's new height, ``strata`` = (t_x, t_y, z₀,
-    T, 1/T), ``edges`` the bands' lower bounds within a period (edges[0] = 0), ``values`` their
-    hardness, ``floor`` each cell's stratum floor (:func:`strata_init`).
+    Hardness: a fixed map when ``floor`` is empty (size 0); else strata re-read from each lowered
+    cell's new height, ``strata`` = (t_x, t_y, z₀, T, 1/T), ``edges`` the bands' lower bounds within a
+    period (edges[0] = 0), ``values`` their hardness, ``floor`` each cell's stratum floor
+    (:func:`strata_init`). Both cases take arrays of the same types, so Numba compiles this loop once
+    (:data:`NO_STRATA` stands for "no strata").
     """
     nslot = st.shape[0]
     pool = nslot // table.shape[0]
@@ -412,7 +417,7 @@ def advance(h, d, table, st, serial, age, emitted, total, acc, seed, rounds, str
                     depth, zmin = _graded_depth(
                         h, d, px, py, st[s, 2], lam, depth, table[e, ESLOPE0], table[e, ESLOPEN]
                     )
-                if floor is None:
+                if floor.size == 0:
                     acc[0] += _stamp(h, d, px, py, lam, depth, zmin)
                 else:
                     acc[0] += _stamp_strata(h, d, floor, px, py, lam, depth, zmin, strata, edges, values)
@@ -630,7 +635,7 @@ class ParticleStream:
             int(rounds),
         )
         if self.strata is None:
-            impacts, did = advance(*args, None, None, None, None)
+            impacts, did = advance(*args, *NO_STRATA)
         else:
             impacts, did = advance(*args, self._sp, self._se, self._sv, self.floor)
         self.impacts += impacts
