@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-slow test-cuda test-browser test-regression bench mutation lint clean
+.PHONY: demo test test-slow test-cuda test-browser test-regression test-multiprocess bench mutation lint clean
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -29,6 +29,9 @@ test-browser: $(STAMP)
 
 test-regression: $(STAMP)
 	$(BIN)/python -m pytest -q -m regression -n 2 --dist load
+
+test-multiprocess: $(STAMP)
+	$(BIN)/python -m pytest -q -m 'multiprocess and not slow' -n 2 --dist loadfile
 
 bench: $(STAMP)
 	$(BIN)/erosim bench sph --particles 100000

@@ -7,9 +7,9 @@ by then), at any step, while an output is written, during the final maps (two pr
 held until the final outputs are complete, the second stops at once) — then resumed with ``erosim
 run --resume``. Every file of the run folder must equal the uninterrupted run's byte for byte;
 ``report.json`` and the checkpoint's metadata are compared without the entries that describe the
-sessions (wall times, ``resumed``). The default run interrupts three kinds late (``LATE_BY_DEFAULT``) and
-the cheapest kind (``sph``) in every phase; ``-m slow`` runs every phase of every kind, three more draws
-each.
+sessions (wall times, ``resumed``). The multiprocess tier interrupts three kinds late
+(``LATE_BY_DEFAULT``) and the cheapest kind (``sph``) while it writes an output and during its final
+outputs; ``-m slow`` runs every phase of every kind, three more draws each.
 """
 
 from __future__ import annotations
@@ -23,6 +23,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+# every case runs erosim in processes of its own (startup and kernel loading each time): the multiprocess
+# tier (`make test-multiprocess`, which CI runs after the default run)
+pytestmark = pytest.mark.multiprocess
 
 DRIVER = Path(__file__).with_name("interrupting_cli.py")
 
@@ -150,7 +154,7 @@ def _case(kind, phase, draw, references, tmp_path):
 
 
 PHASES = ["late", "step", "output", "final"]
-# late in the default run: sph-terrain (its lost state was found only here), the flood and the cheap sph;
+# late outside the slow run: sph-terrain (its lost state was found only here), the flood and the cheap sph;
 # hydrology, voxel, splash and the particle stream resume bit for bit in their own modules' default tests,
 # and late here in the slow run (about 150 s)
 LATE_BY_DEFAULT = ("flood", "sph", "sph-terrain")

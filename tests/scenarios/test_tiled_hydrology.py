@@ -1,7 +1,8 @@
 """A tiled hydrology build (erosim.tiles) against an untiled run of the same DEM: the mosaic's grid,
 heights away from borders, seam figures, droplets passed between tiles in rounds, resume per tile and
-round, bad input. One local Dask worker serves every build of the module; the resume tests (more
-builds) are marked slow."""
+round, bad input. One local Dask cluster serves every build of the module; the builds form the
+``multiprocess`` tier (``make test-multiprocess``, which CI runs after the default run), the resume
+tests (more builds) are also marked slow; bad input stays in the default run."""
 
 import itertools
 import json
@@ -77,6 +78,7 @@ def untiled(dem, tmp_path_factory):
             for s in (1, 2)}  # fmt: skip
 
 
+@pytest.mark.multiprocess
 def test_mosaic_is_one_cog_per_map_on_the_dems_grid(tiled, dem):
     folder, summary = tiled
     assert summary["tiles"] == 4 and summary["ran_now"] == 4 * ROUNDS
@@ -100,6 +102,7 @@ def test_mosaic_is_one_cog_per_map_on_the_dems_grid(tiled, dem):
     np.testing.assert_allclose(_read(folder / "maps" / "height_initial.tif"), _read(dem), rtol=1e-6)
 
 
+@pytest.mark.multiprocess
 def test_heights_match_the_untiled_run_away_from_borders(tiled, untiled, dem):
     folder, _ = tiled
     z0, zt = _read(dem), _read(folder / "maps" / "height.tif")
@@ -124,6 +127,7 @@ def test_heights_match_the_untiled_run_away_from_borders(tiled, untiled, dem):
     assert moved_untiled / 1.5 <= moved <= 1.5 * moved_untiled
 
 
+@pytest.mark.multiprocess
 def test_seam_figures_are_reported_and_measured_right(tiled):
     folder, _ = tiled
     seams = json.loads((folder / "report.json").read_text())["seams"]
@@ -144,6 +148,7 @@ def test_seam_figures_are_reported_and_measured_right(tiled):
     assert seams["border_jump_max_m"] <= seams["inside_p999_m"]
 
 
+@pytest.mark.multiprocess
 @pytest.mark.slow  # a second build of four tiles in two rounds (~10 s warm, more on a loaded machine)
 @pytest.mark.parametrize("stop", ["stop_after_first", "stop_in_round_2"])
 def test_a_stopped_tiled_build_resumes_the_rest(stop, tiled, dem, client, tmp_path):
@@ -194,6 +199,7 @@ def test_bad_input_is_one_sentence_and_leaves_nothing(args, words, dem, tmp_path
     assert not out.exists()
 
 
+@pytest.mark.multiprocess
 def test_the_second_round_starts_from_the_first_and_gets_every_droplet_that_crossed(tiled, dem):
     folder, _ = tiled
     report = json.loads((folder / "report.json").read_text())
@@ -243,6 +249,7 @@ def test_the_python_api_refuses_a_tiled_scenario_instead_of_running_it_whole(dem
     assert not (tmp_path / "whole").exists()
 
 
+@pytest.mark.multiprocess
 @pytest.mark.slow  # a cluster of its own (~10 s) and a build
 def test_a_scheduler_address_runs_the_same_build(tiled, dem, tmp_path):
     from distributed import LocalCluster

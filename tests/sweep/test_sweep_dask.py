@@ -1,5 +1,8 @@
 """``erosim sweep`` on real Dask clusters: results independent of workers and of the path (local cluster,
-explicit scheduler address, interrupted and resumed), failures recorded, dead workers retried once."""
+explicit scheduler address, interrupted and resumed), failures recorded, dead workers retried once.
+
+The tests that start a cluster form the ``multiprocess`` tier (``make test-multiprocess``, which CI runs
+after the default run); the bad-input tests stay in the default run."""
 
 import json
 import os
@@ -44,6 +47,7 @@ def reference(tmp_path_factory):
     return out, summary
 
 
+@pytest.mark.multiprocess
 def test_sweep_runs_members_as_ordinary_runs(reference):
     out, summary = reference
     assert (summary["members"], summary["completed"], summary["workers"]) == (4, 4, 2)
@@ -59,6 +63,7 @@ def test_sweep_runs_members_as_ordinary_runs(reference):
     assert report["threads_per_member"] == 1 and report["failed_members"] == {}
 
 
+@pytest.mark.multiprocess
 def test_one_worker_and_a_second_run_give_the_same_maps(reference, tmp_path):
     out, _ = reference
     summary = run_sweep("hydrology", TINY, None, VARY, seeds=2, workers=1, out=str(tmp_path / "one"), progress=False)
@@ -68,6 +73,7 @@ def test_one_worker_and_a_second_run_give_the_same_maps(reference, tmp_path):
     assert again["ran_now"] == 0  # the same sweep into the same folder: every member kept
 
 
+@pytest.mark.multiprocess
 def test_explicit_scheduler_address(reference, tmp_path):
     from distributed import LocalCluster
 
@@ -102,6 +108,7 @@ def _sweep_command(out):
     ]
 
 
+@pytest.mark.multiprocess
 @pytest.mark.slow  # an uninterrupted sweep, a stopped one and its resume: about 40 s each
 @pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGKILL], ids=["ctrl-c", "killed"])
 def test_resume_after_stopping_mid_way(tmp_path, how):
@@ -133,6 +140,7 @@ def test_resume_after_stopping_mid_way(tmp_path, how):
     _assert_same_maps(_maps(ref), _maps(out))
 
 
+@pytest.mark.multiprocess
 def test_a_failing_member_is_recorded_and_the_sweep_goes_on(tmp_path):
     from erosim.io import heightmaps as hio
     from erosim.terrain.generate import generate
@@ -148,6 +156,7 @@ def test_a_failing_member_is_recorded_and_the_sweep_goes_on(tmp_path):
         assert list(ds.member.values) == ["m0000"] and ds.attrs["members_failed"] == "m0001 (failed)"
 
 
+@pytest.mark.multiprocess
 @pytest.mark.slow  # a worker killed mid-run and a new one started, about 17 s
 def test_a_worker_that_dies_is_retried_once(tmp_path):
     summary = run_sweep("hydrology", TINY, None, VARY, workers=2, out=str(tmp_path / "once"), progress=False,
@@ -171,6 +180,7 @@ def test_a_scheduler_that_does_not_answer_is_one_sentence(tmp_path):
     assert time.monotonic() - t0 < 15
 
 
+@pytest.mark.multiprocess
 def test_another_sweep_in_the_same_folder_is_refused(reference):
     with pytest.raises(ConfigError, match="holds another sweep"):
         run_sweep("hydrology", TINY, None, ["hydrology.capacity=1,3"], out=str(reference[0]), progress=False)

@@ -73,7 +73,12 @@ def test_overrides_read_as_set_items():
 
 
 # ----------------------------------------------------------------------------------- docs/api.md
-@pytest.mark.parametrize("code", BLOCKS, ids=[f"block{i + 1}" for i in range(len(BLOCKS))])
+# a script that runs an ensemble starts a Dask cluster of worker processes: the multiprocess tier
+@pytest.mark.parametrize(
+    "code",
+    [pytest.param(b, marks=[pytest.mark.multiprocess] if "run_sweep" in b else []) for b in BLOCKS],
+    ids=[f"block{i + 1}" for i in range(len(BLOCKS))],
+)
 def test_docs_script_runs(code, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     exec(compile(code, str(DOC), "exec"), {"__name__": "__main__"})
