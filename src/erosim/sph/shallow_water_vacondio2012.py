@@ -74,7 +74,7 @@ class ShallowWaterParams(Section):
     split: bool = param(
         True,
         doc="split particles where the flow thins (Vacondio et al. 2013), gradually (split_relax): Ritter's map tip "
-        "0.017 h₀ against 0.061 h₀ without; on the CPU only (a cuda run leaves it off unless set, docs/flood.md)",
+        "0.017 h₀ against 0.061 h₀ without; on either device (docs/flood.md)",
     )
     split_spacing: float = param(
         1.5, gt=1, unit="1", doc="split a particle when its spacing √(V/d) exceeds this × the initial spacing"
