@@ -382,6 +382,63 @@ def hold_contacts(vel, n, blocked):
             vel[i, 1] = 0.0
 
 
+# ---------------------------------------------------------------- splitting (Vacondio et al. 2013)
+
+
+@njit(parallel=True, cache=True)
+def split_parents(pos, vol, depth, vel, n, spacing_lim, vol_lim, speed2, depth_lim, radius, hexagon, inv_cell, wall,
+                  out):  # fmt: skip
+    """out[i] = does particle i split (:func:`split_parent`)."""
+    for i in prange(n):
+        out[i] = split_parent(i, pos, vol, depth, vel, spacing_lim, vol_lim, speed2, depth_lim, radius, hexagon,
+                              inv_cell, wall)  # fmt: skip
+
+
+@njit(inline="always")
+def split_parent(i, pos, vol, depth, vel, spacing_lim, vol_lim, speed2, depth_lim, radius, hexagon, inv_cell, wall):
+    """Particle i splits when its spacing s_i = √(V_i/d_i) exceeds ``spacing_lim``, V_i ≥ ``vol_lim``,
+    |u_i|² > ``speed2``, d_i < ``depth_lim``, and its daughters' hexagon x_i + ``radius``·s_i·(cos, sin)
+    (``hexagon``: the six unit vectors) lies on the map and on no wall cell (a daughter on a wall would
+    sit on another particle once held there)."""
+    d = depth[i]
+    s = math.sqrt(vol[i] / max(d, 1e-300))
+    if not (s > spacing_lim and vol[i] >= vol_lim and d < depth_lim):
+        return False
+    if not vel[i, 0] ** 2 + vel[i, 1] ** 2 > speed2:
+        return False
+    rad = radius * s
+    ny, nx = wall.shape
+    for k in range(6):
+        col = int(math.floor((pos[i, 0] + rad * hexagon[k, 0]) * inv_cell + 0.5))
+        row = int(math.floor((pos[i, 1] + rad * hexagon[k, 1]) * inv_cell + 0.5))
+        if col < 0 or col >= nx or row < 0 or row >= ny:
+            return False
+        if wall[row, col]:
+            return False
+    return True
+
+
+@njit(parallel=True, cache=True)
+def relax_supports(k2, hsup, depth, vel, n, k2_home, relax, g, dt):
+    """A split's daughters' support factors towards k² (:func:`relax_support`), every particle."""
+    for i in prange(n):
+        relax_support(i, k2, hsup, depth, vel, k2_home, relax, g, dt)
+
+
+@njit(inline="always")
+def relax_support(i, k2, hsup, depth, vel, k2_home, relax, g, dt):
+    """k_i² ← k² + (k_i² − k²) exp(−Δt/τ_i), τ_i = ``relax`` · H_i/(√(g d_i) + |u_i|): a daughter's H
+    shrinks from its parent's to its own over a few of its own crossing times; within 0.1 % of k² (0.05 %
+    of H) it is home. Particles already at k² are left alone."""
+    if k2[i] != k2_home:
+        u = math.hypot(vel[i, 0], vel[i, 1])
+        tau = relax * hsup[i] / (math.sqrt(g * depth[i]) + u + 1e-300)
+        new = k2_home + (k2[i] - k2_home) * (math.exp(-dt / tau) if tau > 0.0 else 0.0)
+        if new - k2_home < 1e-3 * k2_home:
+            new = k2_home
+        k2[i] = new
+
+
 @njit(parallel=True, cache=True)
 def step_limit(vel, depth, hsup, n, g):
     """min_i H_i / (√(g d_i) + |u_i|) — the CFL time-step scale (times the Courant number)."""

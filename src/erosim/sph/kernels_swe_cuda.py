@@ -48,6 +48,8 @@ _kick = _dev(K.kick_particle)
 _drift = _dev(K.drift_particle)
 _cfl = _dev(K.cfl_scale)
 _surface = _dev(K.surface_particle)
+_split_parent = _dev(K.split_parent)
+_relax_support = _dev(K.relax_support)
 if SIMULATOR:  # the Python source, calling its helpers' Python sources (they take the simulator's arrays)
     _cell_maxima = types.FunctionType(
         K.cell_maxima.py_func.__code__,
@@ -212,6 +214,25 @@ def cfl_limit(vel, depth, hsup, n, g, out):
     m = _block_max(sh, mx)
     if cuda.threadIdx.x == 0:
         cuda.atomic.max(out, 0, m)
+
+
+@cuda.jit
+def relax_supports(k2, hsup, depth, vel, n, k2_home, relax, g, dt):
+    """The CPU's ``relax_supports``: a split's daughters' support factors towards k²."""
+    i = cuda.grid(1)
+    if i < n:
+        _relax_support(i, k2, hsup, depth, vel, k2_home, relax, g, dt)
+
+
+@cuda.jit
+def split_count(pos, vol, depth, vel, n, spacing_lim, vol_lim, speed2, depth_lim, radius, hexagon, inv_cell, wall,
+                counts):  # fmt: skip
+    """counts[0] += the particles the CPU's ``split_parents`` would split (the split itself is the host's)."""
+    i = cuda.grid(1)
+    if i < n:
+        if _split_parent(i, pos, vol, depth, vel, spacing_lim, vol_lim, speed2, depth_lim, radius, hexagon,
+                         inv_cell, wall):  # fmt: skip
+            cuda.atomic.add(counts, 0, 1)
 
 
 @cuda.jit

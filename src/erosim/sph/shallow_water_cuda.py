@@ -15,8 +15,10 @@ particles that left (a few steps of a run) is done on the host, which then sends
 
 Both devices run the same per-particle functions over the same lists; they differ by rounding only
 (the GPU contracts a·b + c into fused multiply-adds). Checkpoints are the CPU's: either device resumes
-the other's. Particle splitting (``flood.split``) stays on the CPU: asking for it on the device is a
-one-sentence error.
+the other's. Particle splitting (``flood.split``): the daughters' supports relax on the device every
+step; at the steps that rebuild the lists the device counts the particles the CPU's test would split
+(``split_count``) and, when there are any, the host splits them on its copies of the fields and sends
+the state back (a split is rare: one generation, each particle once).
 """
 
 from __future__ import annotations
@@ -26,13 +28,13 @@ import math
 import numpy as np
 
 from erosim.core import devices
-from erosim.core.errors import ConfigError, InstabilityError
+from erosim.core.errors import InstabilityError
 from erosim.sph import kernels_cuda, kernels_swe_cuda
 from erosim.sph import kernels_swe as K
-from erosim.sph.shallow_water_vacondio2012 import ShallowWaterSPH
+from erosim.sph.shallow_water_vacondio2012 import _HEXAGON, ShallowWaterSPH
 
-_FIELDS = ("pos", "vel", "hsup", "depth", "omega", "acc")  # what the device changes
-_CONSTANT = ("vol", "k2")  # per particle, changed only on the host (removal)
+_FIELDS = ("pos", "vel", "hsup", "depth", "omega", "acc", "k2")  # what the device changes
+_CONSTANT = ("vol",)  # per particle, changed only on the host (removal, splitting)
 _MAXIMA = ("max_depth", "max_speed", "max_dv", "arrival")  # the hazard maps' arrays
 
 
@@ -64,6 +66,7 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
     depth = _OnTheHost()
     omega = _OnTheHost()
     acc = _OnTheHost()
+    k2 = _OnTheHost()
 
     def __init__(self, *args, **kwargs):
         devices.require("cuda")
@@ -75,12 +78,6 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         self._d_lists = False
         super().__init__(*args, **kwargs)
         self._on_host = False
-        if self.params.split:
-            raise ConfigError(
-                "Particle splitting (flood.split) is not available on device 'cuda'; run with --device cpu "
-                "or set flood.split = false."
-            )
-
         self._kc, self._ks = kernels_cuda, kernels_swe_cuda
 
     # ------------------------------------------------------------------ host ↔ device
@@ -104,6 +101,7 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         self._d["manning"] = cuda.to_device(self.manning)
         self._d["wall"] = cuda.to_device(self.wall)
         self._d["wall_dist"] = cuda.to_device(self.wall_dist)
+        self._d["hexagon"] = cuda.to_device(_HEXAGON)
         self._d["out"] = cuda.device_array(n, np.bool_)
         self._d["blocked"] = cuda.device_array(n, np.int64)
         self._d["prev"] = cuda.device_array(n, np.float64)
@@ -169,6 +167,13 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
             n = self.n
             d = self._d
             bl = self._kc.blocks(n)
+        if prm.split and n:
+            ks.relax_supports[bl, self._kc.TPB](d["k2"], d["hsup"], d["depth"], d["vel"], n, prm.support**2,
+                                                prm.split_relax, prm.g, dt)  # fmt: skip
+            if not self._lists_hold() and self._split_on_host():  # at the steps that rebuild the lists
+                n = self.n
+                d = self._d
+                bl = self._kc.blocks(n)
         if n:
             self._evaluate()
             ks.kick[bl, self._kc.TPB](d["vel"], d["acc"], d["depth"], d["manning"], self.inv_cell, d["pos"], n,
@@ -200,6 +205,26 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         self._keep(~out)
         self._push()
         self._d["blocked"].copy_to_device(np.ascontiguousarray(blocked[~out]))
+
+    def _split_on_host(self) -> int:
+        """The CPU's split of the thinned particles, on the host's copies, when the device counts any
+        (:func:`kernels_swe_cuda.split_count`, the CPU's own test): the fields come back, the split
+        appends the daughters, and the state goes out again with the daughters' contacts free."""
+        n, kc, d = self.n, self._kc, self._d
+        kc.zero[1, kc.TPB](d["counts"][0:1], 1)
+        lim = self._split_args()[:-1]  # the device's own wall map below
+        self._ks.split_count[kc.blocks(n), kc.TPB](
+            d["pos"], d["vol"], d["depth"], d["vel"], n, *lim[:5], d["hexagon"], lim[6], d["wall"], d["counts"]
+        )  # fmt: skip
+        m = int(d["counts"][0:1].copy_to_host()[0])
+        if m == 0 or n + 6 * m > self.params.max_particles:
+            return 0
+        blocked = d["blocked"].copy_to_host()
+        split = self._split()
+        if split:
+            self._push()
+            self._d["blocked"].copy_to_device(np.concatenate([blocked, np.zeros(6 * split, np.int64)]))
+        return split
 
     def _lists_hold(self) -> bool:
         if self._on_host:

@@ -51,6 +51,7 @@ from erosim.sph import kernels_swe as K
 
 _SPLIT_CENTRE = 0.178  # Vacondio et al. 2013: the centre daughter's share of the parent's volume
 _SPLIT_RADIUS = 0.4  # hexagon radius in units of the parent's spacing √(V/d)
+_HEXAGON = np.stack([np.cos(np.arange(6) * (np.pi / 3.0)), np.sin(np.arange(6) * (np.pi / 3.0))], -1)
 _EDGES = ("west", "east", "north", "south")
 
 
@@ -73,7 +74,7 @@ class ShallowWaterParams(Section):
     split: bool = param(
         True,
         doc="split particles where the flow thins (Vacondio et al. 2013), gradually (split_relax): Ritter's map tip "
-        "0.017 h₀ against 0.061 h₀ without; on the CPU only (a cuda run leaves it off unless set, docs/flood.md)",
+        "0.017 h₀ against 0.061 h₀ without; on either device (docs/flood.md)",
     )
     split_spacing: float = param(
         1.5, gt=1, unit="1", doc="split a particle when its spacing √(V/d) exceeds this × the initial spacing"
@@ -364,13 +365,17 @@ class ShallowWaterSPH:
             setattr(self, k, np.ascontiguousarray(getattr(self, k)[keep]))
         self._built_at = None
 
+    def _split_args(self) -> tuple:
+        """The thresholds of :func:`K.split_parent` (the module docstring's conditions)."""
+        prm = self.params
+        return (prm.split_spacing * self.spacing, 7 * prm.split_min_volume * self.v0, prm.split_speed**2,
+                prm.split_depth, _SPLIT_RADIUS, _HEXAGON, self.inv_cell, self.wall)  # fmt: skip
+
     def _split(self) -> int:
         """Split the thinned particles (module docstring); returns how many were split."""
         prm = self.params
-        spacing = np.sqrt(self.vol / np.maximum(self.depth, 1e-300))
-        moving = self.vel[:, 0] ** 2 + self.vel[:, 1] ** 2 > prm.split_speed**2
-        parent = (spacing > prm.split_spacing * self.spacing) & (self.vol >= 7 * prm.split_min_volume * self.v0)
-        parent &= moving & (self.depth < prm.split_depth)
+        parent = np.empty(self.n, np.bool_)
+        K.split_parents(self.pos, self.vol, self.depth, self.vel, self.n, *self._split_args(), parent)
         m = int(parent.sum())
         if m == 0:
             return 0
@@ -378,27 +383,11 @@ class ShallowWaterSPH:
             return 0  # resolution stays where it is: the count is bounded by the user
         idx = np.flatnonzero(parent)
         v = self.vol[idx]
-        rad = _SPLIT_RADIUS * spacing[idx]
-        ang = np.arange(6) * (np.pi / 3.0)
+        rad = _SPLIT_RADIUS * np.sqrt(v / np.maximum(self.depth[idx], 1e-300))
         ring = (v - _SPLIT_CENTRE * v) / 6.0
-        hexagon = np.stack([np.cos(ang), np.sin(ang)], -1)
-        new_pos = (self.pos[idx, None, :] + rad[:, None, None] * hexagon).reshape(-1, 2)
-        # a parent whose hexagon would reach into a wall or off the map is not split (no daughter may
-        # sit on another: coincident particles have no consistent smoothing length)
-        ny, nx = self.wall.shape
-        col = np.floor(new_pos[:, 0] * self.inv_cell + 0.5).astype(np.int64)
-        row = np.floor(new_pos[:, 1] * self.inv_cell + 0.5).astype(np.int64)
-        inside = (col >= 0) & (col < nx) & (row >= 0) & (row < ny)
-        bad = ~inside
-        bad[inside] = self.wall[row[inside], col[inside]]
-        fine = ~bad.reshape(-1, 6).any(axis=1)
-        if not fine.all():
-            idx, v, rad = idx[fine], v[fine], rad[fine]
-            ring = ring[fine]
-            new_pos = new_pos.reshape(-1, 6, 2)[fine].reshape(-1, 2)
-            m = len(idx)
-            if m == 0:
-                return 0
+        # a parent whose hexagon would reach into a wall or off the map is not split (split_parent: no
+        # daughter may sit on another, coincident particles have no consistent smoothing length)
+        new_pos = (self.pos[idx, None, :] + rad[:, None, None] * _HEXAGON).reshape(-1, 2)
         centre = v - 6.0 * ring  # the centre keeps exactly what the ring does not take
         self.vol[idx] = centre
         if prm.split_relax > 0:
@@ -423,18 +412,11 @@ class ShallowWaterSPH:
         return m
 
     def _relax(self, dt: float) -> None:
-        """The daughters' support factors towards k: k_i² ← k² + (k_i² − k²) exp(−Δt/τ_i), τ_i =
-        ``split_relax`` · H_i/(√(g d_i) + |u_i|), so that their H shrinks from the parent's to their own
-        over a few of their own crossing times rather than by √7 at once."""
-        k2 = self.params.support**2
-        grown = np.flatnonzero(self.k2 != k2)
-        if len(grown) == 0:
-            return
-        u = np.hypot(self.vel[grown, 0], self.vel[grown, 1])
-        tau = self.params.split_relax * self.hsup[grown] / (np.sqrt(self.params.g * self.depth[grown]) + u + 1e-300)
-        new = k2 + (self.k2[grown] - k2) * np.exp(-dt / tau)
-        new[new - k2 < 1e-3 * k2] = k2  # within 0.05 % of H: home
-        self.k2[grown] = new
+        """The daughters' support factors towards k (:func:`K.relax_support`): k_i² ← k² + (k_i² − k²)
+        exp(−Δt/τ_i), τ_i = ``split_relax`` · H_i/(√(g d_i) + |u_i|), so that their H shrinks from the
+        parent's to their own over a few of their own crossing times rather than by √7 at once."""
+        prm = self.params
+        K.relax_supports(self.k2, self.hsup, self.depth, self.vel, self.n, prm.support**2, prm.split_relax, prm.g, dt)
 
     # ------------------------------------------------------------------ outputs
 

@@ -96,8 +96,6 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
             "give a larger flood.spacing."
         )
     params = fl.model_dump(include=set(ShallowWaterParams.model_fields))
-    if cfg.run.device == "cuda" and "split" not in fl.model_fields_set:
-        params["split"] = False  # splitting runs on the CPU: a device run splits only when asked (and refuses)
     # the reservoir settles on the DEM as it stands, the dam whole (the barrier all wall), then the
     # breach opens at t = 0
     closed = site.wall | (site.barrier if site.barrier is not None else False)
