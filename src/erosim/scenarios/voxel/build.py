@@ -22,10 +22,10 @@ A run leaves
   (and the last);
 * ``maps/`` (a heightmap's voxels): height.tif, height_initial.tif, erosion.tif, deposition.tif and
   water_depth.tif on the DEM's grid with its CRS (:class:`VoxelMaps`);
-* ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t, x (from the upstream toe), z, y}: the first
-  node, solid at the start, that the eroded surface has passed (density at or below the iso level),
-  ``first_transfer`` the same for the first quantum moved (:mod:`erosim.coupling.terrains`), the
-  ``budget`` (m³: eroded = carried off;
+* ``report.json``: ``eroded_volume_m3``, ``first_erosion`` {t (flow time), t_morphological (t ×
+  ``erosion.morfac``), x (from the upstream toe), z, y}: the first node, solid at the start, that the
+  eroded surface has passed (density at or below the iso level), ``first_transfer`` the same for the
+  first quantum moved (:mod:`erosim.coupling.terrains`), the ``budget`` (m³: eroded = carried off;
   pending, unmet, the field's change, closure), ``particles_inside_solid`` (the most seen after any
   coupling; 0) and the timings.
 """

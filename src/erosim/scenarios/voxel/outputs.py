@@ -305,12 +305,13 @@ def reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x
             "eroded_volume_m3": coupler.totals["eroded"],
             "eroded_to_water_volume": coupler.totals["eroded"] / water_m3 if water_m3 > 0 else None,
             "first_erosion": None if math.isnan(onset[0]) else {
-                "t": float(onset[0]), "x": float(onset[1]) - x0, "z": float(onset[3]), "y": float(onset[2]),
-                "x_frame": frame,
+                "t": float(onset[0]), "t_morphological": float(onset[0]) * cfg.erosion.morfac,
+                "x": float(onset[1]) - x0, "z": float(onset[3]), "y": float(onset[2]), "x_frame": frame,
                 "definition": "the first node, solid at the start, that the eroded surface passed (density at or "
                               "below the iso level)"},
             "first_transfer": None if math.isnan(first[0]) else {
-                "t": float(first[0]), "x": float(first[1]) - x0, "z": float(first[2]),
+                "t": float(first[0]), "t_morphological": float(first[0]) * cfg.erosion.morfac,
+                "x": float(first[1]) - x0, "z": float(first[2]),
                 "y": float(coupler.terrain.first_y), "x_frame": frame,
                 "definition": "the first quantum moved off a solid node (the node it lowered most)"},
             "budget": coupler.budget(),
