@@ -83,12 +83,17 @@ print(json.dumps(out))
 """
 
 
-@pytest.fixture(scope="module")
-def simulated():
+def _simulate(script: str) -> dict:
+    """Run ``script`` under Numba's CUDA simulator in a fresh interpreter; its last line of JSON."""
     env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
-    proc = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True, timeout=900)
+    proc = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def simulated():
+    return _simulate(SCRIPT)
 
 
 TOL = 1e-11  # relative to each field's largest value, the 3-D device test's bound (its docstring)
@@ -162,10 +167,7 @@ print(json.dumps(out))
 
 @pytest.fixture(scope="module")
 def simulated_split():
-    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
-    proc = subprocess.run([sys.executable, "-c", SPLIT_SCRIPT], env=env, capture_output=True, text=True, timeout=900)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return _simulate(SPLIT_SCRIPT)
 
 
 @pytest.mark.cuda  # the device path under Numba's CUDA simulator (`make test-cuda`)
