@@ -212,9 +212,11 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
         appends the daughters, and the state goes out again with the daughters' contacts free."""
         n, kc, d = self.n, self._kc, self._d
         kc.zero[1, kc.TPB](d["counts"][0:1], 1)
-        lim = self._split_args()[:-1]  # the device's own wall map below
+        # the CPU's thresholds, with the device's own copies of the hexagon and the wall map
+        spacing_lim, vol_lim, speed2, depth_lim, radius, _, inv_cell, _ = self._split_args()
         self._ks.split_count[kc.blocks(n), kc.TPB](
-            d["pos"], d["vol"], d["depth"], d["vel"], n, *lim[:5], d["hexagon"], lim[6], d["wall"], d["counts"]
+            d["pos"], d["vol"], d["depth"], d["vel"], n, spacing_lim, vol_lim, speed2, depth_lim, radius, d["hexagon"],
+            inv_cell, d["wall"], d["counts"],
         )  # fmt: skip
         m = int(d["counts"][0:1].copy_to_host()[0])
         if m == 0 or n + 6 * m > self.params.max_particles:
