@@ -23,13 +23,22 @@ compile the same source as a device function (as the shallow-water kernels do wi
 :mod:`erosim.sph.kernels_swe`). The seed preset's serial loop keeps its latency-tuned form of the
 same model for whole steps and a one-cell footprint
 (:func:`erosim.hydrology.droplets.descend_cell`, which agrees with this step to rounding, tested).
+
+The loops that call :func:`step` on the CPU are compiled with :func:`step_loop`: Numba's inlining
+binds each array argument anew, and where the inlined body holds a loop (the walk, the footprint)
+the reference counts of those bindings are no longer pruned, so every sub-step made some twenty
+atomic increments and decrements (37 % of a step, measured with ``perf`` on the library terrain).
+The parallel pipeline's copy propagation removes the bindings; the loops themselves hold no
+``prange`` and run on the calling thread.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 
 from numba import njit
+from numba.core.errors import NumbaPerformanceWarning
 
 from erosim.hydrology.params import (
     P_ACC,
@@ -56,6 +65,19 @@ MOVED = -1  # the sub-step is done and the droplet goes on
 ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
 LEFT = 1  # left the map or entered the sea: water and sediment accounted as gone
 STOP = 2  # stopped at a cell for HY-2 flood
+
+# step_loop's kernels have no prange by design: Numba's note that nothing ran in parallel is expected
+warnings.filterwarnings(
+    "ignore",
+    message=r"(?s)\s*The keyword argument 'parallel=True'.*hydrology.(droplets|batch)\.py",
+    category=NumbaPerformanceWarning,
+)
+
+
+def step_loop(fn):
+    """``njit(cache=True, error_model="numpy", parallel=True)`` for a serial loop over :func:`step`
+    (module docstring: the parallel pipeline's copy propagation, not threads)."""
+    return njit(cache=True, error_model="numpy", parallel=True)(fn)
 
 
 @njit(inline="always")
@@ -108,25 +130,46 @@ def surface(c, zf, ov, has_ov, lake_of, level, sea_level):
 
 
 @njit(inline="always")
+def _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level):
+    """:func:`surface` of a neighbour in the walk, +∞ on a nodata cell (never the lowest), written
+    with selects instead of branches: which neighbour is lowest is data-dependent, so branches on
+    it mispredict (the walk was half of a step's time)."""
+    lk = lake_of[n]
+    h = zf[n] + ov[n] if has_ov else zf[n]
+    h = sea_level if h < sea_level else h
+    lv = level[lk if lk >= 0 else 0]
+    h = lv if lk >= 0 else h
+    return math.inf if lk == OUTSIDE else h
+
+
+@njit(inline="always")
 def walk_down(c, max_walk, zf, ov, has_ov, lake_of, level, sea_level, nx, ny):
     """:func:`erosim.hydrology.pools.walk_down` over the terrain (+ overlay: the pit test sees the
     droplet's own deposits): steepest-descent D8 walk of the surface; (cell, at a minimum). A walk
     into a tile's halo ends there, not at a minimum: the pit the droplet may be in lies beyond the
-    tile, so it goes on descending (and leaves there) instead of flooding."""
+    tile, so it goes on descending (and leaves there) instead of flooding. Neighbours are compared
+    in row order, the first of equal heights kept; away from the map's edge over a fixed 3×3 stencil."""
     for _ in range(max_walk):
         iy = c // nx
         ix = c - iy * nx
         best = c
         hb = surface(c, zf, ov, has_ov, lake_of, level, sea_level)
-        for j in range(max(iy - 1, 0), min(iy + 2, ny)):
-            for i in range(max(ix - 1, 0), min(ix + 2, nx)):
-                n = j * nx + i
-                if lake_of[n] == OUTSIDE:
-                    continue
-                h = surface(n, zf, ov, has_ov, lake_of, level, sea_level)
-                if h < hb:
-                    hb = h
-                    best = n
+        if 0 < ix < nx - 1 and 0 < iy < ny - 1:
+            for dj in range(-1, 2):
+                for di in range(-1, 2):
+                    n = c + dj * nx + di
+                    h = _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level)
+                    lower_here = h < hb
+                    hb = h if lower_here else hb
+                    best = n if lower_here else best
+        else:
+            for j in range(max(iy - 1, 0), min(iy + 2, ny)):
+                for i in range(max(ix - 1, 0), min(ix + 2, nx)):
+                    n = j * nx + i
+                    h = _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level)
+                    if h < hb:
+                        hb = h
+                        best = n
         if best == c:
             return c, True
         c = best
