@@ -44,7 +44,8 @@ import numpy as np
 from numba import njit, prange
 
 from erosim.hydrology.counter_rng import spawn_base, spawn_point
-from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, lower, step, step_loop
+from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, lower, step
+from erosim.hydrology.loop_kernel import loop_kernel
 from erosim.hydrology.params import P_FOOT, P_MAXSTEPS, P_V0
 from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_SIZE, B_STEPS, NO_LAKE
 
@@ -60,7 +61,7 @@ R_STATUS, R_X, R_Y, R_VX, R_VY, R_V, R_S, R_NLOG, R_ROUNDS, R_USED = range(10)
 R_SIZE = 10
 
 
-@step_loop
+@loop_kernel
 def descend_logged(x, y, vx, vy, V, S, used, z2, zf, ov, stream, roots, erod, lake_of, level, lc, ldz, bd, P):
     """The droplet's descent (:func:`erosim.hydrology.droplet_step.step`) against the round-start
     terrain plus its own changes (overlay ``ov``, flat, all zero on entry and on return): step k

@@ -24,21 +24,13 @@ compile the same source as a device function (as the shallow-water kernels do wi
 same model for whole steps and a one-cell footprint
 (:func:`erosim.hydrology.droplets.descend_cell`, which agrees with this step to rounding, tested).
 
-The loops that call :func:`step` on the CPU are compiled with :func:`step_loop`: Numba's inlining
-binds each array argument anew, and where the inlined body holds a loop (the walk, the footprint)
-the reference counts of those bindings are no longer pruned, so every sub-step made some twenty
-atomic increments and decrements (37 % of a step, measured with ``perf`` on the library terrain).
-The parallel pipeline's copy propagation removes the bindings; the loops themselves hold no
-``prange`` and run on the calling thread.
 """
 
 from __future__ import annotations
 
 import math
-import warnings
 
 from numba import njit
-from numba.core.errors import NumbaPerformanceWarning
 
 from erosim.hydrology.params import (
     P_ACC,
@@ -65,19 +57,6 @@ MOVED = -1  # the sub-step is done and the droplet goes on
 ENDED = 0  # volume below the minimum (or step cap): the caller settles what is left
 LEFT = 1  # left the map or entered the sea: water and sediment accounted as gone
 STOP = 2  # stopped at a cell for HY-2 flood
-
-# step_loop's kernels have no prange by design: Numba's note that nothing ran in parallel is expected
-warnings.filterwarnings(
-    "ignore",
-    message=r"(?s)\s*The keyword argument 'parallel=True'.*hydrology.(droplets|batch)\.py",
-    category=NumbaPerformanceWarning,
-)
-
-
-def step_loop(fn):
-    """``njit(cache=True, error_model="numpy", parallel=True)`` for a serial loop over :func:`step`
-    (module docstring: the parallel pipeline's copy propagation, not threads)."""
-    return njit(cache=True, error_model="numpy", parallel=True)(fn)
 
 
 @njit(inline="always")

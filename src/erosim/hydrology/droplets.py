@@ -38,7 +38,8 @@ import math
 
 from numba import njit
 
-from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, lower, origin, step, step_loop
+from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, lower, origin, step
+from erosim.hydrology.loop_kernel import loop_kernel
 from erosim.hydrology.params import (
     P_ACC,
     P_AMIN,
@@ -90,7 +91,7 @@ def mark(track, nx, ny, x, y, m):
             track[j * nx + i] = 1
 
 
-@step_loop
+@loop_kernel
 def descend(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level, track, B, P):
     """Run one droplet until it ends, leaves or stops (see module docstring): the shared sub-step
     (:func:`erosim.hydrology.droplet_step.step`) against the live terrain, its transfers applied
