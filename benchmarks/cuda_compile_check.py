@@ -108,7 +108,7 @@ def swe_signatures():
         (
             "swe.grid_maxima",
             ks.grid_maxima,
-            (A2, A2, D1, D1, D1, D1, G, f, f, f, f, i, i, I1, I1, i, i, i, i, f, f, G, G, G, G, boolean[:, :], G),
+            (A2, A2, D1, D1, D1, D1, G, f, f, f, f, i, i, I1, I1, i, i, i, i, f, f, G, G, G, G, boolean[:, :], G, f),
         ),
     ]
 

@@ -46,7 +46,10 @@ class SPHFlood:
 
     name = "sph3d"
 
-    def __init__(self, site, spacing: float, open_edges, *, manning=0.0, every: int = 5, seed: int = 1):
+    def __init__(
+        self, site, spacing: float, open_edges, *, manning=0.0, every: int = 5, seed: int = 1,
+        margin_speed: str = "conveyance",
+    ):  # fmt: skip
 
         hm = site.terrain
         ny, nx = hm.shape
@@ -57,6 +60,7 @@ class SPHFlood:
                 f"follow the ground; use flood.spacing ≤ {2 * cs:g} m or the shallow-water solver."
             )
         self.site, self.spacing, self.every, self.cell = site, float(spacing), int(every), cs
+        self.conveyance = K.MARGIN_SPEED[margin_speed]  # the maps' speed at the water's edge (kernels_swe)
         self.raster = Raster(0.0, 0.0, cs, cs, nx, ny)
         top = site.level + max(2.0, 0.1 * float(site.depth0.max()))
         ground = np.ascontiguousarray(hm.z[::-1], dtype=np.float64)
@@ -200,7 +204,7 @@ class SPHFlood:
         K.scatter_sums(pos, vel, vol, hsup, depth, eta, n, self.cell, r_lo, c_lo, wall, wall_dist, sums)
         K.raise_maxima(
             sums, r_lo, c_lo, bed, self.solver.t, wet, maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
-            wall,
+            wall, self.conveyance,
         )  # fmt: skip
 
     def _at_nodes(self) -> tuple[np.ndarray, np.ndarray]:

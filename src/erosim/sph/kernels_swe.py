@@ -486,7 +486,7 @@ def splat_depth(pos, vol, hsup, n, inv_cell, cell_size, out):
 @njit(cache=True)
 def grid_maxima(
     pos, vel, vol, hsup, depth, eta, bed, cell_size, x0, y0, bcell, ncx, ncy, cell_start, order,
-    r_lo, r_hi, c_lo, c_hi, t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist,
+    r_lo, r_hi, c_lo, c_hi, t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist, conveyance,
 ):  # fmt: skip
     """Running maxima of the water's depth, speed and depth·speed at the DEM's cell centres, and first
     wetting times.
@@ -502,7 +502,13 @@ def grid_maxima(
     and S < 1 past the water's edge). A particle behind a ``wall`` cell (nodata, a dam) is not seen
     (:func:`wall_between`, looked for only within reach of a wall, ``wall_dist`` in m). The speed is
     the Shepard mean ū(x) = Σ_j V_j W |u_j| / d(x) (Monaghan 1992, *Annu. Rev. Astron. Astrophys.*
-    30). Cells where d_map < ``wet`` are dry and raise nothing; wall cells are never marked.
+    30). Where the map's depth is below the depth of the particles' columns there, d̄ = d(x)/S(x) (the
+    V_j W-weighted harmonic mean of the d_j) — the water's edge, thinner than a particle — the speed is
+    ū·(d_map/d̄)^p: with ``conveyance`` p = 2/3 the water across a particle's support shares its friction
+    slope, so Manning's law gives its speed from its depth, u ∝ d^(2/3)/n (the conveyance assumption of
+    one-dimensional channel models, Chow 1959, *Open-Channel Hydraulics* §6-3); p = 0 keeps the
+    particles' own speed out to the edge. Cells where d_map < ``wet`` are dry and raise nothing; wall
+    cells are never marked.
 
     This is the gather form, cell by cell over the rows ``r_lo``…``r_hi`` and columns of the
     particles' reach, each cell summing the particles of its neighbouring bins (:func:`bin_particles`,
@@ -514,14 +520,14 @@ def grid_maxima(
         for c in range(c_lo, c_hi + 1):
             cell_maxima(
                 r, c, pos, vel, vol, hsup, depth, eta, bed, cell_size, x0, y0, bcell, ncx, ncy, cell_start, order,
-                t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist,
+                t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist, conveyance,
             )  # fmt: skip
 
 
 @njit(inline="always")
 def cell_maxima(
     r, c, pos, vel, vol, hsup, depth, eta, bed, cell_size, x0, y0, bcell, ncx, ncy, cell_start, order,
-    t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist,
+    t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist, conveyance,
 ):  # fmt: skip
     """Cell (r, c)'s update of :func:`grid_maxima`."""
     if wall[r, c]:
@@ -554,19 +560,26 @@ def cell_maxima(
                     w /= depth[j]
                     s += w
                     se += w * eta[j]
-    raise_cell(r, c, d, du, s, se, bed, t, wet, max_d, max_v, max_dv, arrival)
+    raise_cell(r, c, d, du, s, se, bed, t, wet, max_d, max_v, max_dv, arrival, conveyance)
+
+
+MARGIN_SPEED = {"conveyance": 2.0 / 3.0, "shepard": 0.0}  # ShallowWaterParams.margin_speed → p of raise_cell
 
 
 @njit(inline="always")
-def raise_cell(r, c, d, du, s, se, bed, t, wet, max_d, max_v, max_dv, arrival):
+def raise_cell(r, c, d, du, s, se, bed, t, wet, max_d, max_v, max_dv, arrival, conveyance):
     """Cell (r, c)'s maxima from its sums d = Σ V_j W, du = Σ V_j W |u_j|, s = Σ V_j W/d_j and
-    se = Σ V_j W η_j/d_j (:func:`grid_maxima`)."""
+    se = Σ V_j W η_j/d_j (:func:`grid_maxima`). The speed is ū·min(1, d_map/d̄)^``conveyance``
+    (``MARGIN_SPEED``), d̄ = d/s the particles' columns' depth there."""
     if d < wet:
         return
     u = du / d
+    columns = d / s
     d = min(d, se / s - bed[r, c])
     if d < wet:
         return
+    if d < columns:
+        u *= (d / columns) ** conveyance
     if d > max_d[r, c]:
         max_d[r, c] = d
     if u > max_v[r, c]:
@@ -619,7 +632,7 @@ def scatter_sums(pos, vel, vol, hsup, depth, eta, n, cell_size, r_lo, c_lo, wall
 
 
 @njit(parallel=True, cache=True)
-def raise_maxima(sums, r_lo, c_lo, bed, t, wet, max_d, max_v, max_dv, arrival, wall):
+def raise_maxima(sums, r_lo, c_lo, bed, t, wet, max_d, max_v, max_dv, arrival, wall, conveyance):
     """The maxima of the window's cells from :func:`scatter_sums` (:func:`raise_cell`); wall cells
     are never marked."""
     nr, nc = sums.shape[1], sums.shape[2]
@@ -630,7 +643,7 @@ def raise_maxima(sums, r_lo, c_lo, bed, t, wet, max_d, max_v, max_dv, arrival, w
             if not wall[r, c]:
                 raise_cell(
                     r, c, sums[0, rr, cc], sums[1, rr, cc], sums[2, rr, cc], sums[3, rr, cc], bed, t, wet,
-                    max_d, max_v, max_dv, arrival,
+                    max_d, max_v, max_dv, arrival, conveyance,
                 )  # fmt: skip
 
 

@@ -246,7 +246,7 @@ def surfaces(pos, depth, bed, n, inv_cell, eta):
 @cuda.jit
 def grid_maxima(
     pos, vel, vol, hsup, depth, eta, bed, cell_size, x0, y0, bcell, ncx, ncy, cell_start, order,
-    r_lo, c_lo, nr, nc, t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist,
+    r_lo, c_lo, nr, nc, t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist, conveyance,
 ):  # fmt: skip
     """The CPU's ``grid_maxima``: one thread per cell of the nr × nc window from (r_lo, c_lo), each
     gathering its particles in the CPU's order (no atomics: a cell is one thread's)."""
@@ -254,5 +254,5 @@ def grid_maxima(
     if k < nr * nc:
         _cell_maxima(
             r_lo + k // nc, c_lo + k % nc, pos, vel, vol, hsup, depth, eta, bed, cell_size, x0, y0, bcell, ncx, ncy,
-            cell_start, order, t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist,
+            cell_start, order, t, wet, max_d, max_v, max_dv, arrival, wall, wall_dist, conveyance,
         )  # fmt: skip

@@ -350,7 +350,7 @@ class CudaShallowWaterSPH(ShallowWaterSPH):
             ks.grid_maxima[kc.blocks(nr * nc), tpb](
                 d["pos"], d["vel"], d["vol"], d["hsup"], d["depth"], d["eta"], d["bed"], self.cell, x0, y0, reach,
                 ncx, ncy, cell_start, d["map_order"], r_lo, c_lo, nr, nc, self.t, wet, *held[1], d["wall"],
-                d["wall_dist"],
+                d["wall_dist"], K.MARGIN_SPEED[self.params.margin_speed],
             )  # fmt: skip
 
     def sync_maxima(self, maps) -> None:

@@ -41,6 +41,7 @@ their water is counted (``budget()``).
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
 from scipy import ndimage
@@ -116,6 +117,13 @@ class ShallowWaterParams(Section):
     )
     tolerance: float = param(1e-4, gt=0, lt=0.1, unit="1", doc="relative tolerance of the H–d Newton iteration")
     max_particles: int = param(5_000_000, ge=1, unit="1", doc="refuse to split beyond this many particles")
+    margin_speed: Literal["shepard", "conveyance"] = param(
+        "shepard",
+        doc="the hazard maps' speed where the water is thinner than the particles' columns (its edge): 'shepard' "
+        "keeps the particles' mean speed out to the edge (right at a front, whose thin tip moves at the front's "
+        "speed); 'conveyance' scales it by (depth/column depth)^(2/3), Manning's law at a shared friction slope "
+        "(right at lateral margins, slow at a front; docs/flood.md)",
+    )
 
 
 class ShallowWaterSPH:
@@ -508,7 +516,7 @@ class ShallowWaterSPH:
         sums, r_lo, c_lo = self._map_sums()
         K.raise_maxima(
             sums, r_lo, c_lo, self.bed, self.t, wet, maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,
-            self.wall,
+            self.wall, K.MARGIN_SPEED[self.params.margin_speed],
         )  # fmt: skip
 
     def _maxima_window(self, xmin, ymin, xmax, ymax, hmax) -> tuple:

@@ -337,7 +337,7 @@ def test_the_maps_gather_and_scatter_agree():
     K.grid_maxima(
         m.pos, m.vel, m.vol, m.hsup, m.depth, eta, m.bed, m.cell, x0, y0, reach, ncx, ncy, start, order, r_lo,
         r_lo + nr - 1, c_lo, c_lo + nc - 1, m.t, 0.01, gather.max_depth, gather.max_speed, gather.max_dv,
-        gather.arrival, m.wall, m.wall_dist,
+        gather.arrival, m.wall, m.wall_dist, K.MARGIN_SPEED[p.margin_speed],
     )  # fmt: skip
     assert (scatter.max_depth > 0).sum() > 50
     for k in ("max_depth", "max_speed", "max_dv", "arrival"):

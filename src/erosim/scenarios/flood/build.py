@@ -83,7 +83,10 @@ def build(cfg: FloodScenario) -> tuple[FloodSetUp, ShallowWaterSPH]:
                 f"The reservoir would need about {estimate:,.0f} particles of {spacing:g} m in 3-D; give a larger "
                 "flood.spacing or use flood.solver = 'swe'."
             )
-        return site, SPHFlood(site, spacing, tuple(cfg.outflow.edges), manning=manning, seed=cfg.seed)
+        return site, SPHFlood(
+            site, spacing, tuple(cfg.outflow.edges), manning=manning, seed=cfg.seed,
+            margin_speed=cfg.flood.margin_speed,
+        )  # fmt: skip
     if spacing > 4.0 * hm.cell_size or spacing < 0.25 * hm.cell_size:
         raise InputError(
             f"flood.spacing = {spacing:g} m against {hm.cell_size:g} m DEM cells: give a spacing between a quarter "
