@@ -48,7 +48,7 @@ class SPHFlood:
 
     def __init__(
         self, site, spacing: float, open_edges, *, manning=0.0, every: int = 5, seed: int = 1,
-        margin_speed: str = "conveyance",
+        margin_speed: str = "shepard",
     ):  # fmt: skip
 
         hm = site.terrain

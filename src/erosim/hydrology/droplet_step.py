@@ -23,7 +23,6 @@ compile the same source as a device function (as the shallow-water kernels do wi
 :mod:`erosim.sph.kernels_swe`). The seed preset's serial loop keeps its latency-tuned form of the
 same model for whole steps and a one-cell footprint
 (:func:`erosim.hydrology.droplets.descend_cell`, which agrees with this step to rounding, tested).
-
 """
 
 from __future__ import annotations
