@@ -129,16 +129,18 @@ def _now_none(ts):
 
 
 @njit(cache=True)
-def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack):
-    """A droplet ends at cell c: its volume counts as evaporated, its sediment settles there."""
+def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack, nx):
+    """A droplet ends at cell c (a map ``nx`` cells wide): its volume counts as evaporated, its sediment
+    settles there (in a lake over the droplet's reach, :func:`erosim.hydrology.pools.settle_in_lake`)."""
     B[B_RESID] += V
     if S <= 0.0:
         return
     k = lake_of[c]
     if k >= 0:
         extra = settle_in_lake(
-            k, c, S, zf, lake_of, level, area, mroot, broot, P[P_CA], hkey, hcell, hleft, hright, hrank, hs, stack
-        )
+            k, c, S, zf, lake_of, level, area, mroot, broot, P[P_CA], hkey, hcell, hleft, hright, hrank, hs, stack,
+            nx, int(P[P_FOOT]) // 2,
+        )  # fmt: skip
         B[B_TO_LAKES] -= extra
         B[B_RESID] += extra
         B[B_DEPOSITED] += S
@@ -198,6 +200,7 @@ def run_droplets(
     sea = P[P_SEA]
     edge = P[P_EDGE]
     drainage = P[P_DRAIN]
+    spread = int(P[P_FOOT]) // 2  # a lake's sediment settles over the droplet's reach (pools.settle_in_lake)
     nwalk = 2 * int(P[P_FOOT]) + 1
     base = spawn_base(seed)
     for i in range(count):
@@ -223,8 +226,9 @@ def run_droplets(
             c = int(y + 0.5) * nx + int(x + 0.5)
             if status == ENDED or not lakes_on:
                 _settle(
-                    c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack
-                )
+                    c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack,
+                    nx,
+                )  # fmt: skip
                 break
             t0 = now(ts)
             res, cell, V, S = flood(
@@ -252,6 +256,7 @@ def run_droplets(
                 hs,
                 stack,
                 walk,
+                spread,
             )
             B[B_FLOOD_NS] += now(ts) - t0
             B[B_FLOODS] += 1
@@ -284,6 +289,7 @@ def run_droplets(
                     hrank,
                     hs,
                     stack,
+                    nx,
                 )
                 break
     return count
@@ -364,14 +370,15 @@ def batch_floods(
             c = int(y + 0.5) * nx + int(x + 0.5)
             if status == ENDED or not lakes_on:
                 _settle(
-                    c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack
-                )
+                    c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack,
+                    nx,
+                )  # fmt: skip
                 break
             left0 = B[B_LEFT]
             carried0 = B[B_CARRIED]
             res_f, cell, V, S = flood(
                 c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, P[P_SEA], P[P_EDGE], P[P_CA],
-                P[P_DRAIN], hkey, hcell, hleft, hright, hrank, hs, stack, walk,
+                P[P_DRAIN], hkey, hcell, hleft, hright, hrank, hs, stack, walk, int(P[P_FOOT]) // 2,
             )  # fmt: skip
             B[B_FLOODS] += 1
             if res_f == pools.LEFT and lake_of[cell] == pools.HALO:  # into a tile's halo: passed on
@@ -395,7 +402,7 @@ def batch_floods(
             if rounds <= 0:
                 _settle(
                     cell, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs,
-                    stack,
+                    stack, nx,
                 )  # fmt: skip
                 break
             if at_min:  # spilled into a depression: it floods there without descending

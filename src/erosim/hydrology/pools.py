@@ -321,6 +321,50 @@ def lower(
 
 @njit(cache=True)
 def settle_in_lake(
+    k, c, amount, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft, hright, hrank, hs, stack,
+    nx=1, spread=0,
+):  # fmt: skip
+    """Sediment ``amount`` (m³) that entered lake k at its cell c settles on the lake's cells within
+    ``spread`` cells of c (a (2·spread + 1)² square on a map ``nx`` cells wide), in equal shares
+    (:func:`settle_on_cell`); ``spread`` 0: on c alone. Returns the water it displaces (m³).
+
+    Settling where the water enters, over the reach of the droplet that brought it (``spread`` =
+    footprint // 2, :func:`erosim.hydrology.params.kernel_constants`: 0 for the seed's one-cell
+    droplets), builds a delta rather than a one-cell spike at each entry, which left the plains'
+    small lakes as one-cell pits between spikes (issue 36: a third fewer one-cell lakes on the
+    library terrain at 512²).
+    """
+    if amount <= 0.0:
+        return 0.0
+    if spread <= 0:
+        return settle_on_cell(
+            k, c, amount, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft, hright, hrank, hs,
+            stack,
+        )  # fmt: skip
+    ny = zf.shape[0] // nx
+    iy = c // nx
+    ix = c - iy * nx
+    j_lo, j_hi = max(iy - spread, 0), min(iy + spread + 1, ny)
+    i_lo, i_hi = max(ix - spread, 0), min(ix + spread + 1, nx)
+    members = 0
+    for j in range(j_lo, j_hi):
+        for i in range(i_lo, i_hi):
+            if lake_of[j * nx + i] == k:
+                members += 1
+    share = amount / max(members, 1)
+    displaced = 0.0
+    for j in range(j_lo, j_hi):  # a cell leaves the lake only under its own share: the same cells
+        for i in range(i_lo, i_hi):
+            if lake_of[j * nx + i] == k:
+                displaced += settle_on_cell(
+                    k, j * nx + i, share, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft,
+                    hright, hrank, hs, stack,
+                )  # fmt: skip
+    return displaced
+
+
+@njit(cache=True)
+def settle_on_cell(
     k, c, amount, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft, hright, hrank, hs, stack
 ):
     """Sediment ``amount`` (m³) settles on lake cell c. Returns the water it displaces (m³).
@@ -370,6 +414,7 @@ def flood(
     hs,
     stack,
     walk,
+    spread=0,
 ):
     """HY-2 for a particle of volume V (m³) and sediment S (m³) at cell c (see module docstring).
 
@@ -381,6 +426,8 @@ def flood(
     dry cell beyond the lake, not off-map entries at −∞: a lake cut by a tile's border fills to the
     height of its lowest halo neighbour (the map's spill level on that side) before its water leaves
     there to the neighbouring tile, with the kept 10 % of the sediment; a halo cell never joins a lake.
+    Sediment that settles in a lake spreads over its cells within ``spread`` of the entry
+    (:func:`settle_in_lake`).
     """
     # the seed keeps 10 % of the sediment when the particle drains on; the rest settles where it
     # entered the lake (the seed deletes it; settling keeps the sediment budget closed)
@@ -418,8 +465,9 @@ def flood(
         )
     if dep > 0.0:
         extra = settle_in_lake(
-            k, c, dep, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft, hright, hrank, hs, stack
-        )
+            k, c, dep, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft, hright, hrank, hs, stack,
+            nx, spread,
+        )  # fmt: skip
         B[B_DEPOSITED] += dep
         B[B_TO_LAKES] -= extra
         V += extra
@@ -524,6 +572,8 @@ def flood(
                 hrank,
                 hs,
                 stack,
+                nx,
+                spread,
             )
             B[B_DEPOSITED] += S
             B[B_TO_LAKES] -= V

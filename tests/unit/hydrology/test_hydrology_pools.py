@@ -236,3 +236,30 @@ def test_lake_cut_by_a_tile_border_fills_to_the_halo_before_it_spills():
     _z, open_side = _halo_pit(pools.OUTSIDE)
     res, _c, _V, _S = _flood(open_side, 5, 3, 100.0)
     assert res == pools.LEFT and open_side.lake_depth().sum() < 1.0  # drained at once
+
+
+@pytest.mark.parametrize("spread", [0, 1])
+def test_a_lakes_sediment_settles_over_the_droplets_reach(spread):
+    """Sediment S brought into a lake at cell c settles in equal shares on the lake's cells within
+    ``spread`` cells of c (issue 36; spread 0 = the entry cell alone, the seed's one-cell droplets),
+    displacing its own volume of water while it stays under the surface; cells outside the square or
+    outside the lake are untouched, and the sediment's volume is kept exactly (to rounding)."""
+    z = np.full((12, 12), 10.0)
+    z[3:9, 3:9] = 0.0  # a 6 × 6 pit, 10 m deep
+    m = _model(z)
+    res, _, _, _ = _flood(m, 5, 5, 200.0)  # a lake 200 / 36 ≈ 5.6 m deep over the pit
+    assert res == pools.SPENT
+    k = m.lake_of[5 * 12 + 5]
+    before = m.z.copy()
+    S = 4.0  # m³: 4 m over one cell (under the 5.6 m of water), 1 m over four
+    displaced = pools.settle_in_lake(
+        k, 3 * 12 + 3, S, m.z.reshape(-1), m.lake_of, m.level, m.area, m.mroot, m.broot, 1.0, m.hkey, m.hcell,
+        m.hleft, m.hright, m.hrank, m.hs, m.stack, 12, spread,
+    )  # fmt: skip
+    rise = m.z - before
+    # the entry is the pit's corner: its square holds (spread + 1)² lake cells
+    cells = (spread + 1) ** 2
+    assert np.count_nonzero(rise) == cells
+    assert np.allclose(rise[3 : 4 + spread, 3 : 4 + spread], S / cells, rtol=1e-12)
+    assert abs(rise.sum() - S) < 1e-12 * S
+    assert abs(displaced - S) < 1e-12 * S
