@@ -128,6 +128,13 @@ def _now_none(ts):
     return 0
 
 
+@njit(inline="always")
+def _lake_spread(P):
+    """Cells around its entry over which a droplet's sediment settles in a lake: half the droplet's
+    footprint (:func:`erosim.hydrology.pools.settle_in_lake`; 0 for the seed's one-cell droplets)."""
+    return int(P[P_FOOT]) // 2
+
+
 @njit(cache=True)
 def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack, nx):
     """A droplet ends at cell c (a map ``nx`` cells wide): its volume counts as evaporated, its sediment
@@ -139,7 +146,7 @@ def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, 
     if k >= 0:
         extra = settle_in_lake(
             k, c, S, zf, lake_of, level, area, mroot, broot, P[P_CA], hkey, hcell, hleft, hright, hrank, hs, stack,
-            nx, int(P[P_FOOT]) // 2,
+            nx, _lake_spread(P),
         )  # fmt: skip
         B[B_TO_LAKES] -= extra
         B[B_RESID] += extra
@@ -200,7 +207,7 @@ def run_droplets(
     sea = P[P_SEA]
     edge = P[P_EDGE]
     drainage = P[P_DRAIN]
-    spread = int(P[P_FOOT]) // 2  # a lake's sediment settles over the droplet's reach (pools.settle_in_lake)
+    spread = _lake_spread(P)
     nwalk = 2 * int(P[P_FOOT]) + 1
     base = spawn_base(seed)
     for i in range(count):
@@ -378,7 +385,7 @@ def batch_floods(
             carried0 = B[B_CARRIED]
             res_f, cell, V, S = flood(
                 c, V, S, nx, ny, zf, lake_of, level, area, mroot, broot, B, P[P_SEA], P[P_EDGE], P[P_CA],
-                P[P_DRAIN], hkey, hcell, hleft, hright, hrank, hs, stack, walk, int(P[P_FOOT]) // 2,
+                P[P_DRAIN], hkey, hcell, hleft, hright, hrank, hs, stack, walk, _lake_spread(P),
             )  # fmt: skip
             B[B_FLOODS] += 1
             if res_f == pools.LEFT and lake_of[cell] == pools.HALO:  # into a tile's halo: passed on
