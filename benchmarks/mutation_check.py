@@ -517,8 +517,8 @@ MUTATIONS = (
         "sph/kernels_swe.py",
         (
             (
-                "                    sums[0, r - r_lo, c - c_lo] += w\n",
-                "                    sums[0, r - r_lo, c - c_lo] = max(sums[0, r - r_lo, c - c_lo], depth[j])\n",
+                "                    sums[0, rr, cc] += w\n",
+                "                    sums[0, rr, cc] = max(sums[0, rr, cc], depth[j])\n",
             ),
         ),
         ("tests/unit/sph/test_kernels_swe.py",),
@@ -530,6 +530,20 @@ MUTATIONS = (
         (("    d = min(d, se / s - bed[r, c])\n", "    d = min(d, se / s - bed[r, c] + 1e9)\n"),),
         ("tests/unit/sph/test_kernels_swe.py",),
         "the flood's maps are wet up banks above the water surface, wherever the kernel reaches",
+    ),
+    Mutation(
+        "flood-margin-speed-direction-blind",
+        "sph/kernels_swe.py",
+        (("cos2 = min((ux * gx + uy * gy) ** 2 / a, 1.0)", "cos2 = 0.0 * a"),),
+        ("tests/verification/test_swe_thin_water.py",),
+        "the maps slow a front's thin tip as they slow the water along the flood's edge",
+    ),
+    Mutation(
+        "flood-margin-speed-unslowed",
+        "sph/kernels_swe.py",
+        (("phi = (d / columns) ** conveyance", "phi = 1.0 + 0.0 * columns"),),
+        ("tests/verification/test_swe_thin_water.py",),
+        "the maps give the flood's thin edge the speed of the columns beside it",
     ),
     Mutation(
         "flood-map-through-walls",

@@ -503,12 +503,15 @@ def grid_maxima(
     (:func:`wall_between`, looked for only within reach of a wall, ``wall_dist`` in m). The speed is
     the Shepard mean ū(x) = Σ_j V_j W |u_j| / d(x) (Monaghan 1992, *Annu. Rev. Astron. Astrophys.*
     30). Where the map's depth is below the depth of the particles' columns there, d̄ = d(x)/S(x) (the
-    V_j W-weighted harmonic mean of the d_j) — the water's edge, thinner than a particle — the speed is
-    ū·(d_map/d̄)^p: with ``conveyance`` p = 2/3 the water across a particle's support shares its friction
-    slope, so Manning's law gives its speed from its depth, u ∝ d^(2/3)/n (the conveyance assumption of
-    one-dimensional channel models, Chow 1959, *Open-Channel Hydraulics* §6-3); p = 0 keeps the
-    particles' own speed out to the edge. Cells where d_map < ``wet`` are dry and raise nothing; wall
-    cells are never marked.
+    V_j W-weighted harmonic mean of the d_j) — the water's edge, thinner than a particle — the speed
+    along the edge is slowed by φ = (d_map/d̄)^p and the speed across it is not (:func:`raise_cell`),
+    the edge's direction being the depth's gradient ∇d = Σ_j V_j ∇W. With ``conveyance`` p = 2/3: the
+    water beside a stream shares its friction slope, so Manning's law gives its speed from its depth,
+    u ∝ d^(2/3)/n (the conveyance assumption of one-dimensional channel models, Chow 1959,
+    *Open-Channel Hydraulics* §6-3); a front's thin tip moves with the front behind it (Whitham 1955,
+    *Proc. R. Soc. A* 227), and a shore is a material line, so across the edge the water keeps the
+    particles' speed. p = 0 keeps the particles' own speed out to the edge in every direction. Cells
+    where d_map < ``wet`` are dry and raise nothing; wall cells are never marked.
 
     This is the gather form, cell by cell over the rows ``r_lo``…``r_hi`` and columns of the
     particles' reach, each cell summing the particles of its neighbouring bins (:func:`bin_particles`,
@@ -542,6 +545,10 @@ def cell_maxima(
     du = 0.0
     s = 0.0
     se = 0.0
+    ux = 0.0
+    uy = 0.0
+    grad_x = 0.0
+    grad_y = 0.0
     for gy in range(max(by - 1, 0), min(by + 2, ncy)):
         for gx in range(max(bx - 1, 0), min(bx + 2, ncx)):
             b = gy * ncx + gx
@@ -554,23 +561,35 @@ def cell_maxima(
                 if rr2 < h * h:
                     if near and wall_between(x, y, pos[j, 0], pos[j, 1], inv_cell, wall):
                         continue
-                    w = vol[j] * wendland_w_2d(math.sqrt(rr2), h)
+                    rj = math.sqrt(rr2)
+                    w = vol[j] * wendland_w_2d(rj, h)
                     d += w
                     du += w * math.sqrt(vel[j, 0] ** 2 + vel[j, 1] ** 2)
+                    ux += w * vel[j, 0]
+                    uy += w * vel[j, 1]
+                    f = vol[j] * wendland_f_2d(rj, h)
+                    grad_x += f * dx
+                    grad_y += f * dy
                     w /= depth[j]
                     s += w
                     se += w * eta[j]
-    raise_cell(r, c, d, du, s, se, bed, t, wet, max_d, max_v, max_dv, arrival, conveyance)
+    raise_cell(r, c, d, du, s, se, ux, uy, grad_x, grad_y, bed, t, wet, max_d, max_v, max_dv, arrival, conveyance)
 
 
 MARGIN_SPEED = {"conveyance": 2.0 / 3.0, "shepard": 0.0}  # ShallowWaterParams.margin_speed → p of raise_cell
+MAP_SUMS = 8  # the sums a cell's maxima take (scatter_sums, raise_cell)
 
 
 @njit(inline="always")
-def raise_cell(r, c, d, du, s, se, bed, t, wet, max_d, max_v, max_dv, arrival, conveyance):
-    """Cell (r, c)'s maxima from its sums d = Σ V_j W, du = Σ V_j W |u_j|, s = Σ V_j W/d_j and
-    se = Σ V_j W η_j/d_j (:func:`grid_maxima`). The speed is ū·min(1, d_map/d̄)^``conveyance``
-    (``MARGIN_SPEED``), d̄ = d/s the particles' columns' depth there."""
+def raise_cell(r, c, d, du, s, se, ux, uy, gx, gy, bed, t, wet, max_d, max_v, max_dv, arrival, conveyance):
+    """Cell (r, c)'s maxima from its sums d = Σ V_j W, du = Σ V_j W |u_j|, s = Σ V_j W/d_j,
+    se = Σ V_j W η_j/d_j, (ux, uy) = Σ V_j W u_j and (gx, gy) = ∇d = Σ V_j ∇W (:func:`grid_maxima`).
+
+    The speed is ū = du/d, and where the map's depth is below the columns' d̄ = d/s it is
+    ū·√(cos²θ + φ² sin²θ), φ = (d_map/d̄)^``conveyance`` (``MARGIN_SPEED``), θ the angle between the
+    water's mean velocity (ux, uy) and the depth's gradient: the speed across the edge (θ = 0 or π, a
+    front or a receding shore) is the particles', the speed along it is slowed by φ. Where either
+    vector is zero, the whole speed is slowed by φ."""
     if d < wet:
         return
     u = du / d
@@ -578,8 +597,14 @@ def raise_cell(r, c, d, du, s, se, bed, t, wet, max_d, max_v, max_dv, arrival, c
     d = min(d, se / s - bed[r, c])
     if d < wet:
         return
-    if d < columns:
-        u *= (d / columns) ** conveyance
+    if d < columns and conveyance > 0.0:
+        phi = (d / columns) ** conveyance
+        a = (ux * ux + uy * uy) * (gx * gx + gy * gy)
+        if a > 0.0:
+            cos2 = min((ux * gx + uy * gy) ** 2 / a, 1.0)
+            u *= math.sqrt(cos2 + phi * phi * (1.0 - cos2))
+        else:
+            u *= phi
     if d > max_d[r, c]:
         max_d[r, c] = d
     if u > max_v[r, c]:
@@ -593,10 +618,11 @@ def raise_cell(r, c, d, du, s, se, bed, t, wet, max_d, max_v, max_dv, arrival, c
 @njit(cache=True)
 def scatter_sums(pos, vel, vol, hsup, depth, eta, n, cell_size, r_lo, c_lo, wall, wall_dist, sums):
     """The sums of :func:`grid_maxima` at the cells of the window from (r_lo, c_lo) (``sums``, shape
-    (4, rows, columns), zero on entry), particle by particle over the cells within its support: each
-    pair once, where the gather visits every particle of the neighbouring bins (bins as wide as the
-    largest support), so about six times fewer pairs where the supports differ. Serial, in particle
-    order: the sums do not depend on the thread count. ``wall_dist`` as in :func:`grid_maxima`."""
+    (``MAP_SUMS``, rows, columns), zero on entry, in :func:`raise_cell`'s order), particle by particle
+    over the cells within its support: each pair once, where the gather visits every particle of the
+    neighbouring bins (bins as wide as the largest support), so about six times fewer pairs where the
+    supports differ. Serial, in particle order: the sums do not depend on the thread count.
+    ``wall_dist`` as in :func:`grid_maxima`."""
     ny, nx = wall.shape
     nr, nc = sums.shape[1], sums.shape[2]
     inv_cell = 1.0 / cell_size
@@ -610,7 +636,9 @@ def scatter_sums(pos, vel, vol, hsup, depth, eta, n, cell_size, r_lo, c_lo, wall
         c0 = max(int(math.ceil(px * inv_cell - rad)), c_lo, 0)
         c1 = min(int(math.floor(px * inv_cell + rad)), c_lo + nc - 1, nx - 1)
         vj = vol[j]
-        uj = math.sqrt(vel[j, 0] ** 2 + vel[j, 1] ** 2)
+        vx = vel[j, 0]
+        vy = vel[j, 1]
+        uj = math.sqrt(vx**2 + vy**2)
         for r in range(r0, r1 + 1):
             y = r * cell_size
             dy = y - py
@@ -623,12 +651,20 @@ def scatter_sums(pos, vel, vol, hsup, depth, eta, n, cell_size, r_lo, c_lo, wall
                 if rr2 < h * h:
                     if wall_dist[r, c] <= h + cell_size and wall_between(x, y, px, py, inv_cell, wall):
                         continue
-                    w = vj * wendland_w_2d(math.sqrt(rr2), h)
-                    sums[0, r - r_lo, c - c_lo] += w
-                    sums[1, r - r_lo, c - c_lo] += w * uj
+                    rj = math.sqrt(rr2)
+                    w = vj * wendland_w_2d(rj, h)
+                    f = vj * wendland_f_2d(rj, h)
+                    rr = r - r_lo
+                    cc = c - c_lo
+                    sums[0, rr, cc] += w
+                    sums[1, rr, cc] += w * uj
+                    sums[4, rr, cc] += w * vx
+                    sums[5, rr, cc] += w * vy
+                    sums[6, rr, cc] += f * dx
+                    sums[7, rr, cc] += f * dy
                     w /= depth[j]
-                    sums[2, r - r_lo, c - c_lo] += w
-                    sums[3, r - r_lo, c - c_lo] += w * eta[j]
+                    sums[2, rr, cc] += w
+                    sums[3, rr, cc] += w * eta[j]
 
 
 @njit(parallel=True, cache=True)
@@ -642,8 +678,9 @@ def raise_maxima(sums, r_lo, c_lo, bed, t, wet, max_d, max_v, max_dv, arrival, w
             c = c_lo + cc
             if not wall[r, c]:
                 raise_cell(
-                    r, c, sums[0, rr, cc], sums[1, rr, cc], sums[2, rr, cc], sums[3, rr, cc], bed, t, wet,
-                    max_d, max_v, max_dv, arrival, conveyance,
+                    r, c, sums[0, rr, cc], sums[1, rr, cc], sums[2, rr, cc], sums[3, rr, cc], sums[4, rr, cc],
+                    sums[5, rr, cc], sums[6, rr, cc], sums[7, rr, cc], bed, t, wet, max_d, max_v, max_dv, arrival,
+                    conveyance,
                 )  # fmt: skip
 
 

@@ -118,11 +118,11 @@ class ShallowWaterParams(Section):
     tolerance: float = param(1e-4, gt=0, lt=0.1, unit="1", doc="relative tolerance of the H–d Newton iteration")
     max_particles: int = param(5_000_000, ge=1, unit="1", doc="refuse to split beyond this many particles")
     margin_speed: Literal["shepard", "conveyance"] = param(
-        "shepard",
-        doc="the hazard maps' speed where the water is thinner than the particles' columns (its edge): 'shepard' "
-        "keeps the particles' mean speed out to the edge (right at a front, whose thin tip moves at the front's "
-        "speed); 'conveyance' scales it by (depth/column depth)^(2/3), Manning's law at a shared friction slope "
-        "(right at lateral margins, slow at a front; docs/flood.md)",
+        "conveyance",
+        doc="the hazard maps' speed where the water is thinner than the particles' columns (its edge): "
+        "'conveyance' slows the speed along the edge by (depth/column depth)^(2/3), Manning's law at a shared "
+        "friction slope, and keeps the speed across it, at which a front's tip and a shore move; 'shepard' keeps "
+        "the particles' mean speed out to the edge in every direction (docs/flood.md)",
     )
 
 
@@ -461,8 +461,9 @@ class ShallowWaterSPH:
         return out
 
     def _map_sums(self) -> tuple[np.ndarray, int, int]:
-        """The sums Σ V_j W, Σ V_j W |u_j|, Σ V_j W/d_j, Σ V_j W η_j/d_j over the window of cells within
-        reach of the particles (:func:`K.scatter_sums`), and the window's first row and column."""
+        """The sums Σ V_j W, Σ V_j W |u_j|, Σ V_j W/d_j, Σ V_j W η_j/d_j, Σ V_j W u_j, Σ V_j ∇W over the
+        window of cells within reach of the particles (:func:`K.scatter_sums`), and the window's first
+        row and column."""
         n = self.n
         (xmin, ymin), (xmax, ymax) = self.pos.min(axis=0), self.pos.max(axis=0)
         _, _, _, _, _, r_lo, c_lo, nr, nc = self._maxima_window(xmin, ymin, xmax, ymax, self.hsup.max())
@@ -470,7 +471,7 @@ class ShallowWaterSPH:
         K.surfaces(self.pos, self.depth, self.bed, n, self.inv_cell, eta)
         # the sums particle by particle (each pair once), then the cells in parallel; the device gathers
         # per cell (grid_maxima), the same sums in another order
-        sums = np.zeros((4, nr, nc))
+        sums = np.zeros((K.MAP_SUMS, nr, nc))
         K.scatter_sums(
             self.pos, self.vel, self.vol, self.hsup, self.depth, eta, n, self.cell, r_lo, c_lo, self.wall,
             self.wall_dist, sums,
