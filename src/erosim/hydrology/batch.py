@@ -3,26 +3,32 @@
 In the seed every droplet sees the terrain the previous one left. With ``hydrology.batch`` > 0 (unset:
 an eighth of a cycle's droplets, :func:`erosim.hydrology.params.batch_size`, the library scenario's
 default; 0 = the seed's order, which the ``simplehydrology-2020`` preset keeps) the droplets of a cycle
-run in batches, in **rounds**:
+run through ``batch`` **slots**, in **rounds**:
 
-1. in parallel (Numba ``prange``), every droplet of the batch that has a descent to do descends
+1. in parallel (Numba ``prange``), every slot's droplet that has a descent to do descends
    against the terrain, streams and lakes **as they were at the round's start**, plus its own
    changes: it writes them into a private overlay (one map per thread, cleared after each
    droplet) and logs them — for each step its footprint and the height each dry footprint cell
    loses (negative: gains) — with its budget terms in its own row;
-2. serially and in droplet order the logs are applied to the terrain (and the visited
+2. serially and in slot order the logs are applied to the terrain (and the visited
    footprints marked, HY-4), the budget rows added, and then each droplet that stopped floods
    (HY-2, :mod:`erosim.hydrology.pools`) exactly as in the serial loop: it ends in a lake, or
    drains, walks off the drain and needs another descent, which the next round does.
 
-Rounds repeat until every droplet of the batch has ended, left or used its ``spill`` floods. So
-the model differs from the seed's order only in that droplets of one round do not see each
-other's erosion (each sees its own, as in the seed); the lakes are the serial loop's, filled and
-drained one droplet after another. This is how droplet erosion is usually made parallel on GPUs.
+After each round a slot whose droplet has ended, left or used its ``spill`` floods takes the
+cycle's next droplet (:meth:`erosim.hydrology.model.HydrologyModel._run_batch`), so every round but
+the cycle's last few descends ``batch`` droplets. When each eighth of a cycle ran to its end before
+the next began, its last rounds held a few stragglers each and left threads idle: at 1024² the
+rounds of fewer than 32 droplets took 19 % of the descents' time, now 4 % (docs/performance.md,
+"Slots"). So the model differs
+from the seed's order only in that droplets of one round do not see each other's erosion (each
+sees its own, as in the seed); the lakes are the serial loop's, filled and drained one droplet
+after another. This is how droplet erosion is usually made parallel on GPUs.
 
 Determinism: a droplet's descent depends only on the round-start state, its index and its own
-changes (the overlay starts at zero for every droplet), and everything is applied in droplet order,
-so the result is the same for any thread count (for a given seed, input and batch size). Budgets
+changes (the overlay starts at zero for every droplet), everything is applied in slot order, and
+which droplet enters which slot depends only on which slots the last round freed, so the result is
+the same for any thread count (for a given seed, input and batch size). Budgets
 close as in the serial loop: every logged change is applied exactly once, to the cells it was
 computed for (the lakes do not change between a round's two phases), and counted in the same
 droplet's budget row. A droplet whose log fills up (``LOG`` steps) pauses and goes on descending
@@ -57,8 +63,8 @@ LOG = 2048  # logged steps per droplet and round
 SERIAL_BELOW = 4  # a round with fewer droplets to descend runs on the calling thread
 
 # columns of the per-droplet rows
-R_STATUS, R_X, R_Y, R_VX, R_VY, R_V, R_S, R_NLOG, R_ROUNDS, R_USED = range(10)
-R_SIZE = 10
+R_STATUS, R_X, R_Y, R_VX, R_VY, R_V, R_S, R_NLOG, R_ROUNDS, R_USED, R_INDEX = range(11)
+R_SIZE = 11
 
 
 @loop_kernel
@@ -127,8 +133,9 @@ def descend_logged(x, y, vx, vy, V, S, used, z2, zf, ov, stream, roots, erod, la
 
 
 @njit(cache=True, inline="always")
-def _descend_one(i, t, first, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res, lc, ldz, bd, ov):
-    """Droplet ``i``'s descent of this round (if its row says it has one) on overlay row ``t``."""
+def _descend_one(i, t, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res, lc, ldz, bd, ov):
+    """Slot ``i``'s descent of this round (if its row says it has one) on overlay row ``t``; a NEW
+    droplet spawns at the point of its index in the run (``R_INDEX``)."""
     ny, nx = z2.shape
     for k in range(B_SIZE):
         bd[i, k] = 0.0
@@ -137,7 +144,7 @@ def _descend_one(i, t, first, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf
     if st0 != NEW and st0 != PAUSED and st0 != NEXT:
         return
     if st0 == NEW:
-        x, y = spawn_point(base, first + i, rain_cdf, nx, ny)
+        x, y = spawn_point(base, int(res[i, R_INDEX]), rain_cdf, nx, ny)
         vx, vy, V, S, used = 0.0, 0.0, P[P_V0], 0.0, 0
     else:
         x, y, vx, vy = res[i, R_X], res[i, R_Y], res[i, R_VX], res[i, R_VY]
@@ -157,9 +164,8 @@ def _descend_one(i, t, first, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf
 
 
 @njit(cache=True, parallel=True)
-def descend_batch(first, count, seed, z2, stream, roots, erod, lake_of, level, rain_cdf, P, res,
-                  lc, ldz, bd, ov):  # fmt: skip
-    """Phase 1 of a round: droplets ``first`` … ``first + count − 1`` whose row says NEW (spawn
+def descend_batch(count, seed, z2, stream, roots, erod, lake_of, level, rain_cdf, P, res, lc, ldz, bd, ov):
+    """Phase 1 of a round: the droplets of slots 0 … ``count − 1`` whose row says NEW (spawn
     first), PAUSED or NEXT descend in parallel (:func:`descend_logged`); results back in
     ``res[i]``, logs in ``lc[i]``, ``ldz[i]``, budget terms in ``bd[i]`` (all rows cleared here).
     ``ov``: one zeroed overlay row (map size) per Numba thread."""
@@ -169,13 +175,12 @@ def descend_batch(first, count, seed, z2, stream, roots, erod, lake_of, level, r
     ef = erod.reshape(-1)
     base = spawn_base(seed)
     for i in prange(count):
-        _descend_one(i, numba.get_thread_id(), first, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res,
-                     lc, ldz, bd, ov)  # fmt: skip
+        _descend_one(i, numba.get_thread_id(), base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res, lc, ldz,
+                     bd, ov)  # fmt: skip
 
 
 @njit(cache=True)
-def descend_batch_serial(first, count, seed, z2, stream, roots, erod, lake_of, level, rain_cdf, P, res,
-                         lc, ldz, bd, ov):  # fmt: skip
+def descend_batch_serial(count, seed, z2, stream, roots, erod, lake_of, level, rain_cdf, P, res, lc, ldz, bd, ov):
     """:func:`descend_batch` on the calling thread (overlay row 0), for a round with only a few
     droplets left to descend: the same results, without waking the other threads and waiting for
     the slowest at the round's end (on a loaded machine that wait cost more than the work)."""
@@ -185,7 +190,7 @@ def descend_batch_serial(first, count, seed, z2, stream, roots, erod, lake_of, l
     ef = erod.reshape(-1)
     base = spawn_base(seed)
     for i in range(count):
-        _descend_one(i, 0, first, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res, lc, ldz, bd, ov)
+        _descend_one(i, 0, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res, lc, ldz, bd, ov)
 
 
 @njit(cache=True)

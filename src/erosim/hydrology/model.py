@@ -54,6 +54,7 @@ from erosim.hydrology.batch import (
     NEW,
     NEXT,
     PAUSED,
+    R_INDEX,
     R_ROUNDS,
     R_S,
     R_STATUS,
@@ -626,51 +627,66 @@ class HydrologyModel:
             if k < count:
                 self._rebuild()  # heap pool or lake table full: compact, then go on
 
-    def _run_batch(self, first: int, nb: int, inject: np.ndarray | None = None) -> None:
-        """Droplets first … first + nb − 1 in batch rounds (:mod:`erosim.hydrology.batch`):
-        parallel descents, then serially their logs applied and their floods. ``inject``: instead of
-        spawning, nb droplets that enter from a neighbouring tile, rows (cycle, x, y, vx, vy, V, S)
+    def _run_batch(self, first: int, total: int, inject: np.ndarray | None = None) -> None:
+        """Droplets first … first + total − 1 in batch rounds over ``batch`` slots (:mod:`erosim.hydrology.batch`):
+        parallel descents, then serially, slot by slot, their logs applied and their floods; a slot whose
+        droplet is done takes the next droplet for the next round. ``inject``: instead of spawning, the
+        ``total`` droplets that enter from a neighbouring tile, rows (cycle, x, y, vx, vy, V, S)
         (:mod:`erosim.hydrology.tile_exchange`): they start as droplets that go on descending (NEXT)."""
         ny, nx = self.z.shape
         zf = self.z.reshape(-1)
         res, lc, ldz, bd, ov = self._work
-        res[:nb, R_STATUS] = NEW
-        res[:nb, R_ROUNDS] = self.p.spill
-        if inject is None:
-            self.budget[B_RAINED] += nb * self.P[P_V0]
-        else:
-            res[:nb, R_STATUS] = NEXT
-            for col, k in ((R_X, 1), (R_Y, 2), (R_VX, 3), (R_VY, 4), (R_V, 5), (R_S, 6)):
-                res[:nb, col] = inject[:, k]
+        slots = min(self.batch, total)
+        res[:slots, R_STATUS] = DONE
+        entered = 0
         foot = int(self.P[P_FOOT])
         old = numba.set_parallel_chunksize(4)  # dynamic scheduling: droplets differ in length
         try:
-            descend = descend_batch
             while True:
-                descend(first, nb, self.seed, self.z, self.stream, self.cover, self.erod, self.lake_of,
-                        self.level, self.rain_cdf, self.P, res, lc, ldz, bd, ov)  # fmt: skip
-                if self.exchange is not None:  # droplets that left into the halo go to the neighbour
-                    self.exchange.record(self.cycles, res, bd, nb)
-                apply_logs(nb, nx, ny, foot, zf, self.lake_of, self.track, res, lc, ldz, bd, self.budget)
-                k = 0
-                while True:
-                    k = batch_floods(
-                        k, nb, res, self.z, self.lake_of, self.level, self.area, self.mroot, self.broot, self.hkey,
-                        self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk,
-                        self.budget, self.P, self.margin, self.lake_cap,
-                    )  # fmt: skip
-                    if k >= nb:
-                        break
-                    self._rebuild()  # heap pool or lake table full: compact, then go on
-                if self.exchange is not None:  # lakes that drained droplets into the halo
-                    self.exchange.record_floods(self.cycles, res, nb, FLOOD_LEFT, DONE)
-                status = res[:nb, R_STATUS]
-                left = np.count_nonzero((status == NEXT) | (status == PAUSED))
+                entered = self._enter(res[:slots], first, entered, total, inject)
+                status = res[:slots, R_STATUS]
+                left = np.count_nonzero((status == NEW) | (status == NEXT) | (status == PAUSED))
                 if left == 0:
                     return
                 descend = descend_batch_serial if left < SERIAL_BELOW else descend_batch
+                descend(slots, self.seed, self.z, self.stream, self.cover, self.erod, self.lake_of, self.level,
+                        self.rain_cdf, self.P, res, lc, ldz, bd, ov)  # fmt: skip
+                if self.exchange is not None:  # droplets that left into the halo go to the neighbour
+                    self.exchange.record(self.cycles, res, bd, slots)
+                apply_logs(slots, nx, ny, foot, zf, self.lake_of, self.track, res, lc, ldz, bd, self.budget)
+                k = 0
+                while True:
+                    k = batch_floods(
+                        k, slots, res, self.z, self.lake_of, self.level, self.area, self.mroot, self.broot,
+                        self.hkey, self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk,
+                        self.budget, self.P, self.margin, self.lake_cap,
+                    )  # fmt: skip
+                    if k >= slots:
+                        break
+                    self._rebuild()  # heap pool or lake table full: compact, then go on
+                if self.exchange is not None:  # lakes that drained droplets into the halo
+                    self.exchange.record_floods(self.cycles, res, slots, FLOOD_LEFT, DONE)
         finally:
             numba.set_parallel_chunksize(old)
+
+    def _enter(self, res: np.ndarray, first: int, entered: int, total: int, inject: np.ndarray | None) -> int:
+        """The next droplets into the free (DONE) slots of ``res``, in slot order: droplet first + entered, …
+        spawns (NEW), or the next ``inject`` rows go on descending (NEXT). Returns how many have entered."""
+        free = np.flatnonzero(res[:, R_STATUS] == DONE)[: total - entered]
+        k = free.size
+        if k == 0:
+            return entered
+        res[free, R_ROUNDS] = self.p.spill
+        if inject is None:
+            res[free, R_STATUS] = NEW
+            res[free, R_INDEX] = first + entered + np.arange(k)
+            self.budget[B_RAINED] += k * self.P[P_V0]
+        else:
+            res[free, R_STATUS] = NEXT
+            rows = inject[entered : entered + k]
+            for col, c in ((R_X, 1), (R_Y, 2), (R_VX, 3), (R_VY, 4), (R_V, 5), (R_S, 6)):
+                res[free, col] = rows[:, c]
+        return entered + k
 
     def attach_exchange(self, exchange) -> None:
         """Make this model a tile of a tiled build (:class:`erosim.hydrology.tile_exchange.TileExchange`): the
@@ -731,22 +747,21 @@ class HydrologyModel:
             gpu = self._gpu
             if gpu is not None:
                 gpu.push()  # the host passes of the last cycle (and any lake rebuild) changed the maps
-            todo = self.per_cycle
-            while todo > 0:
-                nb = min(batch, todo)
-                if gpu is None:
-                    self._run_batch(self.droplets, nb)
-                else:
+            if gpu is None:
+                self._run_batch(self.droplets, self.per_cycle)
+                self.droplets += self.per_cycle
+            else:
+                todo = self.per_cycle
+                while todo > 0:
+                    nb = min(batch, todo)
                     gpu.run_batch(self.droplets, nb)
-                self.droplets += nb
-                todo -= nb
-            if gpu is not None:
+                    self.droplets += nb
+                    todo -= nb
                 gpu.pull_track()
         if self.exchange is not None:  # droplets entering from the neighbouring tiles this cycle
             incoming = self.exchange.incoming(self.cycles)
-            for a in range(0, incoming.shape[0], batch):
-                part = incoming[a : a + batch]
-                self._run_batch(self.droplets, part.shape[0], inject=part)
+            if incoming.shape[0]:
+                self._run_batch(self.droplets, incoming.shape[0], inject=incoming)
             self.exchange.entered(incoming)
         streams.update(self.stream, self.track, self.p.stream_rate)
         if self._creep > 0.0 and self.exchange is not None:

@@ -71,7 +71,7 @@ class HydrologyParams(Section):
         ge=0,
         le=65536,
         unit="droplets",
-        doc="droplets descending in parallel per batch (hydrology/batch.py); none = an eighth of a cycle's; "
+        doc="droplets descending in parallel, each round (hydrology/batch.py); none = an eighth of a cycle's; "
         "0 = one after another (the seed's order)",
     )
     creep: float = param(
@@ -145,7 +145,8 @@ BATCHES_PER_CYCLE = 8  # the default batch: an eighth of a cycle's droplets (hyd
 
 
 def batch_size(p: HydrologyParams, per_cycle: int) -> int:
-    """Droplets per parallel batch: ``batch``; unset, ⌈droplets per cycle / 8⌉; 0 = serial.
+    """Droplets descending in parallel each round (the batch's slots): ``batch``; unset, ⌈droplets per cycle / 8⌉;
+    0 = serial.
 
     A fixed share of the cycle keeps the droplets that do not see each other's erosion at the same
     density on every map size (the cycle's droplets scale with the map's area): measured on the
