@@ -24,6 +24,7 @@ IGNORED: dict[str, str] = {
     "*.wall[*": "wall time spent (this session)",
     "*.cpu[*": "CPU time spent (this session)",
     "*._end": "the clock reading at the end of the last pass (this session)",
+    "*.clock.end": "the splash passes' clock reading at the end of the last coupling (this session)",
     "*.schedule._banked": "a wall-time schedule's running time (sessions differ)",
     "*.schedule._since": "a wall-time schedule's clock reading (this session)",
     "model[*]._a2": "the SPH step's per-chunk maxima of |a|², written before they are read",
