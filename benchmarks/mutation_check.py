@@ -568,6 +568,14 @@ MUTATIONS = (
         "a 3-D jet's lattice disc (a '+' at radius ~Δx) falls unturned: wet patch and crater '+'-shaped",
     ),
     Mutation(
+        "jet-layers-helical",
+        "coupling/sources.py",
+        (("a = 0.5 * np.pi * np.random.default_rng([self.seed & 0xFFFFFFFF, event, 0x7E7]).random()",
+          "a = event * 2.399963229728653  # the golden angle"),),  # fmt: skip
+        ("tests/unit/coupling/test_splash_isotropy.py",),
+        "a 3-D jet's layers are turned by a fixed angle each: a helix, whose sheet spreads as a four-armed spiral",
+    ),
+    Mutation(
         "ground-moisture-axis-neighbours-only",
         "coupling/porous_ground.py",
         (("i, j, _ = pairs_within(self.pos, 1.1 * self.h)", "i, j, _ = pairs_within(self.pos, 1.01 * self.s)"),),

@@ -150,7 +150,7 @@ def setup(scenario, out) -> Setup:
     for name, inf in cfg.inflows.items():
         xy = geo.to_local(inf.position, f"inflows.{name}.position")
         callbacks.append(PointInflow(IterationInterval(1), solver, r, geo.terrain, xy, inf.discharge,
-                                     inf.radius, inf.height, name))  # fmt: skip
+                                     inf.radius, inf.height, name, cfg.seed))  # fmt: skip
     _check_size(cfg, geo, fluid, callbacks)
     callbacks.append(coupler)
     run = cfg.run

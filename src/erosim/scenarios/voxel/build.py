@@ -148,7 +148,7 @@ def jets(cfg: VoxelScenario, terrain, solver) -> list[PointInflow]:
     a heightmap's voxels, at :func:`jet_mouths`."""
     _, nodes, ground = jet_mouths(cfg, terrain)
     return [PointInflow(IterationInterval(1), solver, nodes, ground, jet.position, jet.discharge, jet.radius,
-                        jet.height, name) for name, jet in cfg.inflows.items()]  # fmt: skip
+                        jet.height, name, cfg.seed) for name, jet in cfg.inflows.items()]  # fmt: skip
 
 
 def rain_height(cfg: VoxelScenario, terrain) -> float:
