@@ -179,6 +179,10 @@ def test_eroding_more_than_a_fifth_of_the_waters_volume_is_warned():
     note = sediment_warning(0.32, 1.0)
     assert "0.32 of the water's volume" in note and "erosion.k_eps" in note
     assert "lower erosion.erodibility" in sediment_warning(0.32, 1.0, "erosion.erodibility")
+    # at erosion.morfac = f the bed moves f times what the water eroded in its own time, which is what it carries
+    assert sediment_warning(3.0, 1.0, morfac=20.0) is None
+    note = sediment_warning(6.4, 1.0, morfac=20.0)
+    assert "0.32 of the water's volume" in note and "0.32 m³ in flow time at erosion.morfac = 20" in note
 
 
 def test_a_run_that_moved_no_ground_says_why():

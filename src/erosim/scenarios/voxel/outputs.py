@@ -240,13 +240,19 @@ CLEAR_WATER_LIMIT = 0.2
 EROSION_NOTES = ("The ground removed", "No ground was eroded")
 
 
-def sediment_warning(eroded_m3: float, water_m3: float, strength: str = "erosion.k_eps") -> str | None:
-    """One sentence when the eroded volume exceeds :data:`CLEAR_WATER_LIMIT` of the water's volume, else None;
-    ``strength`` names the law's rate setting."""
-    if water_m3 <= 0 or eroded_m3 <= CLEAR_WATER_LIMIT * water_m3:
+def sediment_warning(
+    eroded_m3: float, water_m3: float, strength: str = "erosion.k_eps", morfac: float = 1.0
+) -> str | None:  # fmt: skip
+    """One sentence when the ground the water removed in its own (flow) time exceeds
+    :data:`CLEAR_WATER_LIMIT` of its volume, else None; ``strength`` names the law's rate setting. With a
+    morphological factor f (``erosion.morfac``) the bed moves f times the flow's erosion, but the water
+    carries what it eroded in flow time: the eroded volume / f is compared (Roelvink 2006)."""
+    carried = eroded_m3 / morfac
+    if water_m3 <= 0 or carried <= CLEAR_WATER_LIMIT * water_m3:
         return None
+    per_flow = "" if morfac == 1.0 else f", {carried:.3g} m³ in flow time at erosion.morfac = {morfac:g}"
     return (
-        f"The ground removed ({eroded_m3:.3g} m³) is {eroded_m3 / water_m3:.2f} of the water's volume "
+        f"The ground removed ({eroded_m3:.3g} m³{per_flow}) is {carried / water_m3:.2f} of the water's volume "
         f"({water_m3:.3g} m³), above the {CLEAR_WATER_LIMIT * 100:g} % up to which clear-water flow holds "
         f"(Costa 1988): the erosion is too strong for this terrain's scale; lower {strength} (docs/voxel.md)."
     )
@@ -288,7 +294,8 @@ def reporter(cfg, terrain, solver, coupler, eroder, inside, profiles, derived, x
         water_m3 = (st.initial + sum(st.added.values())) * solver.m / solver.params.rho0  # all the water, at rest
         # with the load on the particles their cap (erosion.max_concentration) keeps the water clear instead
         strength = f"erosion.{eroder.strength}" if eroder is not None else "erosion.k_eps"
-        clear = None if suspended else sediment_warning(coupler.totals["eroded"], water_m3, strength)
+        morfac = cfg.erosion.morfac
+        clear = None if suspended else sediment_warning(coupler.totals["eroded"], water_m3, strength, morfac)
         _warn(out, clear, EROSION_NOTES[0])
         _warn(out, no_erosion_warning(eroder) if coupler.calls else None, EROSION_NOTES[1])
         return {
