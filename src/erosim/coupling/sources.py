@@ -24,8 +24,8 @@ acting between steps.
   the same after a quarter turn), drawn from a generator keyed by (seed, layer): the stream has no
   preferred direction and no sense of rotation. A fixed turn per layer stacks the layers as a helix:
   by the golden angle (137.5° ≡ 47.5° of a quarter turn) two layers advance 5°, and the water's sheet
-  on flat ground spread as a four-armed spiral (its radius's spread with direction 0.22 on the
-  `water-jet` scene without seepage or craters; random turns: 0.14);
+  on flat ground spread as a four-armed spiral (on the `water-jet` scene without seepage or craters,
+  eight-fold harmonic of the sheet's bearings 0.10; random turns: 0.04–0.075 over three seeds);
 * :class:`RainDrops` — rain on a voxel terrain as drops of five particles (SPEC VX-8) at random places;
 * :class:`FlumeInflow` — a laboratory flume's reservoir filled at a discharge, each particle laid at rest
   on the water's surface (the voxel overtopping scenes);
