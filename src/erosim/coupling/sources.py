@@ -25,7 +25,7 @@ acting between steps.
   preferred direction and no sense of rotation. A fixed turn per layer stacks the layers as a helix:
   by the golden angle (137.5° ≡ 47.5° of a quarter turn) two layers advance 5°, and the water's sheet
   on flat ground spread as a four-armed spiral (on the `water-jet` scene without seepage or craters,
-  eight-fold harmonic of the sheet's bearings 0.10; random turns: 0.04–0.075 over three seeds);
+  eight-fold harmonic of the sheet's bearings 0.11; random turns: 0.03–0.075 over three seeds);
 * :class:`RainDrops` — rain on a voxel terrain as drops of five particles (SPEC VX-8) at random places;
 * :class:`FlumeInflow` — a laboratory flume's reservoir filled at a discharge, each particle laid at rest
   on the water's surface (the voxel overtopping scenes);
