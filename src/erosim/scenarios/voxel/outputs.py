@@ -93,6 +93,11 @@ class Profiles(cb.Callback):
         return {}
 
 
+def moment(t: float, morfac: float = 1.0) -> str:
+    """A figure's time: flow time t, and with ``erosion.morfac`` f ≠ 1 the bed change it stands for, f·t."""
+    return f"t = {t:.3g} s" if morfac == 1.0 else f"t = {t:.3g} s ({morfac * t:.3g} s of bed change, morfac {morfac:g})"
+
+
 class VoxelOutputs(cb.Callback):
     """Per output time: the surface mesh(es), the density field, particle frames (count NNNN)."""
 
@@ -126,7 +131,8 @@ class VoxelOutputs(cb.Callback):
             ref, path = self.terrain.like(self.initial), root / "figures" / f"section_{tag}.png"
             with self.out.picture(path):
                 self.terrain.cross_section(path, axis=run.section_axis, at=run.section_at,
-                                           title=f"{self.cfg_name}  t = {t:.3g} s", reference=ref)  # fmt: skip
+                                           title=f"{self.cfg_name}  {moment(t, self.cfg.erosion.morfac)}",
+                                           reference=ref)  # fmt: skip
         self.count += 1
 
     def state_dict(self) -> dict[str, Any]:
@@ -148,7 +154,8 @@ class VoxelOutputs(cb.Callback):
         if self.cfg.run.surface_figure:
             with self.out.picture(self.out.figures / "surface.png"):
                 surface_figure(self.out.figures / "surface.png", self.terrain.like(self.initial), self.terrain,
-                               self.solver.fluid_positions(), float(self.solver.t), self.cfg_name)  # fmt: skip
+                               self.solver.fluid_positions(), float(self.solver.t), self.cfg_name,
+                               self.cfg.erosion.morfac)  # fmt: skip
                 out["outputs"]["surface_figure"] = "figures/surface.png"
         return out
 
@@ -194,9 +201,10 @@ class VoxelMaps(cb.Callback):
         return {"maps": written}
 
 
-def surface_figure(path, start, end, water: np.ndarray, t: float, name: str) -> Path:
+def surface_figure(path, start, end, water: np.ndarray, t: float, name: str, morfac: float = 1.0) -> Path:
     """``figures/surface.png``: the surface at the start tinted by height, and at ``t`` coloured by the lowering
-    of the top surface (per node column, on faces facing up) with the ``water`` particles as dots."""
+    of the top surface (per node column, on faces facing up) with the ``water`` particles as dots; ``morfac``
+    (``erosion.morfac``) names the bed change that t stands for (:func:`moment`)."""
 
     a, b = start.surface_mesh(), end.surface_mesh()
     dz = top_surface(end) - top_surface(start)
@@ -210,7 +218,7 @@ def surface_figure(path, start, end, water: np.ndarray, t: float, name: str) -> 
         {"vertices": a.vertices, "faces": a.faces, "title": "start, tinted by height"},
         {"vertices": b.vertices, "faces": b.faces, "points": water, "face_values": lowering,
          "value_range": (0.0, top), "value_cmap": "magma_r", "value_label": "lowering of the surface (m)",
-         "title": f"t = {t:.3g} s, water as dots"},
+         "title": f"{moment(t, morfac)}, water as dots"},
     ], size=(11.0, 4.6), title=name)  # fmt: skip
 
 
