@@ -195,3 +195,17 @@ def test_stream_cells_outside_the_map_keep_their_height():
         stream.advance()
     np.testing.assert_array_equal(stream.h[outside], h[outside])
     assert (h - stream.h)[:, :30].max() > 0.1
+
+
+def test_a_dem_with_a_geotransform_and_no_crs_says_its_positions_are_the_files():
+    """A mesh rasterised to local coordinates has a geotransform and no CRS: seeds and barriers are in
+    those coordinates, and the "assumed" line must not say they count from the south-west corner."""
+    from erosim.core.heightmap import Heightmap
+    from erosim.scenarios.schema_common import TerrainSection, terrain_facts
+
+    z = np.zeros((4, 5))
+    local = Heightmap(z=z, cell_size=20.0, transform=(20.0, 0.0, 530.0, 0.0, -20.0, 6842.0))
+    _, lines = terrain_facts(local, TerrainSection(file="mesh.tif"))
+    assert "CRS: none (positions in the file's map units, from its geotransform: x 530..630, y 6762..6842)" in lines
+    _, lines = terrain_facts(Heightmap(z=z, cell_size=20.0), TerrainSection())
+    assert "CRS: none (positions in metres from the map's south-west corner)" in lines

@@ -138,9 +138,13 @@ def build_terrain(section: TerrainSection, seed: int) -> Heightmap:
     )
 
 
-def _crs_name(wkt: str | None) -> str:
-    if not wkt:
+def _crs_name(hm: Heightmap) -> str:
+    wkt = hm.crs
+    if not wkt and hm.transform is None:
         return "none (positions in metres from the map's south-west corner)"
+    if not wkt:
+        x0, x1, y0, y1 = hm.extent
+        return f"none (positions in the file's map units, from its geotransform: x {x0:g}..{x1:g}, y {y0:g}..{y1:g})"
     try:
         from rasterio.crs import CRS
 
@@ -183,6 +187,6 @@ def terrain_facts(hm: Heightmap, section: TerrainSection) -> tuple[dict, list[st
         f"nodata: {nodata} cells ({100 * nodata / (nx * ny):.2g} %) are outside the terrain"
         if nodata
         else "nodata: none",
-        f"CRS: {_crs_name(hm.crs)}",
+        f"CRS: {_crs_name(hm)}",
     ]
     return facts, lines
