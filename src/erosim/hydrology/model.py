@@ -529,23 +529,23 @@ class HydrologyModel:
             if r.sum() <= 0:
                 raise InputError("The rain map is zero everywhere; give positive values where rain falls.")
             self.rain_cdf = np.cumsum(r)
-        self.lake_of = np.full(n, pools.NO_LAKE, np.int64)
-        if outside is not None:
-            self.lake_of[outside] = pools.OUTSIDE  # water that reaches a nodata cell leaves, as at the edge
         self.per_cycle = droplets_per_cycle(self.p, (ny, nx), self.cell_size)
         self.lake_cap = n + self.p.spill * self.per_cycle + 16
+        idx = _index_dtype(self.lake_cap + n)  # cell, lake and heap-node indices: 4 bytes where they fit
+        self.lake_of = np.full(n, pools.NO_LAKE, idx)
+        if outside is not None:
+            self.lake_of[outside] = pools.OUTSIDE  # water that reaches a nodata cell leaves, as at the edge
         self.level = np.zeros(self.lake_cap)
         self.budget = np.zeros(B_SIZE)
         self.droplets = 0
         self.cycles = 0
         self.timing = bool(timing)
         # work arrays (rebuilt lake structures live only within a cycle)
-        idx = _index_dtype(self.lake_cap + n)  # cell, lake and heap-node indices: 4 bytes where they fit
         self.area = np.zeros(self.lake_cap, idx)
         self.mroot = np.full(self.lake_cap, -1, idx)
         self.broot = np.full(self.lake_cap, -1, idx)
         self.stack = np.zeros(256, np.int64)
-        self.stamp = np.zeros(n, np.int64)
+        self.stamp = np.zeros(n, idx)
         self.order = np.zeros(n, idx)
         self.start = np.zeros(n + 2, idx)
         self.hs = np.zeros(4, np.int64)
