@@ -200,7 +200,7 @@ class SPHFlood:
         (xmin, ymin), (xmax, ymax) = pos.min(axis=0), pos.max(axis=0)
         c_lo, c_hi = max(int((xmin - h) * inv), 0), min(int((xmax + h) * inv) + 1, nx - 1)
         r_lo, r_hi = max(int((ymin - h) * inv), 0), min(int((ymax + h) * inv) + 1, ny - 1)
-        sums = np.zeros((K.MAP_SUMS, max(r_hi - r_lo + 1, 0), max(c_hi - c_lo + 1, 0)))
+        sums = np.zeros((max(r_hi - r_lo + 1, 0), max(c_hi - c_lo + 1, 0), K.MAP_SUMS))
         K.scatter_sums(pos, vel, vol, hsup, depth, eta, n, self.cell, r_lo, c_lo, wall, wall_dist, sums)
         K.raise_maxima(
             sums, r_lo, c_lo, bed, self.solver.t, wet, maps.max_depth, maps.max_speed, maps.max_dv, maps.arrival,

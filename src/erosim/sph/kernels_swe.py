@@ -217,12 +217,14 @@ def depth_support_particle(i, pos, vol, hsup, start, nbr, k2, h_min, h_max, tol,
     for it in range(max_iter):  # noqa: B007 (the count is kept)
         s = vi * wendland_w_2d(0.0, h)
         ds = vi * dw_dh(0.0, h)
+        h2 = h * h
         for q in range(start[i], start[i + 1]):
             j = nbr[q]
             dx = pos[i, 0] - pos[j, 0]
             dy = pos[i, 1] - pos[j, 1]
-            r = math.sqrt(dx * dx + dy * dy)
-            if r < h:
+            r2 = dx * dx + dy * dy
+            if r2 < h2:  # the lists reach past H (their skin): no root for those
+                r = math.sqrt(r2)
                 s += vol[j] * wendland_w_2d(r, h)
                 ds += vol[j] * dw_dh(r, h)
         res = s + delta - k2i * vi / (h * h)
@@ -278,8 +280,10 @@ def pair_forces_particle(i, pos, vel, vol, hsup, depth, omega, start, nbr, g, al
         dx = xi - pos[j, 0]
         dy = yi - pos[j, 1]
         r2 = dx * dx + dy * dy
-        r = math.sqrt(r2)
         hj = hsup[j]
+        if r2 >= hi * hi and r2 >= hj * hj:
+            continue  # beyond both supports (the lists' skin): no force
+        r = math.sqrt(r2)
         fi = wendland_f_2d(r, hi)
         fj = wendland_f_2d(r, hj)
         fp = 0.5 * g * vol[j] * (fi / omega[i] + fj / omega[j])
@@ -414,6 +418,21 @@ def split_parent(i, pos, vol, depth, vel, spacing_lim, vol_lim, speed2, depth_li
         if col < 0 or col >= nx or row < 0 or row >= ny:
             return False
         if wall[row, col]:
+            return False
+    return True
+
+
+@njit(cache=True)
+def lists_hold(pos, built_at, hsup, search, n):
+    """The Verlet-list test of ``ShallowWaterSPH._lists_hold``: H_i + |Δx_i| + max_j |Δx_j| ≤ s_i for
+    every i, Δx the moves since the lists were built at ``built_at`` with radii ``search``; in two
+    passes without temporaries (it runs several times a step)."""
+    most = 0.0
+    for i in range(n):
+        most = max(most, math.sqrt((pos[i, 0] - built_at[i, 0]) ** 2 + (pos[i, 1] - built_at[i, 1]) ** 2))
+    for i in range(n):
+        moved = math.sqrt((pos[i, 0] - built_at[i, 0]) ** 2 + (pos[i, 1] - built_at[i, 1]) ** 2)
+        if not hsup[i] + moved + most <= search[i]:
             return False
     return True
 
@@ -615,71 +634,97 @@ def raise_cell(r, c, d, du, s, se, ux, uy, gx, gy, bed, t, wet, max_d, max_v, ma
         arrival[r, c] = t
 
 
-@njit(cache=True)
+MAP_STRIPE = 16  # rows of the window each thread of scatter_sums fills at a time
+
+
+@njit(parallel=True, cache=True)
 def scatter_sums(pos, vel, vol, hsup, depth, eta, n, cell_size, r_lo, c_lo, wall, wall_dist, sums):
     """The sums of :func:`grid_maxima` at the cells of the window from (r_lo, c_lo) (``sums``, shape
-    (``MAP_SUMS``, rows, columns), zero on entry, in :func:`raise_cell`'s order), particle by particle
+    (rows, columns, ``MAP_SUMS``), zero on entry, in :func:`raise_cell`'s order), particle by particle
     over the cells within its support: each pair once, where the gather visits every particle of the
     neighbouring bins (bins as wide as the largest support), so about six times fewer pairs where the
-    supports differ. Serial, in particle order: the sums do not depend on the thread count.
+    supports differ. The window's rows are cut into stripes of ``MAP_STRIPE`` filled in parallel, each
+    stripe by one thread over all particles in their order, so every cell adds its particles in
+    ascending order whatever the thread count: the sums are those of a serial loop, bit for bit.
     ``wall_dist`` as in :func:`grid_maxima`."""
     ny, nx = wall.shape
-    nr, nc = sums.shape[1], sums.shape[2]
+    nr, nc = sums.shape[0], sums.shape[1]
     inv_cell = 1.0 / cell_size
-    for j in range(n):
-        h = hsup[j]
-        px = pos[j, 0]
-        py = pos[j, 1]
-        rad = h * inv_cell
-        r0 = max(int(math.ceil(py * inv_cell - rad)), r_lo, 0)
-        r1 = min(int(math.floor(py * inv_cell + rad)), r_lo + nr - 1, ny - 1)
-        c0 = max(int(math.ceil(px * inv_cell - rad)), c_lo, 0)
-        c1 = min(int(math.floor(px * inv_cell + rad)), c_lo + nc - 1, nx - 1)
-        vj = vol[j]
-        vx = vel[j, 0]
-        vy = vel[j, 1]
-        uj = math.sqrt(vx**2 + vy**2)
-        for r in range(r0, r1 + 1):
-            y = r * cell_size
-            dy = y - py
-            for c in range(c0, c1 + 1):
-                if wall[r, c]:
-                    continue
-                x = c * cell_size
-                dx = x - px
-                rr2 = dx * dx + dy * dy
-                if rr2 < h * h:
-                    if wall_dist[r, c] <= h + cell_size and wall_between(x, y, px, py, inv_cell, wall):
+    rows = np.empty((n, 2), np.int64)  # each particle's first and last row within reach
+    for j in prange(n):
+        rad = hsup[j] * inv_cell
+        rows[j, 0] = max(int(math.ceil(pos[j, 1] * inv_cell - rad)), r_lo, 0)
+        rows[j, 1] = min(int(math.floor(pos[j, 1] * inv_cell + rad)), r_lo + nr - 1, ny - 1)
+    for k in prange((nr + MAP_STRIPE - 1) // MAP_STRIPE):
+        s0 = r_lo + k * MAP_STRIPE
+        s1 = min(s0 + MAP_STRIPE, r_lo + nr) - 1
+        for j in range(n):
+            r0 = max(rows[j, 0], s0)
+            r1 = min(rows[j, 1], s1)
+            if r0 > r1:
+                continue
+            h = hsup[j]
+            px = pos[j, 0]
+            py = pos[j, 1]
+            rad = h * inv_cell
+            c0 = max(int(math.ceil(px * inv_cell - rad)), c_lo, 0)
+            c1 = min(int(math.floor(px * inv_cell + rad)), c_lo + nc - 1, nx - 1)
+            vx = vel[j, 0]
+            vy = vel[j, 1]
+            uj = math.sqrt(vx**2 + vy**2)
+            inv_h = 1.0 / h
+            # Wendland C2 (wendland_w_2d, wendland_f_2d) times V_j, its constants once per particle
+            cw = vol[j] * 7.0 / (math.pi * h * h)
+            cf = vol[j] * -140.0 / (math.pi * h * h * h * h)
+            h2 = h * h
+            inv_d = 1.0 / depth[j]
+            eta_j = eta[j]
+            for r in range(r0, r1 + 1):
+                y = r * cell_size
+                dy = y - py
+                chord = math.sqrt(max(h2 - dy * dy, 0.0))  # the support's half-width on this row
+                first = max(int(math.ceil((px - chord) * inv_cell)), c0)
+                last = min(int(math.floor((px + chord) * inv_cell)), c1)
+                for c in range(first, last + 1):
+                    if wall[r, c]:
                         continue
-                    rj = math.sqrt(rr2)
-                    w = vj * wendland_w_2d(rj, h)
-                    f = vj * wendland_f_2d(rj, h)
-                    rr = r - r_lo
-                    cc = c - c_lo
-                    sums[0, rr, cc] += w
-                    sums[1, rr, cc] += w * uj
-                    sums[4, rr, cc] += w * vx
-                    sums[5, rr, cc] += w * vy
-                    sums[6, rr, cc] += f * dx
-                    sums[7, rr, cc] += f * dy
-                    w /= depth[j]
-                    sums[2, rr, cc] += w
-                    sums[3, rr, cc] += w * eta[j]
+                    x = c * cell_size
+                    dx = x - px
+                    rr2 = dx * dx + dy * dy
+                    if rr2 < h2:
+                        if wall_dist[r, c] <= h + cell_size and wall_between(x, y, px, py, inv_cell, wall):
+                            continue
+                        q = math.sqrt(rr2) * inv_h
+                        e = 1.0 - q
+                        e3 = e * e * e
+                        w = cw * e3 * e * (1.0 + 4.0 * q)
+                        f = cf * e3
+                        rr = r - r_lo
+                        cc = c - c_lo
+                        sums[rr, cc, 0] += w
+                        sums[rr, cc, 1] += w * uj
+                        sums[rr, cc, 4] += w * vx
+                        sums[rr, cc, 5] += w * vy
+                        sums[rr, cc, 6] += f * dx
+                        sums[rr, cc, 7] += f * dy
+                        w *= inv_d
+                        sums[rr, cc, 2] += w
+                        sums[rr, cc, 3] += w * eta_j
 
 
 @njit(parallel=True, cache=True)
 def raise_maxima(sums, r_lo, c_lo, bed, t, wet, max_d, max_v, max_dv, arrival, wall, conveyance):
     """The maxima of the window's cells from :func:`scatter_sums` (:func:`raise_cell`); wall cells
     are never marked."""
-    nr, nc = sums.shape[1], sums.shape[2]
+    nr, nc = sums.shape[0], sums.shape[1]
     for rr in prange(nr):
         for cc in range(nc):
             r = r_lo + rr
             c = c_lo + cc
             if not wall[r, c]:
                 raise_cell(
-                    r, c, sums[0, rr, cc], sums[1, rr, cc], sums[2, rr, cc], sums[3, rr, cc], sums[4, rr, cc],
-                    sums[5, rr, cc], sums[6, rr, cc], sums[7, rr, cc], bed, t, wet, max_d, max_v, max_dv, arrival,
+                    r, c, sums[rr, cc, 0], sums[rr, cc, 1], sums[rr, cc, 2], sums[rr, cc, 3], sums[rr, cc, 4],
+                    sums[rr, cc, 5], sums[rr, cc, 6], sums[rr, cc, 7], bed, t, wet, max_d, max_v, max_dv, arrival,
                     conveyance,
                 )  # fmt: skip
 

@@ -341,8 +341,7 @@ class ShallowWaterSPH:
         """
         if self._built_at is None or len(self._built_at) != self.n:
             return False
-        moved = np.sqrt(((self.pos - self._built_at) ** 2).sum(axis=1))
-        return bool(np.all(self.hsup + moved + moved.max(initial=0.0) <= self._search))
+        return K.lists_hold(self.pos, self._built_at, self.hsup, self._search, self.n)
 
     def _evaluate(self) -> None:
         """Depth and H (Newton), Ω and accelerations at the current positions; lists rebuilt when the
@@ -452,8 +451,8 @@ class ShallowWaterSPH:
         if self.n == 0:
             return out
         sums, r_lo, c_lo = self._map_sums()
-        nr, nc = sums.shape[1:]
-        d, s, se = sums[0], sums[2], sums[3]
+        nr, nc = sums.shape[:2]
+        d, s, se = sums[..., 0], sums[..., 2], sums[..., 3]
         bed = self.bed[r_lo : r_lo + nr, c_lo : c_lo + nc]
         cut = np.divide(se, s, out=np.zeros_like(se), where=s > 0) - bed
         out[r_lo : r_lo + nr, c_lo : c_lo + nc] = np.maximum(np.minimum(d, cut), 0.0)
@@ -469,9 +468,9 @@ class ShallowWaterSPH:
         _, _, _, _, _, r_lo, c_lo, nr, nc = self._maxima_window(xmin, ymin, xmax, ymax, self.hsup.max())
         eta = np.empty(n)
         K.surfaces(self.pos, self.depth, self.bed, n, self.inv_cell, eta)
-        # the sums particle by particle (each pair once), then the cells in parallel; the device gathers
-        # per cell (grid_maxima), the same sums in another order
-        sums = np.zeros((K.MAP_SUMS, nr, nc))
+        # the sums particle by particle (each pair once, stripes of rows in parallel), then the cells in
+        # parallel; the device gathers per cell (grid_maxima), the same sums in another order
+        sums = np.zeros((nr, nc, K.MAP_SUMS))
         K.scatter_sums(
             self.pos, self.vel, self.vol, self.hsup, self.depth, eta, n, self.cell, r_lo, c_lo, self.wall,
             self.wall_dist, sums,

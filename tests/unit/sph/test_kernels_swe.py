@@ -344,6 +344,37 @@ def test_the_maps_gather_and_scatter_agree():
         assert np.allclose(getattr(scatter, k), getattr(gather, k), rtol=1e-12, atol=0.0), k
 
 
+def test_the_maps_sums_do_not_depend_on_the_thread_count():
+    """``scatter_sums`` fills stripes of rows in parallel, each over all particles in order, so every
+    cell adds its particles in the same order on any number of threads: the sums agree bit for bit."""
+    import numba
+
+    from erosim.sph import kernels_swe as K
+
+    rng = np.random.default_rng(11)
+    n = 400
+    pos = rng.uniform(2.0, 60.0, (n, 2))
+    wall = np.zeros((64, 64), bool)
+    wall[30:40, 20] = True
+    wall_dist = np.full(wall.shape, 0.0)  # every cell looks for walls between it and each particle
+    args = (pos, rng.normal(0, 1, (n, 2)), rng.uniform(0.1, 1.0, n), rng.uniform(1.0, 6.0, n),
+            rng.uniform(0.1, 2.0, n), rng.uniform(0.0, 3.0, n), n, 1.0, 0, 0, wall, wall_dist)  # fmt: skip
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one Numba thread only: nothing to compare")
+    sums = {}
+    before = numba.get_num_threads()
+    try:
+        for threads in (1, 2):
+            numba.set_num_threads(threads)
+            sums[threads] = np.zeros((64, 64, K.MAP_SUMS))
+            K.scatter_sums(*args, sums[threads])
+    finally:
+        numba.set_num_threads(before)
+    one, many = sums.values()
+    assert (one[..., 0] > 0).sum() > 1000 and (one[30:40, 20] == 0).all()  # wall cells take nothing
+    np.testing.assert_array_equal(one, many)
+
+
 def test_the_neighbour_lists_hold_exactly_the_pairs_within_the_larger_radius():
     """The pruned bin search (bins a third of the largest radius, a bin skipped when out of reach of
     both radii) lists every pair with r_ij < max(s_i, s_j) and no other, against all pairs by brute
