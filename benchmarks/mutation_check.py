@@ -517,12 +517,22 @@ MUTATIONS = (
         "sph/kernels_swe.py",
         (
             (
-                "                    sums[0, rr, cc] += w\n",
-                "                    sums[0, rr, cc] = max(sums[0, rr, cc], depth[j])\n",
+                "                        sums[rr, cc, 0] += w\n",
+                "                        sums[rr, cc, 0] = max(sums[rr, cc, 0], depth[j])\n",
             ),
         ),
         ("tests/unit/sph/test_kernels_swe.py",),
         "the flood's maps take the deepest particle's own depth in reach, not the SPH depth at the cell centre",
+    ),
+    Mutation(
+        "flood-map-stripes-overlap",
+        "sph/kernels_swe.py",
+        (
+            ("            r0 = max(rows[j, 0], s0)\n", "            r0 = rows[j, 0]\n"),
+            ("            r1 = min(rows[j, 1], s1)\n", "            r1 = rows[j, 1]\n"),
+        ),
+        ("tests/unit/sph/test_kernels_swe.py",),
+        "each stripe of the maps' sums adds its particles to every row they reach, not only its own rows",
     ),
     Mutation(
         "flood-map-no-surface-cut",
