@@ -525,6 +525,13 @@ MUTATIONS = (
         "the flood's maps take the deepest particle's own depth in reach, not the SPH depth at the cell centre",
     ),
     Mutation(
+        "work-queue-skips-items",
+        "kernels/work_queue.py",
+        (("context.get_constant(types.int64, 1)", "context.get_constant(types.int64, 2)"),),
+        ("tests/unit/kernels/test_work_queue.py", "tests/unit/hydrology/test_hydrology_batch.py"),
+        "the lanes' shared counter steps by two: every other droplet of a batch round is never descended",
+    ),
+    Mutation(
         "flood-map-stripes-overlap",
         "sph/kernels_swe.py",
         (

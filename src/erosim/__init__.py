@@ -6,12 +6,18 @@ import re
 import sys
 from pathlib import Path
 
-# Numba's OpenMP layer spin-waits between parallel loops; on a machine shared with other work (CI,
-# a laptop with a browser open) that cost ~1 ms per loop, against ~3 µs for the workqueue layer,
-# and halved SPH throughput at 10⁴–10⁵ particles (docs/performance.md). Workqueue splits loops into
-# fixed chunks, so results stay deterministic for a given thread count. Set
-# NUMBA_THREADING_LAYER=omp (or tbb) before running erosim to choose another layer.
-os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
+# Numba's threading layer: OpenMP where the system has it (libgomp), its threads sleeping between
+# parallel loops (OMP_WAIT_POLICY=passive) rather than spinning, which on a machine shared with other
+# work cost ~1 ms a loop; else workqueue. On the 2-core machine workqueue ran the SPH benchmark 5-45 %
+# and the droplet batches at 1024² 25-35 % slower, idle or with one core taken by another job, its
+# figures scattered from run to run (docs/performance.md, "Threading layer"). Both split a prange loop
+# into the same fixed chunks, so results do not depend on the layer. NUMBA_THREADING_LAYER (omp, tbb,
+# workqueue) or OMP_WAIT_POLICY set before running erosim choose otherwise.
+os.environ.setdefault("NUMBA_THREADING_LAYER_PRIORITY", "omp workqueue tbb")
+os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+if "numba" in sys.modules:  # imported before erosim: its config has read the environment already
+    _cfg = sys.modules["numba"].config
+    _cfg.THREADING_LAYER_PRIORITY = os.environ["NUMBA_THREADING_LAYER_PRIORITY"].split()
 
 __version__ = "0.1.0"
 

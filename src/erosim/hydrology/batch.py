@@ -54,6 +54,7 @@ from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, low
 from erosim.hydrology.loop_kernel import loop_kernel
 from erosim.hydrology.params import P_FOOT, P_MAXSTEPS, P_V0
 from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_SIZE, B_STEPS, NO_LAKE
+from erosim.kernels.work_queue import take
 
 PAUSED = 3  # the droplet's log is full: it goes on descending in the next round
 NEW = 4  # spawns and descends in the next round
@@ -168,15 +169,23 @@ def descend_batch(count, seed, z2, stream, roots, erod, lake_of, level, rain_cdf
     """Phase 1 of a round: the droplets of slots 0 … ``count − 1`` whose row says NEW (spawn
     first), PAUSED or NEXT descend in parallel (:func:`descend_logged`); results back in
     ``res[i]``, logs in ``lc[i]``, ``ldz[i]``, budget terms in ``bd[i]`` (all rows cleared here).
-    ``ov``: one zeroed overlay row (map size) per Numba thread."""
+    ``ov``: one zeroed overlay row (map size) per Numba thread. The slots are taken one at a time by
+    as many lanes as threads (:func:`erosim.kernels.work_queue.take`): droplets differ in length, and a
+    fixed share per thread left one waiting for the other; a droplet's result does not depend on its
+    lane (the lane's overlay row is zero on entry and on return)."""
     zf = z2.reshape(-1)
     sf = stream.reshape(-1)
     rf = roots.reshape(-1)
     ef = erod.reshape(-1)
     base = spawn_base(seed)
-    for i in prange(count):
-        _descend_one(i, numba.get_thread_id(), base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res, lc, ldz,
-                     bd, ov)  # fmt: skip
+    lanes = max(min(ov.shape[0], count), 1)  # one per overlay row, that is per thread
+    counter = np.zeros(1, np.int64)
+    for t in prange(lanes):  # each lane takes the next slot until none is left (dynamic, any layer)
+        while True:
+            i = take(counter)
+            if i >= count:
+                break
+            _descend_one(i, t, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res, lc, ldz, bd, ov)
 
 
 @njit(cache=True)

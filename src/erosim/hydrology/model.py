@@ -42,7 +42,6 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 
-import numba
 import numpy as np
 from numba import njit
 
@@ -640,34 +639,30 @@ class HydrologyModel:
         res[:slots, R_STATUS] = DONE
         entered = 0
         foot = int(self.P[P_FOOT])
-        old = numba.set_parallel_chunksize(4)  # dynamic scheduling: droplets differ in length
-        try:
+        while True:
+            entered = self._enter(res[:slots], first, entered, total, inject)
+            status = res[:slots, R_STATUS]
+            left = np.count_nonzero((status == NEW) | (status == NEXT) | (status == PAUSED))
+            if left == 0:
+                return
+            descend = descend_batch_serial if left < SERIAL_BELOW else descend_batch
+            descend(slots, self.seed, self.z, self.stream, self.cover, self.erod, self.lake_of, self.level,
+                    self.rain_cdf, self.P, res, lc, ldz, bd, ov)  # fmt: skip
+            if self.exchange is not None:  # droplets that left into the halo go to the neighbour
+                self.exchange.record(self.cycles, res, bd, slots)
+            apply_logs(slots, nx, ny, foot, zf, self.lake_of, self.track, res, lc, ldz, bd, self.budget)
+            k = 0
             while True:
-                entered = self._enter(res[:slots], first, entered, total, inject)
-                status = res[:slots, R_STATUS]
-                left = np.count_nonzero((status == NEW) | (status == NEXT) | (status == PAUSED))
-                if left == 0:
-                    return
-                descend = descend_batch_serial if left < SERIAL_BELOW else descend_batch
-                descend(slots, self.seed, self.z, self.stream, self.cover, self.erod, self.lake_of, self.level,
-                        self.rain_cdf, self.P, res, lc, ldz, bd, ov)  # fmt: skip
-                if self.exchange is not None:  # droplets that left into the halo go to the neighbour
-                    self.exchange.record(self.cycles, res, bd, slots)
-                apply_logs(slots, nx, ny, foot, zf, self.lake_of, self.track, res, lc, ldz, bd, self.budget)
-                k = 0
-                while True:
-                    k = batch_floods(
-                        k, slots, res, self.z, self.lake_of, self.level, self.area, self.mroot, self.broot,
-                        self.hkey, self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk,
-                        self.budget, self.P, self.margin, self.lake_cap,
-                    )  # fmt: skip
-                    if k >= slots:
-                        break
-                    self._rebuild()  # heap pool or lake table full: compact, then go on
-                if self.exchange is not None:  # lakes that drained droplets into the halo
-                    self.exchange.record_floods(self.cycles, res, slots, FLOOD_LEFT, DONE)
-        finally:
-            numba.set_parallel_chunksize(old)
+                k = batch_floods(
+                    k, slots, res, self.z, self.lake_of, self.level, self.area, self.mroot, self.broot,
+                    self.hkey, self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack, self.walk,
+                    self.budget, self.P, self.margin, self.lake_cap,
+                )  # fmt: skip
+                if k >= slots:
+                    break
+                self._rebuild()  # heap pool or lake table full: compact, then go on
+            if self.exchange is not None:  # lakes that drained droplets into the halo
+                self.exchange.record_floods(self.cycles, res, slots, FLOOD_LEFT, DONE)
 
     def _enter(self, res: np.ndarray, first: int, entered: int, total: int, inject: np.ndarray | None) -> int:
         """The next droplets into the free (DONE) slots of ``res``, in slot order: droplet first + entered, …
