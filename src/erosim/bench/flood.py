@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from erosim.analysis.hazard import HazardMaps
+from erosim.bench import threading_layer
 from erosim.core.heightmap import Heightmap, default_transform
 from erosim.io.heightmaps import write
 from erosim.scenarios import loader
@@ -128,5 +129,6 @@ def run(
         "flooded_area_m2": summary["flooded_area_m2"],
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "threads": numba.get_num_threads(),
+        "threading_layer": threading_layer(),
         "device": device,
     }

@@ -38,6 +38,7 @@ import os
 import time
 import warnings
 
+from erosim.bench import threading_layer
 from erosim.core import devices
 from erosim.hydrology.pools import B_FLOOD_NS, B_STEPS
 from erosim.scenarios import loader
@@ -109,6 +110,7 @@ def run(
         "batch": nb,
         "device": device,
         "threads": numba.get_num_threads() if nb and device == "cpu" else 1,
+        "threading_layer": threading_layer(),
         "cpu_count": os.cpu_count(),
         **({"gpu": devices.cuda_status()[1]} if device == "cuda" else {}),
     }

@@ -30,6 +30,7 @@ import time
 
 import numpy as np
 
+from erosim.bench import threading_layer
 from erosim.core.devices import cuda_status, require
 from erosim.sph.params import SPHParams
 from erosim.sph.solver import SPHSolver
@@ -137,6 +138,7 @@ def run(
         "pair_interactions_per_s": nf * stats["mean"] * steps / wall,
         "ms_per_step": 1000.0 * wall / steps,
         "threads": int(numba.get_num_threads()),
+        "threading_layer": threading_layer(),
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
         "wall_s": round(wall, 3),
         "cpu_s": round(cpu, 3),

@@ -28,6 +28,7 @@ import time
 
 import numpy as np
 
+from erosim.bench import threading_layer
 from erosim.bench.sph import box_reference
 from erosim.core.schedules import IterationInterval
 from erosim.coupling.coupler import Coupler
@@ -97,5 +98,6 @@ def run(particles: int = 100_000, steps: int | None = None, *, every: int = 20, 
         "eroded_m3": coupler.budget()["eroded"],
         "rebuilds": int(solver.rebuilds - r0),
         "threads": int(numba.get_num_threads()),
+        "threading_layer": threading_layer(),
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
     }

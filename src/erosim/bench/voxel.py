@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import resource
 
+from erosim.bench import threading_layer
 from erosim.bench.sph import box_reference, timed_steps
 from erosim.core.schedules import IterationInterval
 from erosim.coupling.coupler import Coupler
@@ -123,5 +124,6 @@ def run(particles: int = 50_000, steps: int | None = None, *, every: int = 50, w
         "boundary_particles": {"box": int(box.n_boundary), "voxel": int(solver.n_boundary)},
         "eroded_m3": coupler.totals["eroded"],
         "threads": int(numba.get_num_threads()),
+        "threading_layer": threading_layer(),
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
     }

@@ -55,6 +55,7 @@ def test_validate_set_overrides_a_setting_and_is_recorded(cli_runner, tmp_path):
 def test_bench_sph_json_keys(cli_runner):
     out = _json(cli_runner.invoke(cli, ["bench", "sph", "--particles", "500", "--steps", "3", "--json"]))
     assert {"particles", "neighbours_mean", "particle_steps_per_s", "pair_interactions_per_s", "threads"} <= out.keys()
+    assert out["threading_layer"] in ("omp", "workqueue", "tbb")  # figures differ by layer: the JSON says which
     assert out["particle_steps_per_s"] > 0 and out["neighbours_mean"] > 5
 
 
@@ -76,7 +77,8 @@ def test_bench_stream_json_keys(cli_runner):
 
 def test_bench_hydrology_json_keys(cli_runner):
     out = _json(cli_runner.invoke(cli, ["bench", "hydrology", "--size", "32", "--droplets", "50", "--json"]))
-    assert {"size", "droplets_per_s", "steps_per_s", "flood_fraction", "device", "threads"} <= out.keys()
+    keys = {"size", "droplets_per_s", "steps_per_s", "flood_fraction", "device", "threads", "threading_layer"}
+    assert keys <= out.keys()
     assert out["size"] == 32 and 0.0 <= out["flood_fraction"] <= 1.0
     assert out["device"] == "cpu" and out["threads"] == 1 and out["batch"] == 0  # the seed's order
     args = ["bench", "hydrology", "--size", "32", "--droplets", "20", "--preset", "library", "--json"]
