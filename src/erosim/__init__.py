@@ -6,18 +6,32 @@ import re
 import sys
 from pathlib import Path
 
-# Numba's threading layer: OpenMP where the system has it (libgomp), its threads sleeping between
-# parallel loops (OMP_WAIT_POLICY=passive) rather than spinning, which on a machine shared with other
-# work cost ~1 ms a loop; else workqueue. On the 2-core machine workqueue ran the SPH benchmark 5-45 %
-# and the droplet batches at 1024² 25-35 % slower, idle or with one core taken by another job, its
-# figures scattered from run to run (docs/performance.md, "Threading layer"). Both split a prange loop
-# into the same fixed chunks, so results do not depend on the layer. NUMBA_THREADING_LAYER (omp, tbb,
-# workqueue) or OMP_WAIT_POLICY set before running erosim choose otherwise.
-os.environ.setdefault("NUMBA_THREADING_LAYER_PRIORITY", "omp workqueue tbb")
-os.environ.setdefault("OMP_WAIT_POLICY", "passive")
-if "numba" in sys.modules:  # imported before erosim: its config has read the environment already
-    _cfg = sys.modules["numba"].config
-    _cfg.THREADING_LAYER_PRIORITY = os.environ["NUMBA_THREADING_LAYER_PRIORITY"].split()
+# Numba's threading layer. Imported as a library, erosim asks for workqueue: it is fork-safe, so a program
+# may run erosim and then fork worker processes (multiprocessing's default on Linux before Python 3.14),
+# where GNU OpenMP stops a forked child at its first parallel loop. The `erosim` command starts its
+# workers by spawning them and asks for OpenMP instead (:func:`command_threading_layer`).
+_USER_LAYER = "NUMBA_THREADING_LAYER" in os.environ
+os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
+
+
+def command_threading_layer() -> None:
+    """The `erosim` command's threading layer, unless NUMBA_THREADING_LAYER was set: OpenMP where the system
+    has it (libgomp; else workqueue), its threads sleeping between parallel loops (OMP_WAIT_POLICY=passive)
+    rather than spinning, which on a machine shared with other work cost ~1 ms a loop. On the 2-core
+    machine workqueue ran the SPH benchmark 5-45 % and the droplet batches at 1024² 25-35 % slower, idle or
+    with one core taken by another job (docs/performance.md, "Threading layer"). Both layers split a prange
+    loop into the same fixed chunks, so results do not depend on the layer. Set in the environment, the
+    choice reaches the Dask workers the command spawns. Call before any parallel loop has run."""
+    if _USER_LAYER:
+        return
+    os.environ["NUMBA_THREADING_LAYER"] = "default"
+    os.environ.setdefault("NUMBA_THREADING_LAYER_PRIORITY", "omp workqueue tbb")
+    os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+    if "numba" in sys.modules:  # imported already: its config has read the environment
+        cfg = sys.modules["numba"].config
+        cfg.THREADING_LAYER = "default"
+        cfg.THREADING_LAYER_PRIORITY = os.environ["NUMBA_THREADING_LAYER_PRIORITY"].split()
+
 
 __version__ = "0.1.0"
 

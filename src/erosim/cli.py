@@ -812,6 +812,9 @@ def info():
 
 
 def main() -> None:
+    from erosim import command_threading_layer
+
+    command_threading_layer()
     cli(prog_name="erosim")
 
 
