@@ -793,6 +793,7 @@ def info():
     import numba
     import numpy
 
+    from erosim.bench import threading_layer
     from erosim.core.devices import available
     from erosim.scenarios import loader
 
@@ -803,6 +804,7 @@ def info():
             "numpy": numpy.__version__,
             "numba": numba.__version__,
             "threads": numba.get_num_threads(),
+            "threading_layer": threading_layer(),
             "cpu_cores": os.cpu_count(),
             **{f"device {name}": what for name, what in available().items()},
             "scenarios": ", ".join(loader.library_names()),

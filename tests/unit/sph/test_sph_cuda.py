@@ -264,6 +264,7 @@ def test_info_lists_devices(cli_runner):
     res = cli_runner.invoke(cli, ["info"])
     assert res.exit_code == 0
     assert "device cpu" in res.output and "device cuda" in res.output
+    assert "threading_layer" in res.output  # the layer the parallel loops run on (docs/performance.md)
 
 
 TOML = """schema_version = 1
