@@ -356,8 +356,8 @@ MUTATIONS = (
         "hydrology/hillslope_creep_culling1960.py",
         (
             (
-                "                q = c * min(ml, mr) * (old[a, i + 1] - old[a, i])",
-                "                q = 0.0 * c * min(ml, mr) * (old[a, i + 1] - old[a, i])",
+                "                q = c * w * (old[a, i + 1] - old[a, i])",
+                "                q = 0.0 * c * w * (old[a, i + 1] - old[a, i])",
             ),
             ("                    q = c * w * (old[1 - a, i] - old[a, i])", "                    q = 0.0"),
         ),
@@ -369,16 +369,23 @@ MUTATIONS = (
         "hydrology/hillslope_creep_culling1960.py",
         (
             (
-                "                q = c * min(ml, mr) * (old[a, i + 1] - old[a, i])",
-                "                q = c * max(ml, mr) * (old[a, i + 1] - old[a, i])",
+                "        return min(erod[lo], erod[hi])",
+                "        return max(erod[lo], erod[hi])",
             ),
             (
-                "                    w = min(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
-                "                    w = max(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
+                "    return 0.0\n\n\n@njit(cache=True)\ndef _creep(",
+                "    return erod[hi] if lake_of[lo] == -1 else erod[lo]\n\n\n@njit(cache=True)\ndef _creep(",
             ),
         ),
         ("tests/unit/hydrology/test_hillslope_creep.py",),
-        "creep crosses into lakes and bedrock (face weight the larger mobility)",
+        "creep crosses into bedrock (face weight the larger erodibility) and out of lakes",
+    ),
+    Mutation(
+        "creep-stops-at-the-shore",
+        "hydrology/hillslope_creep_culling1960.py",
+        (("    if dh and lake_of[lo] >= 0 and zhi > zlo:\n        return erod[hi]\n", ""),),
+        ("tests/unit/hydrology/test_hillslope_creep.py",),
+        "a shore's soil no longer creeps onto a lake bed on one side of it (the lake beside a lower-index cell)",
     ),
     Mutation(
         "nodata-does-not-drain",

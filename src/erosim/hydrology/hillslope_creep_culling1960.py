@@ -9,9 +9,14 @@ doubled without it); one explicit step per hydrology cycle removes them.
 
 Discretised in flux form over the four faces of each cell, so the terrain's volume is conserved to
 rounding: a face carries c·w·(z_j − z_i) with c = κ/Δx² per cycle and w the smaller mobility of its
-two cells — the cell's erodibility (1 − hardness: bedrock does not creep) on dry land, 0 on a lake
-cell (lakes keep their bed, whose volume their level accounts for), a nodata cell, and beyond the
-map's edge. The explicit step is stable for c ≤ ¼; larger c is split into sub-steps.
+two cells — the cell's erodibility (1 − hardness: bedrock does not creep) on dry land, 0 on a nodata
+cell and beyond the map's edge. A lake cell does not creep, but the soil of a higher dry neighbour
+slumps onto its bed across their face (weight: the dry cell's erodibility), as creep carries a shore into
+the water; the caller makes that gain through the lake bookkeeping
+(:func:`erosim.hydrology.pools.settle_gains`: the water it displaces, a bed raised above the water
+leaving the lake). Without it a lake cell on an aggrading plain kept its bed while the plain rose round
+it, and the library scenario at 512² held 660 one-cell lakes, up to 28 m deep (issue 36). The explicit
+step is stable for c ≤ ¼; larger c is split into sub-steps.
 One Numba pass per sub-step, in place (two rows of the old heights kept aside), the mobility read
 from the erodibility and lake maps as it goes: in NumPy the step made ~10 whole-map temporaries a
 cycle, about 7 % of a 1024² run's time.
@@ -28,9 +33,19 @@ STABLE = 0.2  # largest c of one explicit sub-step (stability limit ¼)
 
 
 @njit(cache=True, inline="always")
-def _mob(erod, lake_of, c):
-    """Mobility of cell c: its erodibility on dry land, 0 on a lake or nodata cell."""
-    return erod[c] if lake_of[c] == -1 else 0.0
+def _face(erod, lake_of, lo, hi, zlo, zhi):
+    """Weight of the face between cells lo and hi (heights zlo, zhi): both dry, the smaller erodibility; a dry
+    cell above a lake cell's bed, the dry cell's (its soil slumps in); otherwise 0 (lake to anything lower,
+    nodata, halo)."""
+    dl = lake_of[lo] == -1
+    dh = lake_of[hi] == -1
+    if dl and dh:
+        return min(erod[lo], erod[hi])
+    if dh and lake_of[lo] >= 0 and zhi > zlo:
+        return erod[hi]
+    if dl and lake_of[hi] >= 0 and zlo > zhi:
+        return erod[lo]
+    return 0.0
 
 
 @njit(cache=True)
@@ -50,17 +65,15 @@ def _creep(z, erod, lake_of, c, steps, old):
             if j + 1 < ny:
                 for i in range(nx):
                     old[1 - a, i] = zf[b + nx + i]
-            ml = _mob(erod, lake_of, b)
             for i in range(nx - 1):  # x faces: q = c·w·(z[i+1] − z[i])
-                mr = _mob(erod, lake_of, b + i + 1)
-                q = c * min(ml, mr) * (old[a, i + 1] - old[a, i])
+                w = _face(erod, lake_of, b + i, b + i + 1, old[a, i], old[a, i + 1])
+                q = c * w * (old[a, i + 1] - old[a, i])
                 zf[b + i] += q
                 zf[b + i + 1] -= q
                 moved += abs(q)
-                ml = mr
             if j + 1 < ny:  # y faces with row j + 1
                 for i in range(nx):
-                    w = min(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))
+                    w = _face(erod, lake_of, b + i, b + nx + i, old[a, i], old[1 - a, i])
                     q = c * w * (old[1 - a, i] - old[a, i])
                     zf[b + i] += q
                     zf[b + nx + i] -= q
@@ -71,7 +84,8 @@ def _creep(z, erod, lake_of, c, steps, old):
 def creep_step(z: np.ndarray, mobility: np.ndarray, c: float, lake_of: np.ndarray | None = None) -> float:
     """Advance ``z`` (m, changed in place) by one cycle of creep with c = κ/Δx² (``mobility`` per
     cell in [0, 1], 0 = does not creep; with ``lake_of`` (flat, the lake of each cell, −1 dry) a
-    cell that is not dry does not creep either).
+    cell that is not dry does not creep either, but a lake cell (≥ 0) receives from a higher dry
+    neighbour: its bed rises, and the caller settles that gain in the lake).
 
     Returns the volume moved across faces per cell area (m), Σ|flux|, for the sediment report.
     """

@@ -30,7 +30,9 @@ Budgets (float64 accumulators, m³):
   evaporated = evaporation along the paths + the volume left in droplets that ended (below the
   minimum volume, at the spill limit, or at the step cap: the seed deletes them); left_edges =
   water that left over a map edge or into the sea (droplets and lakes draining there).
-  closure_rel = |rained − in_lakes − evaporated − left_edges| / rained.
+  closure_rel = |rained − in_lakes − evaporated − left_edges| / rained. Evaporated also holds the water
+  that soil creeping into a lake displaces (``displaced_from_lakes_by_creep``): at the spill level it would
+  run over; the model lets it go, as it lets go the water of droplets that end.
 * sediment — eroded = volume taken from the terrain; deposited = volume put back (along paths,
   on lake beds, where droplets end); carried_off = sediment leaving over an edge or into the sea.
   closure_rel = |eroded − deposited − carried_off| / eroded. Independently,
@@ -683,6 +685,24 @@ class HydrologyModel:
                 res[free, col] = rows[:, c]
         return entered + k
 
+    def _slump_into_lakes(self, wet: np.ndarray, gains: np.ndarray) -> None:
+        """What creep carried from the shores onto the beds of the lake cells ``wet`` (``gains``, m), settled
+        through the lake bookkeeping (:func:`erosim.hydrology.pools.settle_gains`); first, room in the heap pool
+        for one node per cell."""
+        if not np.any(gains > 0.0):
+            return
+        if self.hkey.shape[0] - self.hs[HS_BUMP] < wet.size + 2 * self.margin:
+            self._rebuild()
+            if self.hkey.shape[0] - self.hs[HS_BUMP] < wet.size + 2 * self.margin:
+                self._alloc_pool(self.hkey.shape[0] + wet.size + 2 * self.margin)
+                self._rebuild()
+        displaced = pools.settle_gains(
+            wet, gains, self.z.reshape(-1), self.lake_of, self.level, self.area, self.mroot, self.broot,
+            self.cell_size**2, self.hkey, self.hcell, self.hleft, self.hright, self.hrank, self.hs, self.stack,
+        )  # fmt: skip
+        self.budget[B_TO_LAKES] -= displaced
+        self.budget[pools.B_DISPLACED] += displaced
+
     def attach_exchange(self, exchange) -> None:
         """Make this model a tile of a tiled build (:class:`erosim.hydrology.tile_exchange.TileExchange`): the
         cells outside the tile's core (its halo) become ``lake_of`` = HALO (no rain, no erosion; droplets
@@ -759,11 +779,15 @@ class HydrologyModel:
                 self._run_batch(self.droplets, incoming.shape[0], inject=incoming)
             self.exchange.entered(incoming)
         streams.update(self.stream, self.track, self.p.stream_rate)
-        if self._creep > 0.0 and self.exchange is not None:
-            self._creep_tile()
-        elif self._creep > 0.0:
-            moved = creep_step(self.z, self.erod, self._creep, self.lake_of)  # dry land only
-            self.budget[pools.B_CREPT] += moved * self.cell_size**2
+        if self._creep > 0.0:
+            wet = np.flatnonzero(self.lake_of >= 0)
+            bed = self.z.reshape(-1)[wet]
+            if self.exchange is not None:
+                self._creep_tile()
+            else:
+                moved = creep_step(self.z, self.erod, self._creep, self.lake_of)  # dry land, and into lakes
+                self.budget[pools.B_CREPT] += moved * self.cell_size**2
+            self._slump_into_lakes(wet, self.z.reshape(-1)[wet] - bed)
         if self.veg.enabled:
             rng = np.random.default_rng([self.seed & 0xFFFFFFFF, self.cycles, 0x5EED])
             vegetation.step(
@@ -819,7 +843,8 @@ class HydrologyModel:
         ca = self.cell_size**2
         rained = float(B[B_RAINED])
         in_lakes = float(self.lake_depth().sum() * ca)
-        evaporated = float(B[B_EVAP] + B[B_RESID])
+        displaced = float(B[pools.B_DISPLACED])
+        evaporated = float(B[B_EVAP] + B[B_RESID]) + displaced
         left = float(B[B_LEFT])
         entered = float(self.exchange.flow[0]) if self.exchange is not None else 0.0
         supplied = rained + entered
@@ -833,6 +858,7 @@ class HydrologyModel:
             "closure_rel": closure,
             "evaporated_in_flight": float(B[B_EVAP]),
             "ended_in_droplets": float(B[B_RESID]),
+            "displaced_from_lakes_by_creep": displaced,
             "in_lakes_tracked": float(B[B_TO_LAKES]),
         }
         if self.exchange is not None:  # a tile: closure = |rained + entered − in lakes − evaporated − left|
@@ -927,8 +953,11 @@ class HydrologyModel:
                 "sized maps); "
                 "start the run again without --resume."
             )
-        for name in ("z", "z0", "stream", "cover", "trees", "lake_of", "budget"):
+        for name in ("z", "z0", "stream", "cover", "trees", "lake_of"):
             getattr(self, name)[...] = st[name]
+        b = np.asarray(st["budget"])  # a checkpoint from before the creep into lakes has one term fewer
+        self.budget[:] = 0.0
+        self.budget[: b.size] = b
         k = np.asarray(st["level"]).size
         for name in ("level", "area", "mroot", "broot"):
             getattr(self, name)[:k] = st[name]

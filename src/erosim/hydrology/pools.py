@@ -67,7 +67,8 @@ B_FLOOD_NS = 8  # nanoseconds spent in flood (when timing)
 B_STEPS = 9  # descend steps
 B_FLOODS = 10  # flood calls
 B_CREPT = 11  # terrain volume moved by hillslope creep (hydrology/hillslope_creep_culling1960.py)
-B_SIZE = 12
+B_DISPLACED = 12  # lake water displaced by soil creeping in from the shore (:func:`settle_gains`)
+B_SIZE = 13
 
 OFF = -1  # heap cell code offset: off-map entries are stored as -(edge cell + 2)
 
@@ -386,6 +387,28 @@ def settle_on_cell(
     area[k] -= 1
     broot[k] = push(broot[k], zf[c], c, hkey, hcell, hleft, hright, hrank, hs, stack)
     return depth * cell_area
+
+
+@njit(cache=True)
+def settle_gains(
+    cells, gains, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft, hright, hrank, hs, stack
+):
+    """Heights ``gains`` (m) that lake ``cells`` received from outside the droplets (soil creeping in from
+    the shore) made through the lake bookkeeping: each cell's bed back to where it was, then its gain
+    settled on it (:func:`settle_on_cell`: a cell whose bed rises above the water leaves the lake). A cell no
+    longer in a lake keeps its gain as dry land. Returns the water displaced (m³)."""
+    displaced = 0.0
+    for t in range(cells.shape[0]):
+        g = gains[t]
+        c = cells[t]
+        k = lake_of[c]
+        if g > 0.0 and k >= 0:
+            zf[c] -= g
+            displaced += settle_on_cell(
+                k, c, g * cell_area, zf, lake_of, level, area, mroot, broot, cell_area, hkey, hcell, hleft, hright,
+                hrank, hs, stack,
+            )  # fmt: skip
+    return displaced
 
 
 @njit(cache=True)

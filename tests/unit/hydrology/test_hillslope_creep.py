@@ -39,6 +39,20 @@ def test_no_flux_into_rock_lakes_or_beyond_the_edge():
     assert not np.array_equal(z[:, :4], z0[:, :4]) and abs(z.sum() - z0.sum()) < 1e-12
 
 
+def test_the_shore_creeps_into_a_lake_and_nothing_creeps_out():
+    """A dry cell above a lake cell's bed sends c·Δz across their face, as between two dry cells (the shore's
+    soil slumps into the water), from either side; a lake bed above a dry neighbour sends nothing (lake cells
+    do not creep); rock sends nothing. One row: dry 1.0 | lake 0.0 | dry 0.6 | rock 2.0 | dry 0.0, then
+    lake 1.0 | dry 0.0."""
+    c = 0.05
+    z = np.array([[1.0, 0.0, 0.6, 2.0, 0.0]])
+    creep_step(z, np.array([[1.0, 1.0, 1.0, 0.0, 1.0]]), c, np.array([-1, 0, -1, -1, -1]))
+    np.testing.assert_allclose(z[0], [1.0 - c, 1.6 * c, 0.6 - 0.6 * c, 2.0, 0.0], rtol=0, atol=1e-15)
+    z = np.array([[1.0, 0.0]])
+    creep_step(z, np.ones((1, 2)), c, np.array([0, -1]))
+    np.testing.assert_array_equal(z[0], [1.0, 0.0])
+
+
 def test_a_large_coefficient_is_sub_stepped_and_stays_stable():
     """c = 1 in one explicit step would flip and grow a checkerboard (1 − 8 = −7); split into
     sub-steps of at most 0.2 it decays."""

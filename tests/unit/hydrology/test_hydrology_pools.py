@@ -263,3 +263,27 @@ def test_a_lakes_sediment_settles_over_the_droplets_reach(spread):
     assert np.allclose(rise[3 : 4 + spread, 3 : 4 + spread], S / cells, rtol=1e-12)
     assert abs(rise.sum() - S) < 1e-12 * S
     assert abs(displaced - S) < 1e-12 * S
+
+
+def test_soil_creeping_into_a_lake_displaces_its_water_or_fills_the_cell():
+    """settle_gains: a lake cell's bed gain from the shore is made through the bookkeeping. In the east basin
+    filled 3 m deep (100 m², 300 m³), a 0.5 m gain on one cell displaces 0.5 m³ and the cell stays wet; a 4 m
+    gain on another raises its bed above the water: the cell leaves the lake, displacing its whole 3 m column;
+    a dry cell keeps its gain. Cells of 1 m."""
+    m = _model(_two_basins())
+    _flood(m, 8, 20, 300.0)
+    nx = m.z.shape[1]
+    zf = m.z.reshape(-1)
+    a, b, dry = 8 * nx + 20, 10 * nx + 22, 2 * nx + 2
+    k = m.lake_of[a]
+    assert k >= 0 and m.lake_of[b] == k and m.lake_of[dry] == pools.NO_LAKE
+    cells = np.array([a, b, dry])
+    zf[cells] += np.array([0.5, 4.0, 0.7])  # what creep added
+    displaced = pools.settle_gains(
+        cells, np.array([0.5, 4.0, 0.7]), zf, m.lake_of, m.level, m.area, m.mroot, m.broot, 1.0, m.hkey, m.hcell,
+        m.hleft, m.hright, m.hrank, m.hs, m.stack,
+    )  # fmt: skip
+    assert displaced == pytest.approx(0.5 + 3.0, abs=1e-12)
+    np.testing.assert_allclose(zf[cells], [0.5, 4.0, 10.7], atol=1e-12)
+    assert m.lake_of[a] == k and m.lake_of[b] == pools.NO_LAKE and m.area[k] == 99
+    assert m.level[k] == pytest.approx(3.0, abs=1e-12)
