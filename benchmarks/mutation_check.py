@@ -368,22 +368,19 @@ MUTATIONS = (
         "creep-into-bedrock",
         "hydrology/hillslope_creep_culling1960.py",
         (
+            ("                w = min(ml, mr)\n", "                w = max(ml, mr)\n"),
             (
-                "        return min(erod[lo], erod[hi])",
-                "        return max(erod[lo], erod[hi])",
-            ),
-            (
-                "    return 0.0\n\n\n@njit(cache=True)\ndef _creep(",
-                "    return erod[hi] if lake_of[lo] == -1 else erod[lo]\n\n\n@njit(cache=True)\ndef _creep(",
+                "                    w = min(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
+                "                    w = max(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
             ),
         ),
         ("tests/unit/hydrology/test_hillslope_creep.py",),
-        "creep crosses into bedrock (face weight the larger erodibility) and out of lakes",
+        "creep crosses into lakes and bedrock (face weight the larger mobility)",
     ),
     Mutation(
         "creep-stops-at-the-shore",
         "hydrology/hillslope_creep_culling1960.py",
-        (("    if dh and lake_of[lo] >= 0 and zhi > zlo:\n        return erod[hi]\n", ""),),
+        (("    if lake_of[hi] == -1 and lake_of[lo] >= 0 and zhi > zlo:\n        return erod[hi]\n", ""),),
         ("tests/unit/hydrology/test_hillslope_creep.py",),
         "a shore's soil no longer creeps onto a lake bed on one side of it (the lake beside a lower-index cell)",
     ),

@@ -33,17 +33,18 @@ STABLE = 0.2  # largest c of one explicit sub-step (stability limit ¼)
 
 
 @njit(cache=True, inline="always")
-def _face(erod, lake_of, lo, hi, zlo, zhi):
-    """Weight of the face between cells lo and hi (heights zlo, zhi): both dry, the smaller erodibility; a dry
-    cell above a lake cell's bed, the dry cell's (its soil slumps in); otherwise 0 (lake to anything lower,
-    nodata, halo)."""
-    dl = lake_of[lo] == -1
-    dh = lake_of[hi] == -1
-    if dl and dh:
-        return min(erod[lo], erod[hi])
-    if dh and lake_of[lo] >= 0 and zhi > zlo:
+def _mob(erod, lake_of, c):
+    """Mobility of cell c: its erodibility on dry land, 0 on a lake, nodata or halo cell."""
+    return erod[c] if lake_of[c] == -1 else 0.0
+
+
+@njit(cache=True, inline="always")
+def _shore(erod, lake_of, lo, hi, zlo, zhi):
+    """Weight of a face that dry land alone does not carry: a dry cell above a lake cell's bed sends its soil
+    in, with its own erodibility; otherwise 0 (a lake to anything lower, nodata, halo, rock)."""
+    if lake_of[hi] == -1 and lake_of[lo] >= 0 and zhi > zlo:
         return erod[hi]
-    if dl and lake_of[hi] >= 0 and zlo > zhi:
+    if lake_of[lo] == -1 and lake_of[hi] >= 0 and zlo > zhi:
         return erod[lo]
     return 0.0
 
@@ -65,15 +66,22 @@ def _creep(z, erod, lake_of, c, steps, old):
             if j + 1 < ny:
                 for i in range(nx):
                     old[1 - a, i] = zf[b + nx + i]
+            ml = _mob(erod, lake_of, b)
             for i in range(nx - 1):  # x faces: q = c·w·(z[i+1] − z[i])
-                w = _face(erod, lake_of, b + i, b + i + 1, old[a, i], old[a, i + 1])
+                mr = _mob(erod, lake_of, b + i + 1)
+                w = min(ml, mr)
+                if w == 0.0:  # a lake, rock or nodata on one side: only a shore sends soil
+                    w = _shore(erod, lake_of, b + i, b + i + 1, old[a, i], old[a, i + 1])
                 q = c * w * (old[a, i + 1] - old[a, i])
                 zf[b + i] += q
                 zf[b + i + 1] -= q
                 moved += abs(q)
+                ml = mr
             if j + 1 < ny:  # y faces with row j + 1
                 for i in range(nx):
-                    w = _face(erod, lake_of, b + i, b + nx + i, old[a, i], old[1 - a, i])
+                    w = min(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))
+                    if w == 0.0:
+                        w = _shore(erod, lake_of, b + i, b + nx + i, old[a, i], old[1 - a, i])
                     q = c * w * (old[1 - a, i] - old[a, i])
                     zf[b + i] += q
                     zf[b + nx + i] -= q
