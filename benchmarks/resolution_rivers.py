@@ -26,7 +26,10 @@ block-averaged to the coarse grid before D8 (``surface_on_coarse_grid``: its riv
 coarse cell, free of the finer grid's D8 paths), for the runs' stream maps (top 2 %,
 stream brought to the coarse grid by the block mean), with a one-cell tolerance (a coarse cell counts
 as matched when a main-river cell of the other run lies among its 8 neighbours), and the runs' wall
-times.
+times. Every run is on terrain seed SEED. ``--seed-pair`` runs the coarse size once more with droplet
+seed SEED + 1 on the same terrain and gives the same measures between the two coarse runs
+(``seed_pair``): how far the model's own scatter lets two runs of one landscape agree, the yardstick for
+the two resolutions' figures. ``--set KEY=VALUE`` passes a setting to every run.
 """
 
 from __future__ import annotations
@@ -139,31 +142,42 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--out", default="/tmp/resolution-rivers")
     ap.add_argument("--skip-runs", action="store_true", help="measure the runs already in --out")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a setting for every run")
+    ap.add_argument("--seed-pair", action="store_true", help="also the coarse size with seed + 1 on the same terrain")
     args = ap.parse_args()
     out = Path(args.out)
     sizes = (args.coarse, args.coarse * args.factor)
     cells = tuple(args.extent / n for n in sizes)
     tag = f"l{args.length_scale:g}" if args.length_scale > 0 else "l2cells"
     result: dict = {"sizes": sizes, "cell_size_m": cells, "extent_m": args.extent, "cycles": args.cycles,
-                    "length_scale_m": args.length_scale or "two cells", "seed": args.seed, "runs": {}}  # fmt: skip
-    folders = []
-    for n, cell in zip(sizes, cells, strict=True):
-        folder = out / f"n{n}_{tag}"
-        folders.append(folder)
+                    "length_scale_m": args.length_scale or "two cells", "seed": args.seed, "settings": args.set,
+                    "runs": {}}  # fmt: skip
+    runs = [(n, cell, args.seed, out / f"n{n}_{tag}") for n, cell in zip(sizes, cells, strict=True)]
+    if args.seed_pair:  # the coarse run again with other droplets on the same terrain: the model's own scatter
+        runs.append((sizes[0], cells[0], args.seed + 1, out / f"n{sizes[0]}_{tag}_seed{args.seed + 1}"))
+    for n, cell, seed, folder in runs:
         cmd = [sys.executable, "-m", "erosim", "--quiet", "run", "hydrology", "--set", f"terrain.size={n}",
-               "--set", f"terrain.cell_size={cell!r}", "--set", f"run.cycles={args.cycles}", "--set", "run.frames=0",
-               "--set", f"seed={args.seed}", "--out", str(folder), "--overwrite"]  # fmt: skip
+               "--set", f"terrain.cell_size={cell!r}", "--set", f"terrain.seed={args.seed}", "--set", f"seed={seed}",
+               "--set", f"run.cycles={args.cycles}", "--set", "run.frames=0",
+               "--out", str(folder), "--overwrite"]  # fmt: skip
         if args.length_scale > 0:
             cmd[-3:-3] = ["--set", f"hydrology.length_scale={args.length_scale!r}"]
+        for setting in args.set:
+            cmd[-3:-3] = ["--set", setting]
+        key = str(n) if seed == args.seed else f"{n}_seed{seed}"
         if not args.skip_runs:
             import subprocess
 
             t0 = time.perf_counter()
             subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)  # its summary table: not this JSON
-            result["runs"][str(n)] = {"wall_s": round(time.perf_counter() - t0, 1), "command": " ".join(cmd[1:])}
+            result["runs"][key] = {"wall_s": round(time.perf_counter() - t0, 1), "command": " ".join(cmd[1:])}
         report = json.loads((folder / "report.json").read_text())
-        result["runs"].setdefault(str(n), {})["droplets"] = report.get("statistics", {}).get("droplets")
-    result.update(compare(folders[0], folders[1], args.factor, cells[0], cells[1]))
+        result["runs"].setdefault(key, {})["droplets"] = report.get("statistics", {}).get("droplets")
+    result.update(compare(runs[0][3], runs[1][3], args.factor, cells[0], cells[1]))
+    if args.seed_pair:
+        pair = compare(runs[0][3], runs[2][3], 1, cells[0], cells[0])
+        result["seed_pair"] = {"final": {k: v for k, v in pair["final"].items() if not k.startswith("surface")},
+                               "stream_top2pct": pair["stream_top2pct"]}  # fmt: skip
     print(json.dumps(result, indent=1))
 
 
