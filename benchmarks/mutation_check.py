@@ -385,6 +385,36 @@ MUTATIONS = (
         "a shore's soil no longer creeps onto a lake bed on one side of it (the lake beside a lower-index cell)",
     ),
     Mutation(
+        "dry-load-on-one-cell",
+        "hydrology/pools.py",
+        (
+            (
+                "            settle_dry(c, dep, zf, lake_of, level, sea_level, nx, cell_area, spread)\n",
+                "            zf[c] += dep / cell_area\n",
+            ),
+        ),
+        ("tests/unit/hydrology/test_hydrology_pools.py",),
+        "a droplet flooding at a dry cell drops its load on that one cell again (a spike S/Δx² tall)",
+    ),
+    Mutation(
+        "dry-load-as-a-pyramid",
+        "hydrology/pools.py",
+        (
+            (
+                "    dry = count_in(lake_of, box, nx, NO_LAKE)\n",
+                "    dry = 0\n    for j in range(j_lo, j_hi):\n        for i in range(i_lo, i_hi):\n"
+                "            if lake_of[j * nx + i] == NO_LAKE:\n"
+                "                dry += spread + 1 - max(abs(j - iy), abs(i - ix))\n",
+            ),
+            (
+                "                zf[j * nx + i] += dz\n",
+                "                zf[j * nx + i] += dz * (spread + 1 - max(abs(j - iy), abs(i - ix)))\n",
+            ),
+        ),
+        ("tests/unit/hydrology/test_hydrology_pools.py", "tests/scenarios/test_users_dems.py"),
+        "a dry load's remainder spreads as a pyramid, leaving the filled pit a mound, instead of as a layer",
+    ),
+    Mutation(
         "nodata-does-not-drain",
         "hydrology/droplet_step.py",
         ((NODATA_LEAVES, NODATA_LEAVES.replace(" or lake_of[cn] == OUTSIDE", "")),),

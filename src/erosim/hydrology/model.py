@@ -107,6 +107,7 @@ from erosim.hydrology.pools import (
     HS_BUMP,
     HS_NLAKES,
     flood,
+    settle_dry,
     settle_in_lake,
     walk_down,
 )
@@ -140,7 +141,8 @@ def _lake_spread(P):
 @njit(cache=True)
 def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs, stack, nx):
     """A droplet ends at cell c (a map ``nx`` cells wide): its volume counts as evaporated, its sediment
-    settles there (in a lake over the droplet's reach, :func:`erosim.hydrology.pools.settle_in_lake`)."""
+    settles over the droplet's reach there, in the lake c is in (:func:`erosim.hydrology.pools.settle_in_lake`)
+    or on the dry cells (:func:`erosim.hydrology.pools.settle_dry`)."""
     B[B_RESID] += V
     if S <= 0.0:
         return
@@ -156,7 +158,7 @@ def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, 
     elif zf[c] < P[P_SEA]:
         B[B_CARRIED] += S
     else:
-        zf[c] += S / P[P_CA]
+        settle_dry(c, S, zf, lake_of, level, P[P_SEA], nx, P[P_CA], _lake_spread(P))
         B[B_DEPOSITED] += S
 
 

@@ -287,3 +287,77 @@ def test_soil_creeping_into_a_lake_displaces_its_water_or_fills_the_cell():
     np.testing.assert_allclose(zf[cells], [0.5, 4.0, 10.7], atol=1e-12)
     assert m.lake_of[a] == k and m.lake_of[b] == pools.NO_LAKE and m.area[k] == 99
     assert m.level[k] == pytest.approx(3.0, abs=1e-12)
+
+
+def _settle_dry(m, c, amount, spread):
+    nx = m.z.shape[1]
+    pools.settle_dry(c, amount, m.z.reshape(-1), m.lake_of, m.level, -np.inf, nx, 1.0, spread)
+
+
+def test_a_dry_load_fills_its_pit_then_spreads_as_a_layer_over_the_reach():
+    """A load S settling at a dry one-cell pit 0.5 m below its lowest neighbour (issue 38) first
+    fills the pit to that rim (0.5 m³ on 1 m² cells), then the rest spreads in equal heights over the
+    dry cells within ``spread`` = 2 cells (a 5 × 5 square): the pit ends level with its rim plus the
+    layer, not above it. A lake cell in the square gets none, cells beyond it none, and the volume is
+    kept to rounding."""
+    z = np.full((11, 11), 10.0)
+    z[5, 5] = 9.5  # the pit; its rim is 10 m
+    z[5, 8] = 9.0  # a dry cell beyond the reach, lower, must not change
+    m = _model(z)
+    m.lake_of[4 * 11 + 6] = 0  # one cell of the square marked a lake's (level 10 m, at the rim): it takes no share
+    m.level[0] = 10.0
+    before = m.z.copy()
+    S = 24.5  # m³: 0.5 into the pit, 24 over the 24 dry cells of the square
+    _settle_dry(m, 5 * 11 + 5, S, 2)
+    rise = m.z - before
+    assert rise[5, 5] == pytest.approx(1.5, rel=1e-12)  # 0.5 to the rim, then the 1 m layer
+    assert m.z[5, 5] == pytest.approx(m.z[5, 4], rel=1e-12)  # level with its rim: no mound
+    square = rise[3:8, 3:8].copy()
+    square[2, 2] -= 0.5
+    square[1, 3] += 1.0  # the lake cell's missing share
+    np.testing.assert_allclose(square, 1.0, rtol=1e-12)
+    assert rise[4, 6] == 0.0
+    assert np.count_nonzero(rise) == 24
+    assert abs(rise.sum() - S) < 1e-12 * S
+
+
+def test_a_small_load_only_fills_part_of_its_pit_and_the_seeds_droplets_keep_one_cell():
+    """A load smaller than the pit's room stays in the pit (the rest of the map untouched); with
+    ``spread`` 0 (the seed's one-cell droplets) the whole load lands on the cell, pit or not."""
+    z = np.full((7, 7), 10.0)
+    z[3, 3] = 9.0
+    m = _model(z)
+    before = m.z.copy()
+    _settle_dry(m, 3 * 7 + 3, 0.25, 2)
+    assert m.z[3, 3] - before[3, 3] == pytest.approx(0.25, rel=1e-12)
+    assert np.count_nonzero(m.z - before) == 1
+    _settle_dry(m, 3 * 7 + 3, 3.0, 0)
+    assert m.z[3, 3] - before[3, 3] == pytest.approx(3.25, rel=1e-12)
+    assert np.count_nonzero(m.z - before) == 1
+
+
+def test_a_droplet_stopping_in_a_dry_pit_fills_it_and_leaves_no_spike():
+    """A droplet with sediment S that floods at a dry one-cell pit of room 0.2 m³ settles 0.9·S there
+    (the seed keeps 10 % when it drains on): the pit is filled to its rim and the rest laid over its
+    reach, so the cell ends one layer above its rim, not 0.9·S/Δx² above its floor (issue 38); the
+    sediment budget counts the deposit."""
+    z = np.full((9, 9), 10.0)
+    z[4, 4] = 9.8
+    z[:, 0] = 0.0  # an open side: water can leave
+    m = _model(z)
+    before = m.z.copy()
+    S = 20.0
+    ny, nx = m.z.shape
+    P = m.P
+    _, _, _, S_kept = pools.flood(
+        4 * nx + 4, 1.0, S, nx, ny, m.z.reshape(-1), m.lake_of, m.level, m.area, m.mroot, m.broot, m.budget,
+        P[14], P[15], P[11], P[16], m.hkey, m.hcell, m.hleft, m.hright, m.hrank, m.hs, m.stack, m.walk, 2,
+    )  # fmt: skip
+    rise = m.z - before
+    dep = 0.9 * S
+    assert S_kept == pytest.approx(0.1 * S, rel=1e-12)
+    assert abs(rise.sum() - dep) < 1e-12 * dep
+    layer = (dep - 0.2) / 25.0  # the rest over the 5 × 5 square, all dry
+    assert m.z[4, 4] == pytest.approx(10.0 + layer, rel=1e-12)
+    np.testing.assert_allclose(rise[2:7, 2:7][rise[2:7, 2:7] != rise[4, 4]], layer, rtol=1e-12)
+    assert m.budget[pools.B_DEPOSITED] == pytest.approx(dep, rel=1e-12)
