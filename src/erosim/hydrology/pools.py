@@ -354,7 +354,7 @@ def settle_dry(c, amount, zf, lake_of, level, sea_level, nx, cell_area, spread=0
     times taller on 5 m cells than on 20 m cells for the same load, and left pits between the spikes
     where later droplets stopped and flooded, the more often the finer the grid. (A pyramid over
     the reach instead of a layer leaves c a mound at the bottom of its pit, and a closed bowl then
-    held a quarter less of its rain: `tests/scenarios/test_users_dems.py`.)
+    kept 77 % of its rain in its lake instead of 94 %: `tests/scenarios/test_users_dems.py`.)
     """
     if amount <= 0.0:
         return
