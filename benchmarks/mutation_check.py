@@ -404,11 +404,11 @@ MUTATIONS = (
                 "    dry = count_in(lake_of, box, nx, NO_LAKE)\n",
                 "    dry = 0\n    for j in range(j_lo, j_hi):\n        for i in range(i_lo, i_hi):\n"
                 "            if lake_of[j * nx + i] == NO_LAKE:\n"
-                "                dry += spread + 1 - max(abs(j - iy), abs(i - ix))\n",
+                "                dry += spread + 1 - max(abs(j - c // nx), abs(i - c % nx))\n",
             ),
             (
                 "                zf[j * nx + i] += dz\n",
-                "                zf[j * nx + i] += dz * (spread + 1 - max(abs(j - iy), abs(i - ix)))\n",
+                "                zf[j * nx + i] += dz * (spread + 1 - max(abs(j - c // nx), abs(i - c % nx)))\n",
             ),
         ),
         ("tests/unit/hydrology/test_hydrology_pools.py", "tests/scenarios/test_users_dems.py"),

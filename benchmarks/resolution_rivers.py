@@ -111,7 +111,9 @@ def _tolerant_iou(a: np.ndarray, b: np.ndarray) -> float:
     return float(hit / (np.count_nonzero(a) + np.count_nonzero(b)))
 
 
-def compare(coarse: Path, fine: Path, f: int, cell_c: float, cell_f: float) -> dict:
+def compare(coarse: Path, fine: Path, f: int, cell_c: float, cell_f: float, masks: dict | None = None) -> dict:
+    """The measures of the module docstring for two runs; ``masks`` (a dict) receives the final main-river
+    masks of both on the coarse grid (``coarse``, ``fine``)."""
     out = {}
     for when in ("initial", "final"):
         z_c = _read(coarse / "maps" / ("height_initial.tif" if when == "initial" else "height.tif"))
@@ -122,15 +124,22 @@ def compare(coarse: Path, fine: Path, f: int, cell_c: float, cell_f: float) -> d
         a_c = flow_area(z_c, cell_c)
         a_f = _blocks(flow_area(z_f, cell_f), f, np.max)
         m_c, m_f = _top(a_c), _top(a_f)
+        if masks is not None and when == "final":
+            masks.update(coarse=m_c, fine=m_f)
         m_s = _top(flow_area(_blocks(z_f, f, np.mean), cell_c))  # the finer surface seen on the coarse grid
         out[when] = {"main_rivers_iou_top2pct": _iou(m_c, m_f), "within_one_cell": _tolerant_iou(m_c, m_f),
                      "cells": [int(m_c.sum()), int(m_f.sum())],
                      "surface_on_coarse_grid_iou": _iou(m_c, m_s),
                      "surface_on_coarse_grid_within_one_cell": _tolerant_iou(m_c, m_s)}  # fmt: skip
-    s_c = _read(coarse / "maps" / "stream.tif")
-    s_f = _blocks(_read(fine / "maps" / "stream.tif"), f, np.mean)
-    out["stream_top2pct"] = {"iou": _iou(_top(s_c), _top(s_f)), "within_one_cell": _tolerant_iou(_top(s_c), _top(s_f))}
+    out["stream_top2pct"] = _stream_measures(coarse, fine, f)
     return out
+
+
+def _stream_measures(a: Path, b: Path, f: int) -> dict:
+    """IoU of the two runs' stream maps' top 2 %, run b's brought to a's grid by the block mean."""
+    s_a = _top(_read(a / "maps" / "stream.tif"))
+    s_b = _top(_blocks(_read(b / "maps" / "stream.tif"), f, np.mean))
+    return {"iou": _iou(s_a, s_b), "within_one_cell": _tolerant_iou(s_a, s_b)}
 
 
 def main_rivers(run: Path, f: int, cell: float) -> np.ndarray:
@@ -208,20 +217,20 @@ def main() -> None:
             result["runs"][key] = {"wall_s": round(time.perf_counter() - t0, 1), "command": " ".join(cmd[1:])}
         report = json.loads((folder / "report.json").read_text())
         result["runs"].setdefault(key, {})["droplets"] = report.get("statistics", {}).get("droplets")
-    result.update(compare(runs[0][3], runs[1][3], args.factor, cells[0], cells[1]))
-    if args.figure:
-        coarse = main_rivers(runs[0][3], 1, cells[0])
-        pairs = [(f"{sizes[0]}² against {sizes[1]}², seed {args.seed}", coarse,
-                  main_rivers(runs[1][3], args.factor, cells[1]), f"{sizes[0]}²", f"{sizes[1]}²")]  # fmt: skip
-        if args.seed_pair:
-            other = main_rivers(runs[2][3], 1, cells[0])
-            pairs.append((f"{sizes[0]}²: seed {args.seed} against seed {args.seed + 1}", coarse, other,
-                          f"seed {args.seed}", f"seed {args.seed + 1}"))  # fmt: skip
-        figure(Path(args.figure), pairs, cells[0], 5000.0)
+    masks: dict = {}
+    result.update(compare(runs[0][3], runs[1][3], args.factor, cells[0], cells[1], masks))
+    pairs = [(f"{sizes[0]}² against {sizes[1]}², seed {args.seed}", masks["coarse"], masks["fine"],
+              f"{sizes[0]}²", f"{sizes[1]}²")]  # fmt: skip
     if args.seed_pair:
-        pair = compare(runs[0][3], runs[2][3], 1, cells[0], cells[0])
-        result["seed_pair"] = {"final": {k: v for k, v in pair["final"].items() if not k.startswith("surface")},
-                               "stream_top2pct": pair["stream_top2pct"]}  # fmt: skip
+        other = main_rivers(runs[2][3], 1, cells[0])
+        mc = masks["coarse"]
+        final = {"main_rivers_iou_top2pct": _iou(mc, other), "within_one_cell": _tolerant_iou(mc, other),
+                 "cells": [int(mc.sum()), int(other.sum())]}  # fmt: skip
+        result["seed_pair"] = {"final": final, "stream_top2pct": _stream_measures(runs[0][3], runs[2][3], 1)}
+        pairs.append((f"{sizes[0]}²: seed {args.seed} against seed {args.seed + 1}", mc, other,
+                      f"seed {args.seed}", f"seed {args.seed + 1}"))  # fmt: skip
+    if args.figure:
+        figure(Path(args.figure), pairs, cells[0], 5000.0)
     print(json.dumps(result, indent=1))
 
 

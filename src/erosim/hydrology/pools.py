@@ -362,11 +362,10 @@ def settle_dry(c, amount, zf, lake_of, level, sea_level, nx, cell_area, spread=0
         zf[c] += amount / cell_area
         return
     ny = zf.shape[0] // nx
-    iy = c // nx
-    ix = c - iy * nx
+    j_lo, j_hi, i_lo, i_hi = reach(c, nx, ny, 1)
     rim = math.inf
-    for j in range(max(iy - 1, 0), min(iy + 2, ny)):
-        for i in range(max(ix - 1, 0), min(ix + 2, nx)):
+    for j in range(j_lo, j_hi):
+        for i in range(i_lo, i_hi):
             n = j * nx + i
             if n != c and lake_of[n] != OUTSIDE:
                 rim = min(rim, surface(n, zf, lake_of, level, sea_level))
