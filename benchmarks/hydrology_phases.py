@@ -4,7 +4,8 @@
     NUMBA_NUM_THREADS=1 .venv/bin/python benchmarks/hydrology_phases.py --size 512
 
 Runs one untimed cycle (compilation), then ``--cycles`` cycles with timers around the batch phases
-(parallel descents, the one-thread descents of a round's last few droplets, logs applied, lakes filled)
+(parallel descents, the one-thread descents of a round's last few droplets, logs applied, lakes filled) and
+around the cycle's other passes (creep, the stream map, vegetation, lake rebuilds, creep into lakes)
 and prints milliseconds per cycle of wall and CPU time, the phases' shares and the descend steps per
 droplet. With ``hydrology.batch=0`` (the seed's order) the phases are not split.
 """
@@ -48,6 +49,15 @@ def main(argv=None) -> int:
     M.descend_batch_serial = timed("one-thread descents", M.descend_batch_serial)
     M.apply_logs = timed("logs applied", M.apply_logs)
     M.batch_floods = timed("lakes filled", M.batch_floods)
+    for name, owner, attr in (
+        ("creep", M, "creep_step"),
+        ("stream map", M.streams, "update"),
+        ("vegetation", M.vegetation, "step"),
+        ("lake rebuilds", model, "_rebuild"),
+        ("creep into lakes", model, "_slump_into_lakes"),
+    ):
+        spent[name] = 0.0
+        setattr(owner, attr, timed(name, getattr(owner, attr)))
     d0, s0 = model.droplets, model.budget[B_STEPS]
     t0, c0 = time.perf_counter(), time.process_time()
     model.run(args.cycles)

@@ -356,10 +356,10 @@ MUTATIONS = (
         "hydrology/hillslope_creep_culling1960.py",
         (
             (
-                "                q = c * w * (old[a, i + 1] - old[a, i])",
-                "                q = 0.0 * c * w * (old[a, i + 1] - old[a, i])",
+                "            q = c * w * (old[a, i + 1] - old[a, i])",
+                "            q = 0.0 * c * w * (old[a, i + 1] - old[a, i])",
             ),
-            ("                    q = c * w * (old[1 - a, i] - old[a, i])", "                    q = 0.0"),
+            ("        q = c * w * (below[i] - above[i])", "        q = 0.0"),
         ),
         ("tests/unit/hydrology/test_hillslope_creep.py",),
         "hillslope creep (Culling 1960) moves no soil",
@@ -368,10 +368,10 @@ MUTATIONS = (
         "creep-into-bedrock",
         "hydrology/hillslope_creep_culling1960.py",
         (
-            ("                w = min(ml, mr)\n", "                w = max(ml, mr)\n"),
+            ("            w = min(ml, mr)\n", "            w = max(ml, mr)\n"),
             (
-                "                    w = min(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
-                "                    w = max(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
+                "        w = min(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
+                "        w = max(_mob(erod, lake_of, b + i), _mob(erod, lake_of, b + nx + i))",
             ),
         ),
         ("tests/unit/hydrology/test_hillslope_creep.py",),
@@ -383,6 +383,26 @@ MUTATIONS = (
         (("    if lake_of[hi] == -1 and lake_of[lo] >= 0 and zhi > zlo:\n        return erod[hi]\n", ""),),
         ("tests/unit/hydrology/test_hillslope_creep.py",),
         "a shore's soil no longer creeps onto a lake bed on one side of it (the lake beside a lower-index cell)",
+    ),
+    Mutation(
+        "batch-log-merge-drops-steps",
+        "hydrology/batch.py",
+        (("            ldz[n - 1] += dz\n", "            ldz[n - 1] = dz\n"),),
+        ("tests/unit/hydrology/test_hydrology_batch.py",),
+        "a batch droplet's log keeps only the last of the steps it merged on one footprint (their erosion lost)",
+    ),
+    Mutation(
+        "creep-bands-not-joined",
+        "hydrology/hillslope_creep_culling1960.py",
+        (
+            (
+                "            moved[b] += _y_faces(zf, erod, lake_of, c, (b * band - 1) * nx, nx, "
+                "edge[b, 0], edge[b, 1])",
+                "            moved[b] += 0.0",
+            ),
+        ),
+        ("tests/unit/hydrology/test_hillslope_creep.py",),
+        "the parallel creep skips the faces between its bands of rows (no soil crosses every 32nd row)",
     ),
     Mutation(
         "dry-load-on-one-cell",

@@ -10,8 +10,9 @@ run through ``batch`` **slots**, in **rounds**:
    changes: it writes them into a private overlay (one map per thread, cleared after each
    droplet) and logs them — for each step its footprint and the height each dry footprint cell
    loses (negative: gains) — with its budget terms in its own row;
-2. serially and in slot order the logs are applied to the terrain (and the visited
-   footprints marked, HY-4), the budget rows added, and then each droplet that stopped floods
+2. in slot order the logs are applied to the terrain (and the visited footprints marked, HY-4:
+   in parallel over bands of rows, each band in slot order, :func:`apply_logs`), the budget rows
+   added, and then, serially, each droplet that stopped floods
    (HY-2, :mod:`erosim.hydrology.pools`) exactly as in the serial loop: it ends in a lake, or
    drains, walks off the drain and needs another descent, which the next round does.
 
@@ -31,7 +32,7 @@ which droplet enters which slot depends only on which slots the last round freed
 the same for any thread count (for a given seed, input and batch size). Budgets
 close as in the serial loop: every logged change is applied exactly once, to the cells it was
 computed for (the lakes do not change between a round's two phases), and counted in the same
-droplet's budget row. A droplet whose log fills up (``LOG`` steps) pauses and goes on descending
+droplet's budget row. A droplet whose log fills up (``LOG`` footprints) pauses and goes on descending
 in the next round. A round with fewer than ``SERIAL_BELOW`` droplets to descend runs them on the
 calling thread (:func:`descend_batch_serial`): the same results without the threads' round trip.
 
@@ -60,7 +61,7 @@ PAUSED = 3  # the droplet's log is full: it goes on descending in the next round
 NEW = 4  # spawns and descends in the next round
 NEXT = 5  # drained a lake: descends again in the next round
 DONE = 6  # ended, left, or settled: nothing more to do
-LOG = 2048  # logged steps per droplet and round
+LOG = 2048  # log entries (footprints) per droplet and round
 SERIAL_BELOW = 4  # a round with fewer droplets to descend runs on the calling thread
 
 # columns of the per-droplet rows
@@ -71,28 +72,34 @@ R_SIZE = 11
 @loop_kernel
 def descend_logged(x, y, vx, vy, V, S, used, z2, zf, ov, stream, roots, erod, lake_of, level, lc, ldz, bd, P):
     """The droplet's descent (:func:`erosim.hydrology.droplet_step.step`) against the round-start
-    terrain plus its own changes (overlay ``ov``, flat, all zero on entry and on return): step k
-    logs its footprint ``lc[k]`` (:func:`~erosim.hydrology.droplet_step.origin`) and the height
-    each dry footprint cell loses, ``ldz[k]``; budget terms go to the droplet's row ``bd``.
-    ``used``: steps already taken in this descent (earlier rounds). Returns (status, x, y, vx, vy,
-    V, S, steps logged)."""
+    terrain plus its own changes (overlay ``ov``, flat, all zero on entry and on return): each step
+    logs its footprint (:func:`~erosim.hydrology.droplet_step.origin`) and the height each dry footprint
+    cell loses; a step on the same footprint as the one before adds its height to that entry (about
+    two steps in three at 1024²: sub-steps are short), so entry k is ``lc[k]``, ``ldz[k]``. Budget
+    terms go to the droplet's row ``bd``. ``used``: steps already taken in this descent (earlier
+    rounds). Returns (status, x, y, vx, vy, V, S, log entries, steps)."""
     ny, nx = z2.shape
     K = constants(P)
     m = int(P[P_FOOT])
     maxsteps = int(P[P_MAXSTEPS]) - used
     cap_log = lc.shape[0]
     steps = 0
+    n = 0  # log entries
     evap = 0.0
     eroded = 0.0
     deposited = 0.0
     status = PAUSED
     speed = math.sqrt(vx * vx + vy * vy)
-    while steps < cap_log:
+    while n < cap_log:
         st, x, y, vx, vy, vn, S, speed, code, dz, moved = step(
             x, y, vx, vy, V, S, speed, z2, zf, ov, True, stream, roots, erod, lake_of, level, K
         )
-        lc[steps] = code
-        ldz[steps] = dz
+        if n > 0 and lc[n - 1] == code:
+            ldz[n - 1] += dz
+        else:
+            lc[n] = code
+            ldz[n] = dz
+            n += 1
         steps += 1
         if st == LEFT:
             if moved > 0.0:  # a step into a tile's halo makes its transfer (droplet_step.step)
@@ -120,7 +127,7 @@ def descend_logged(x, y, vx, vy, V, S, used, z2, zf, ov, stream, roots, erod, la
         if st == ENDED or steps >= maxsteps:
             status = ENDED
             break
-    for k in range(steps):  # leave the overlay at zero for the thread's next droplet
+    for k in range(n):  # leave the overlay at zero for the thread's next droplet
         if ldz[k] != 0.0:
             j_lo, j_hi, i_lo, i_hi = box(lc[k], m, nx, ny)
             for j in range(j_lo, j_hi):
@@ -130,7 +137,7 @@ def descend_logged(x, y, vx, vy, V, S, used, z2, zf, ov, stream, roots, erod, la
     bd[B_EVAP] += evap
     bd[B_ERODED] += eroded
     bd[B_DEPOSITED] += deposited
-    return status, x, y, vx, vy, V, S, steps
+    return status, x, y, vx, vy, V, S, n, steps
 
 
 @njit(cache=True, inline="always")
@@ -150,7 +157,7 @@ def _descend_one(i, t, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, re
     else:
         x, y, vx, vy = res[i, R_X], res[i, R_Y], res[i, R_VX], res[i, R_VY]
         V, S, used = res[i, R_V], res[i, R_S], int(res[i, R_USED]) if st0 == PAUSED else 0
-    st, x, y, vx, vy, V, S, n = descend_logged(
+    st, x, y, vx, vy, V, S, n, steps = descend_logged(
         x, y, vx, vy, V, S, used, z2, zf, ov[t], sf, rf, ef, lake_of, level, lc[i], ldz[i], bd[i], P
     )
     res[i, R_STATUS] = st
@@ -161,7 +168,7 @@ def _descend_one(i, t, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, re
     res[i, R_V] = V
     res[i, R_S] = S
     res[i, R_NLOG] = n
-    res[i, R_USED] = used + n
+    res[i, R_USED] = used + steps
 
 
 @njit(cache=True, parallel=True)
@@ -202,13 +209,15 @@ def descend_batch_serial(count, seed, z2, stream, roots, erod, lake_of, level, r
         _descend_one(i, 0, base, z2, zf, sf, rf, ef, lake_of, level, rain_cdf, P, res, lc, ldz, bd, ov)
 
 
-@njit(cache=True)
-def apply_logs(count, nx, ny, m, zf, lake_of, track, res, lc, ldz, bd, B):
-    """Phase 2a, serial in droplet order: apply the logged height changes to the dry cells of each
-    logged footprint, mark the footprints visited (HY-4) and add each droplet's budget row."""
+@njit(cache=True, inline="always")
+def _apply_rows(r0, r1, count, nx, ny, m, zf, lake_of, track, res, lc, ldz):
+    """The logged changes of droplets 0 … count − 1, in droplet and step order, to the rows r0 … r1 − 1:
+    each logged footprint's cells there are marked visited (HY-4) and, where dry, lowered by its dz."""
     for i in range(count):
         for k in range(int(res[i, R_NLOG])):
             j_lo, j_hi, i_lo, i_hi = box(lc[i, k], m, nx, ny)
+            j_lo = max(j_lo, r0)
+            j_hi = min(j_hi, r1)
             dz = ldz[i, k]
             for j in range(j_lo, j_hi):
                 for ii in range(i_lo, i_hi):
@@ -216,6 +225,19 @@ def apply_logs(count, nx, ny, m, zf, lake_of, track, res, lc, ldz, bd, B):
                     track[c] = 1
                     if dz != 0.0 and lake_of[c] == NO_LAKE:
                         zf[c] -= dz
+
+
+@njit(cache=True, parallel=True)
+def apply_logs(count, nx, ny, m, zf, lake_of, track, res, lc, ldz, bd, B, bands):
+    """Phase 2a: apply the logged height changes to the dry cells of each logged footprint, mark the
+    footprints visited (HY-4) and add each droplet's budget rows. In parallel over ``bands`` bands of rows
+    (one per thread; :func:`_apply_rows`): each band applies its cells' changes in droplet and step order, so every cell
+    gets the same sequence of subtractions as in one serial pass and the heights are the same for any thread
+    count (bit for bit)."""
+    bands = max(min(bands, ny), 1)
+    for b in prange(bands):
+        _apply_rows(b * ny // bands, (b + 1) * ny // bands, count, nx, ny, m, zf, lake_of, track, res, lc, ldz)
+    for i in range(count):
         for k in range(B_SIZE):
             B[k] += bd[i, k]
 

@@ -654,7 +654,7 @@ class HydrologyModel:
                     self.rain_cdf, self.P, res, lc, ldz, bd, ov)  # fmt: skip
             if self.exchange is not None:  # droplets that left into the halo go to the neighbour
                 self.exchange.record(self.cycles, res, bd, slots)
-            apply_logs(slots, nx, ny, foot, zf, self.lake_of, self.track, res, lc, ldz, bd, self.budget)
+            apply_logs(slots, nx, ny, foot, zf, self.lake_of, self.track, res, lc, ldz, bd, self.budget, ov.shape[0])
             k = 0
             while True:
                 k = batch_floods(
