@@ -237,6 +237,25 @@ def test_the_second_round_starts_from_the_first_and_gets_every_droplet_that_cros
     np.testing.assert_allclose(_read(folder / "maps" / "erosion.tif"), np.maximum(z0 - z, 0), atol=1e-4)
 
 
+def test_every_tile_and_round_draws_its_own_droplets(tiled):
+    """Each tile's run in each round has its own seed (tiles.build.member_seed): a tile's run numbers its droplets
+    from 0, so with the build's seed everywhere every round rained on the first round's points and every tile on
+    the same points of its window."""
+    from erosim.scenarios import loader
+    from erosim.tiles.build import member_seed
+
+    folder, _ = tiled
+    report = json.loads((folder / "report.json").read_text())
+    seed = loader.load("hydrology", []).config.seed
+    seeds = {}
+    for k in range(1, ROUNDS + 1):
+        for i, t in enumerate(report["plan"]["tiles"]):
+            tdir = folder / "tiles" / (f"round{k}" if k > 1 else "") / t["name"]
+            seeds[(k, i)] = json.loads((tdir / "report.json").read_text())["seed"]
+    assert seeds == {key: member_seed(seed, *key) for key in seeds}
+    assert len(set(seeds.values())) == len(seeds) == ROUNDS * len(report["plan"]["tiles"])
+
+
 def test_the_python_api_refuses_a_tiled_scenario_instead_of_running_it_whole(dem, tmp_path):
     from erosim.core.errors import ConfigError
 

@@ -82,3 +82,15 @@ def test_cycles_split_over_rounds():
     assert sum(cycles_per_round(640, 7)) == 640
     with pytest.raises(ConfigError):
         cycles_per_round(2, 3)
+
+
+def test_each_tile_and_round_gets_its_own_seed():
+    """tiles.build.member_seed: a function of (build seed, round, tile) alone, distinct over a 16384² build's
+    256 tiles in 16 rounds and over two build seeds."""
+    from erosim.tiles.build import member_seed
+
+    keys = [(s, k, i) for s in (1, 2) for k in range(1, 17) for i in range(256)]
+    seeds = [member_seed(*key) for key in keys]
+    assert len(set(seeds)) == len(seeds)
+    assert seeds == [member_seed(*key) for key in keys]
+    assert all(isinstance(v, int) and v >= 0 for v in seeds)

@@ -51,7 +51,8 @@ class Tiles(Section):
     rounds: int = param(
         4, ge=1, unit="1",
         doc="tiled build: passes over all tiles, each on the last one's heights and stream map and with the "
-        "droplets that left its neighbours in the last (run.cycles split; water crossing B borders needs B + 1)",
+        "droplets that left its neighbours in the last (run.cycles split; water crossing B borders needs B + 1; "
+        "8 or more give seams near an untiled run's)",
     )  # fmt: skip
     member: str = param(
         "", doc="set by a tiled build for each of its tiles: the tile's exchange file (docs/tiles.md); leave empty"
