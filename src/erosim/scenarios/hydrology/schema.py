@@ -49,7 +49,7 @@ class Tiles(Section):
     )
     overlap: int = param(32, ge=0, unit="cells", doc="tiled build: halo cells around each tile (at most size/2)")
     rounds: int = param(
-        4, ge=1, unit="1",
+        8, ge=1, unit="1",
         doc="tiled build: passes over all tiles, each on the last one's heights and stream map and with the "
         "droplets that left its neighbours in the last (run.cycles split; water crossing B borders needs B + 1; "
         "8 or more give seams near an untiled run's)",
