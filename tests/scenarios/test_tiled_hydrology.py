@@ -237,6 +237,7 @@ def test_the_second_round_starts_from_the_first_and_gets_every_droplet_that_cros
     np.testing.assert_allclose(_read(folder / "maps" / "erosion.tif"), np.maximum(z0 - z, 0), atol=1e-4)
 
 
+@pytest.mark.multiprocess
 def test_every_tile_and_round_draws_its_own_droplets(tiled):
     """Each tile's run in each round has its own seed (tiles.build.member_seed): a tile's run numbers its droplets
     from 0, so with the build's seed everywhere every round rained on the first round's points and every tile on
