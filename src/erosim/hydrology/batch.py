@@ -127,12 +127,12 @@ def descend_logged(x, y, vx, vy, V, S, used, z2, zf, ov, stream, roots, erod, la
         if st == ENDED or steps >= maxsteps:
             status = ENDED
             break
-    for k in range(n):  # leave the overlay at zero for the thread's next droplet
-        if ldz[k] != 0.0:
-            j_lo, j_hi, i_lo, i_hi = box(lc[k], m, nx, ny)
-            for j in range(j_lo, j_hi):
-                for i in range(i_lo, i_hi):
-                    ov[j * nx + i] = 0.0
+    for k in range(n):  # leave the overlay at zero for the thread's next droplet: every entry, since
+        # steps that changed the overlay can sum to an entry of 0 (a step into a halo does not lower it)
+        j_lo, j_hi, i_lo, i_hi = box(lc[k], m, nx, ny)
+        for j in range(j_lo, j_hi):
+            for i in range(i_lo, i_hi):
+                ov[j * nx + i] = 0.0
     bd[B_STEPS] += steps
     bd[B_EVAP] += evap
     bd[B_ERODED] += eroded
