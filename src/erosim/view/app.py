@@ -40,12 +40,12 @@ def serve(
 ) -> None:
     """Serve the view until Ctrl-C; opens the default browser unless ``browser`` is False."""
     srv, url = start(run, port, max_side=max_side)
-    echo(f"erosim view: {url}  (127.0.0.1 only; Ctrl-C stops)")
-    if browser:
-        import webbrowser
+    try:  # from before the address is shown: a Ctrl-C as soon as it is read stops the server cleanly
+        echo(f"erosim view: {url}  (127.0.0.1 only; Ctrl-C stops)")
+        if browser:
+            import webbrowser
 
-        webbrowser.open(url)
-    try:
+            webbrowser.open(url)
         while True:
             time.sleep(3600)
     except KeyboardInterrupt:
