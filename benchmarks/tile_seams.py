@@ -1,6 +1,6 @@
 """Seams of a tiled hydrology build against untiled runs of the same DEM (issue 38, item 3).
 
-    PYTHONPATH=src python benchmarks/tile_seams.py --size 1024 --tile 256 --overlap 8 --rounds 4 \
+    PYTHONPATH=src python benchmarks/tile_seams.py --size 1024 --tile 256 --overlap 8 --rounds 8 \
         --cycles 640 --workers 2 --out /tmp/tile-seams
 
 Generates a ``mountains`` DEM of SIZE² cells (20 m, UTM 33N, seed 7, as benchmarks/tiles_memory.py),
@@ -79,7 +79,7 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=1024)
     ap.add_argument("--tile", type=int, default=256)
     ap.add_argument("--overlap", type=int, default=8)
-    ap.add_argument("--rounds", type=int, default=4)
+    ap.add_argument("--rounds", type=int, default=8, help="tiles.rounds (8, the scenario's default)")
     ap.add_argument("--cycles", type=int, default=640)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--away", type=int, default=16, help="cells from every tile border for the height figures")
