@@ -111,26 +111,36 @@ def _tolerant_iou(a: np.ndarray, b: np.ndarray) -> float:
     return float(hit / (np.count_nonzero(a) + np.count_nonzero(b)))
 
 
+def _surface(run: Path, when: str) -> np.ndarray:
+    """The run's initial heights, or its final surface (heights + lake depth)."""
+    if when == "initial":
+        return _read(run / "maps" / "height_initial.tif")
+    return _read(run / "maps" / "height.tif") + np.nan_to_num(_read(run / "maps" / "lake_depth.tif"))
+
+
+def _main(z: np.ndarray, f: int, cell: float) -> np.ndarray:
+    """Main rivers of surface ``z`` (cells of ``cell`` m) on a grid ``f`` times coarser: top 2 % of D8 area,
+    block maximum."""
+    return _top(_blocks(flow_area(z, cell), f, np.max))
+
+
+def _agreement(a: np.ndarray, b: np.ndarray) -> dict:
+    return {"main_rivers_iou_top2pct": _iou(a, b), "within_one_cell": _tolerant_iou(a, b),
+            "cells": [int(a.sum()), int(b.sum())]}  # fmt: skip
+
+
 def compare(coarse: Path, fine: Path, f: int, cell_c: float, cell_f: float, masks: dict | None = None) -> dict:
     """The measures of the module docstring for two runs; ``masks`` (a dict) receives the final main-river
     masks of both on the coarse grid (``coarse``, ``fine``)."""
     out = {}
     for when in ("initial", "final"):
-        z_c = _read(coarse / "maps" / ("height_initial.tif" if when == "initial" else "height.tif"))
-        z_f = _read(fine / "maps" / ("height_initial.tif" if when == "initial" else "height.tif"))
-        if when == "final":
-            z_c = z_c + np.nan_to_num(_read(coarse / "maps" / "lake_depth.tif"))
-            z_f = z_f + np.nan_to_num(_read(fine / "maps" / "lake_depth.tif"))
-        a_c = flow_area(z_c, cell_c)
-        a_f = _blocks(flow_area(z_f, cell_f), f, np.max)
-        m_c, m_f = _top(a_c), _top(a_f)
+        z_f = _surface(fine, when)
+        m_c, m_f = _main(_surface(coarse, when), 1, cell_c), _main(z_f, f, cell_f)
         if masks is not None and when == "final":
             masks.update(coarse=m_c, fine=m_f)
         m_s = _top(flow_area(_blocks(z_f, f, np.mean), cell_c))  # the finer surface seen on the coarse grid
-        out[when] = {"main_rivers_iou_top2pct": _iou(m_c, m_f), "within_one_cell": _tolerant_iou(m_c, m_f),
-                     "cells": [int(m_c.sum()), int(m_f.sum())],
-                     "surface_on_coarse_grid_iou": _iou(m_c, m_s),
-                     "surface_on_coarse_grid_within_one_cell": _tolerant_iou(m_c, m_s)}  # fmt: skip
+        out[when] = _agreement(m_c, m_f) | {"surface_on_coarse_grid_iou": _iou(m_c, m_s),
+                                            "surface_on_coarse_grid_within_one_cell": _tolerant_iou(m_c, m_s)}
     out["stream_top2pct"] = _stream_measures(coarse, fine, f)
     return out
 
@@ -140,12 +150,6 @@ def _stream_measures(a: Path, b: Path, f: int) -> dict:
     s_a = _top(_read(a / "maps" / "stream.tif"))
     s_b = _top(_blocks(_read(b / "maps" / "stream.tif"), f, np.mean))
     return {"iou": _iou(s_a, s_b), "within_one_cell": _tolerant_iou(s_a, s_b)}
-
-
-def main_rivers(run: Path, f: int, cell: float) -> np.ndarray:
-    """The run's main rivers on the coarse grid: top 2 % of D8 area over its final surface (block maximum)."""
-    z = _read(run / "maps" / "height.tif") + np.nan_to_num(_read(run / "maps" / "lake_depth.tif"))
-    return _top(_blocks(flow_area(z, cell), f, np.max))
 
 
 def figure(path: Path, pairs: list[tuple[str, np.ndarray, np.ndarray, str, str]], cell_c: float, window: float) -> None:
@@ -222,11 +226,10 @@ def main() -> None:
     pairs = [(f"{sizes[0]}² against {sizes[1]}², seed {args.seed}", masks["coarse"], masks["fine"],
               f"{sizes[0]}²", f"{sizes[1]}²")]  # fmt: skip
     if args.seed_pair:
-        other = main_rivers(runs[2][3], 1, cells[0])
+        other = _main(_surface(runs[2][3], "final"), 1, cells[0])
         mc = masks["coarse"]
-        final = {"main_rivers_iou_top2pct": _iou(mc, other), "within_one_cell": _tolerant_iou(mc, other),
-                 "cells": [int(mc.sum()), int(other.sum())]}  # fmt: skip
-        result["seed_pair"] = {"final": final, "stream_top2pct": _stream_measures(runs[0][3], runs[2][3], 1)}
+        result["seed_pair"] = {"final": _agreement(mc, other),
+                               "stream_top2pct": _stream_measures(runs[0][3], runs[2][3], 1)}
         pairs.append((f"{sizes[0]}²: seed {args.seed} against seed {args.seed + 1}", mc, other,
                       f"seed {args.seed}", f"seed {args.seed + 1}"))  # fmt: skip
     if args.figure:

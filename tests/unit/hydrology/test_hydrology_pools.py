@@ -17,7 +17,7 @@ def _model(z, cell=1.0, **kw):
     return m
 
 
-def _flood(m, iy, ix, V, S=0.0):
+def _flood(m, iy, ix, V, S=0.0, spread=0):
     ny, nx = m.z.shape
     P = m.P
     return pools.flood(
@@ -45,6 +45,7 @@ def _flood(m, iy, ix, V, S=0.0):
         m.hs,
         m.stack,
         m.walk,
+        spread,
     )
 
 
@@ -347,12 +348,7 @@ def test_a_droplet_stopping_in_a_dry_pit_fills_it_and_leaves_no_spike():
     m = _model(z)
     before = m.z.copy()
     S = 20.0
-    ny, nx = m.z.shape
-    P = m.P
-    _, _, _, S_kept = pools.flood(
-        4 * nx + 4, 1.0, S, nx, ny, m.z.reshape(-1), m.lake_of, m.level, m.area, m.mroot, m.broot, m.budget,
-        P[14], P[15], P[11], P[16], m.hkey, m.hcell, m.hleft, m.hright, m.hrank, m.hs, m.stack, m.walk, 2,
-    )  # fmt: skip
+    _, _, _, S_kept = _flood(m, 4, 4, 1.0, S, spread=2)
     rise = m.z - before
     dep = 0.9 * S
     assert S_kept == pytest.approx(0.1 * S, rel=1e-12)
