@@ -134,6 +134,8 @@ def run_tiled(
     if not tiled(scenario):
         raise ConfigError("This scenario does not ask for tiles; set tiles.size (or --tile N) for a tiled build.")
     cfg = scenario.config
+    tiles_cfg = cfg.tiles.model_copy(update={"rounds": cfg.tiles.rounds_for(cfg.run.cycles)})
+    cfg = scenario.config = cfg.model_copy(update={"tiles": tiles_cfg})  # the rounds resolved, and so saved
     dem = Path(cfg.terrain.file).resolve()
     header = geotiff_header(dem, cfg.terrain.cell_size)  # bad input: one sentence, nothing written yet
     shape = tuple(header["shape"])

@@ -94,3 +94,18 @@ def test_each_tile_and_round_gets_its_own_seed():
     assert len(set(seeds)) == len(seeds)
     assert seeds == [member_seed(*key) for key in keys]
     assert all(isinstance(v, int) and v >= 0 for v in seeds)
+
+
+def test_unset_rounds_are_eight_but_at_most_one_a_cycle_and_set_rounds_are_checked():
+    """tiles.rounds unset: 8, or one a cycle for a build of fewer cycles (a short build needs no setting); set,
+    it is kept, and more rounds than cycles is refused in one sentence."""
+    from erosim.scenarios import loader
+
+    tiled = ["terrain.file=big.tif", "tiles.size=64", "tiles.overlap=8"]
+    for cycles, rounds in ((640, 8), (8, 8), (5, 5), (1, 1)):
+        cfg = loader.load("hydrology", [*tiled, f"run.cycles={cycles}"]).config
+        assert cfg.tiles.rounds_for(cycles) == rounds
+    cfg = loader.load("hydrology", [*tiled, "run.cycles=640", "tiles.rounds=3"]).config
+    assert cfg.tiles.rounds_for(640) == 3
+    with pytest.raises(ConfigError, match="tiles.rounds = 6 exceeds run.cycles = 4"):
+        loader.load("hydrology", [*tiled, "run.cycles=4", "tiles.rounds=6"])

@@ -52,11 +52,16 @@ class Tiles(Section):
         8, ge=1, unit="1",
         doc="tiled build: passes over all tiles, each on the last one's heights and stream map and with the "
         "droplets that left its neighbours in the last (run.cycles split; water crossing B borders needs B + 1; "
-        "8 or more give seams near an untiled run's)",
+        "8 or more give seams near an untiled run's; unset: 8, but at most one a cycle)",
     )  # fmt: skip
     member: str = param(
         "", doc="set by a tiled build for each of its tiles: the tile's exchange file (docs/tiles.md); leave empty"
     )
+
+    def rounds_for(self, cycles: int) -> int:
+        """The rounds of a build of ``cycles`` cycles: ``rounds`` where it is set, else its default but at most one
+        a cycle (a short build needs no setting)."""
+        return self.rounds if "rounds" in self.model_fields_set else max(1, min(self.rounds, cycles))
 
 
 class HydrologyScenario(Section):
@@ -102,7 +107,7 @@ class HydrologyScenario(Section):
                 "A tiled build does not cut inputs.rain_map or inputs.hardness_map into tiles yet; leave them out "
                 "or run without tiles."
             )
-        if t.rounds > self.run.cycles:
+        if t.rounds_for(self.run.cycles) > self.run.cycles:
             raise ConfigError(
                 f"tiles.rounds = {t.rounds} exceeds run.cycles = {self.run.cycles}; each round runs a share of the "
                 "cycles, so give fewer rounds or more cycles."
