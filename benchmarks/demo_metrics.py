@@ -4,10 +4,11 @@
 
 Prints hillslope roughness before and after (std of the Laplacian where stream < 0.05 and no lake;
 target: after ≤ 1.1 × before), the longest river's span (stream ≥ 0.2, 8-connected; target ≥ 40 % of
-the width), the share of river cells in rivers that reach a lake or the edge (target ≥ 80 %), the
-deepest cut and the sediment moved per unit of rain (erosim.analysis.terrain_metrics): gross (every
-volume the droplets picked up, counted again each time it is picked up anew) and net (the sediment
-carried off the map).
+the width), the share of river cells in rivers that reach a lake or the edge (target ≥ 80 %; also
+with only lakes of ≥ 10 cells counted), the lakes (all, one-cell, ≥ 10 cells), the deepest cut and
+the sediment moved per unit of rain (erosim.analysis.terrain_metrics): gross (every volume the
+droplets picked up, counted again each time it is picked up anew) and net (the sediment carried off
+the map).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from erosim.analysis.terrain_metrics import hillslopes, laplacian_roughness, river_network
+from erosim.analysis.terrain_metrics import hillslopes, lake_counts, laplacian_roughness, river_network
 from erosim.io import heightmaps as hio
 from erosim.terrain.priority_flood_barnes2014 import closed_basin_depth
 
@@ -54,6 +55,7 @@ def measure(folder: Path) -> dict:
         **rivers,
         "longest_span_target_met": rivers["longest_span_fraction"] >= 0.4,
         "reaching_target_met": rivers["reaching_outlet_fraction"] >= 0.8,
+        **lake_counts(maps["lake_depth"].z),
         "deepest_cut_m": float(np.max(maps["erosion"].z)),
         "sediment_eroded_m3": eroded,
         "rain_m3": rain,

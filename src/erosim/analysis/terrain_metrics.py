@@ -8,7 +8,11 @@ targets; ``benchmarks/demo_metrics.py`` prints them for a run folder).
 * **River network**: river cells are those with stream ≥ 0.2, grouped 8-connected
   (``scipy.ndimage.label``). The longest river's span is the larger side of its bounding box as a
   fraction of the map's width; a river *reaches an outlet* when it touches (8-adjacent) a lake cell
-  or the map's edge. Short streaks that end on a hillside do neither.
+  or the map's edge. Short streaks that end on a hillside do neither. A one-cell puddle counts as a
+  lake there, so the share is also given for outlets that are the edge or a lake of at least
+  ``LAKE_CELLS`` cells (issue 36's measure of rivers that end somewhere).
+* **Lakes**: lake cells (depth > 0) grouped 8-connected; how many, how many are one cell (the
+  depositional plains' micro-pits), how many have at least ``LAKE_CELLS`` cells.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from scipy import ndimage
 
 RIVER_STREAM = 0.2
 HILLSLOPE_STREAM = 0.05
+LAKE_CELLS = 10  # a lake of this many cells or more counts as a river's outlet in the stricter share
 EIGHT = np.ones((3, 3), bool)
 
 
@@ -40,19 +45,40 @@ def river_network(stream: np.ndarray, lake_depth: np.ndarray) -> dict:
     rivers = stream >= RIVER_STREAM
     labels, count = ndimage.label(rivers, structure=EIGHT)
     if count == 0:
-        return {"rivers": 0, "river_cells": 0, "longest_span_fraction": 0.0, "reaching_outlet_fraction": 0.0}
+        return {
+            "rivers": 0, "river_cells": 0, "longest_span_fraction": 0.0, "reaching_outlet_fraction": 0.0,
+            "reaching_edge_or_lake_fraction": 0.0,
+        }  # fmt: skip
     ny, nx = stream.shape
     spans = np.zeros(count)
     for k, sl in enumerate(ndimage.find_objects(labels)):
         spans[k] = max(sl[0].stop - sl[0].start, sl[1].stop - sl[1].start)
-    outlet = ndimage.binary_dilation(lake_depth > 0, structure=EIGHT)
-    outlet[0, :] = outlet[-1, :] = outlet[:, 0] = outlet[:, -1] = True
-    reaching = np.unique(labels[outlet & rivers])
     sizes = ndimage.sum_labels(rivers, labels, index=np.arange(1, count + 1))
-    reached_cells = sizes[reaching[reaching > 0] - 1].sum()
+    lakes, _ = ndimage.label(lake_depth > 0, structure=EIGHT)
+    lake_sizes = np.bincount(lakes.ravel())
+    lake_sizes[0] = 0
+
+    def reached(lake_cells: np.ndarray) -> float:
+        outlet = ndimage.binary_dilation(lake_cells, structure=EIGHT)
+        outlet[0, :] = outlet[-1, :] = outlet[:, 0] = outlet[:, -1] = True
+        reaching = np.unique(labels[outlet & rivers])
+        return float(sizes[reaching[reaching > 0] - 1].sum() / rivers.sum())
+
     return {
         "rivers": int(count),
         "river_cells": int(rivers.sum()),
         "longest_span_fraction": float(spans.max() / nx),
-        "reaching_outlet_fraction": float(reached_cells / rivers.sum()),
+        "reaching_outlet_fraction": reached(lakes > 0),
+        "reaching_edge_or_lake_fraction": reached(lake_sizes[lakes] >= LAKE_CELLS),
+    }
+
+
+def lake_counts(lake_depth: np.ndarray) -> dict:
+    """Lakes (depth > 0, 8-connected): how many, how many one cell, how many ≥ ``LAKE_CELLS``."""
+    lakes, count = ndimage.label(lake_depth > 0, structure=EIGHT)
+    sizes = np.bincount(lakes.ravel())[1:]
+    return {
+        "lakes": int(count),
+        "one_cell_lakes": int((sizes == 1).sum()),
+        "large_lakes": int((sizes >= LAKE_CELLS).sum()),
     }

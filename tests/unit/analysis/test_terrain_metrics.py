@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from erosim.analysis.terrain_metrics import hillslopes, laplacian_roughness, river_network
+from erosim.analysis.terrain_metrics import hillslopes, lake_counts, laplacian_roughness, river_network
 
 
 def _slope(n=64, cell=20.0):
@@ -40,4 +40,18 @@ def test_river_network_spans_and_outlets():
     assert net["rivers"] == 3 and net["river_cells"] == 80
     assert net["longest_span_fraction"] == 0.6
     assert net["reaching_outlet_fraction"] == (60 + 10) / 80
+    assert net["reaching_edge_or_lake_fraction"] == (60 + 10) / 80  # the lake has 25 cells
     assert river_network(np.zeros((5, 5)), np.zeros((5, 5)))["rivers"] == 0
+
+
+def test_a_puddle_is_an_outlet_only_in_the_loose_share():
+    """A river ending at a one-cell puddle reaches an outlet, but not the edge or a lake of ≥ 10 cells."""
+    stream, lake = np.zeros((50, 100)), np.zeros((50, 100))
+    stream[25, 0:60] = 0.5  # from the west edge
+    stream[10, 40:60] = 0.3  # ends beside a one-cell puddle
+    lake[10, 60] = 0.2
+    lake[30:33, 80:84] = 1.0  # a lake of 12 cells, away from every river
+    net = river_network(stream, lake)
+    assert net["reaching_outlet_fraction"] == 1.0
+    assert net["reaching_edge_or_lake_fraction"] == 60 / 80
+    assert lake_counts(lake) == {"lakes": 2, "one_cell_lakes": 1, "large_lakes": 1}
