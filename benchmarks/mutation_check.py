@@ -405,6 +405,25 @@ MUTATIONS = (
         "the parallel creep skips the faces between its bands of rows (no soil crosses every 32nd row)",
     ),
     Mutation(
+        "lake-load-above-the-water",
+        "hydrology/pools.py",
+        (
+            (
+                "                if lake_of[n] == k and (L - zf[n]) * cell_area <= share:\n",
+                "                if lake_of[n] == k and (L - zf[n]) * cell_area < 0.0:\n",
+            ),
+        ),
+        ("tests/unit/hydrology/test_hydrology_pools.py",),
+        "a lake's sediment shares are not capped at the water depth (a one-cell lake's load builds a tower)",
+    ),
+    Mutation(
+        "filled-pool-costs-a-round",
+        "hydrology/model.py",
+        (("            rounds -= 1.0 if res_f == DRAIN else FILL_ROUND\n", "            rounds -= 1.0\n"),),
+        ("tests/scenarios/test_users_dems.py",),
+        "a droplet whose load filled the pool it entered loses a whole spill round, as if it had spilled over a rim",
+    ),
+    Mutation(
         "dry-load-on-one-cell",
         "hydrology/pools.py",
         (

@@ -104,6 +104,8 @@ from erosim.hydrology.pools import (
     B_STEPS,
     B_TO_LAKES,
     DRAIN,
+    FILL_ROUND,
+    FILLED,
     HS_BUMP,
     HS_NLAKES,
     flood,
@@ -150,7 +152,7 @@ def _settle(c, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, 
     if k >= 0:
         extra = settle_in_lake(
             k, c, S, zf, lake_of, level, area, mroot, broot, P[P_CA], hkey, hcell, hleft, hright, hrank, hs, stack,
-            nx, _lake_spread(P),
+            nx, _lake_spread(P), P[P_SEA],
         )  # fmt: skip
         B[B_TO_LAKES] -= extra
         B[B_RESID] += extra
@@ -223,7 +225,7 @@ def run_droplets(
         vx = 0.0
         vy = 0.0
         B[B_RAINED] += P[P_V0]
-        rounds = spill
+        rounds = float(spill)
         at_min = False
         while True:
             if at_min:  # spilled into a depression: it floods there without descending
@@ -271,7 +273,7 @@ def run_droplets(
             )
             B[B_FLOOD_NS] += now(ts) - t0
             B[B_FLOODS] += 1
-            if res != DRAIN:
+            if res != DRAIN and res != FILLED:
                 break
             # step off the drain down the water/terrain surface, away from the lake it left
             cell, at_min = walk_down(cell, nwalk, zf, lake_of, level, sea, nx, ny)
@@ -279,7 +281,7 @@ def run_droplets(
             y = float(cell // nx)
             vx = 0.0
             vy = 0.0
-            rounds -= 1
+            rounds -= 1.0 if res == DRAIN else FILL_ROUND
             if rounds <= 0:
                 _settle(
                     cell,
@@ -374,7 +376,7 @@ def batch_floods(
         y = res[i, R_Y]
         V = res[i, R_V]
         S = res[i, R_S]
-        rounds = int(res[i, R_ROUNDS])
+        rounds = res[i, R_ROUNDS]
         while True:
             if status == LEFT:
                 break
@@ -399,7 +401,7 @@ def batch_floods(
                 V = B[B_LEFT] - left0
                 S = B[B_CARRIED] - carried0
                 break
-            if res_f != DRAIN:
+            if res_f != DRAIN and res_f != FILLED:
                 break
             cell, at_min = walk_down(cell, nwalk, zf, lake_of, level, P[P_SEA], nx, ny)
             x = float(cell % nx)
@@ -409,7 +411,7 @@ def batch_floods(
                 B[B_CARRIED] += S
                 status = FLOOD_LEFT
                 break
-            rounds -= 1
+            rounds -= 1.0 if res_f == DRAIN else FILL_ROUND
             if rounds <= 0:
                 _settle(
                     cell, V, S, zf, lake_of, level, area, mroot, broot, B, P, hkey, hcell, hleft, hright, hrank, hs,

@@ -75,7 +75,7 @@ class HydrologyParams(Section):
         "0 = one after another (the seed's order)",
     )
     creep: float = param(
-        0.00025, ge=0, unit="ℓ²/cycle",
+        0.001, ge=0, unit="ℓ²/cycle",
         doc="hillslope creep κ/ℓ² per cycle (∂z/∂t = κ∇²z, Culling 1960): smooths cell-scale pits; 0 = off (the seed)",
     )  # fmt: skip
     rebuild_every: int = param(

@@ -62,9 +62,10 @@ def test_a_large_coefficient_is_sub_stepped_and_stays_stable():
 
 
 def test_creep_keeps_the_slopes_of_a_hydrology_run_as_smooth_as_they_were():
-    """Without creep the droplets roughen the hillslopes (std of ∇²z off rivers and lakes: 1.39 × the
-    initial terrain's on this map since the droplets' loads settle over their reach, issue 38);
-    with the default creep it stays within the demo's bound (≤ 1.1 × the initial terrain's; 0.81 here)."""
+    """Without creep the droplets roughen the hillslopes (std of ∇²z off rivers and lakes: 1.28 × the
+    initial terrain's on this map since a lake's load is capped at its water depth, issue 36; 1.39
+    before); with the default creep it stays within the demo's bound (≤ 1.1 × the initial terrain's;
+    0.39 here)."""
     from erosim.analysis.terrain_metrics import hillslopes, laplacian_roughness
     from erosim.hydrology.model import HydrologyModel
     from erosim.hydrology.params import HydrologyParams, VegetationParams
@@ -80,7 +81,7 @@ def test_creep_keeps_the_slopes_of_a_hydrology_run_as_smooth_as_they_were():
         ratios[creep] = laplacian_roughness(m.z, 20.0, slopes) / laplacian_roughness(m.z0, 20.0, slopes)
         budget = m.sediment_budget()
         assert budget["terrain_change_rel_error"] < 1e-9  # creep moves terrain, it makes none
-    assert ratios[0.0] > 1.3 and ratios[HydrologyParams().creep] <= 1.1
+    assert ratios[0.0] > 1.2 and ratios[HydrologyParams().creep] <= 1.1
 
 
 def _reference_step(z, erod, lake, c):

@@ -266,6 +266,73 @@ def test_a_lakes_sediment_settles_over_the_droplets_reach(spread):
     assert abs(displaced - S) < 1e-12 * S
 
 
+def test_a_load_larger_than_a_puddle_fills_it_to_the_surface_and_spreads_the_rest():
+    """A one-cell lake 1 m deep (full to its 10 m rim) takes a load of 10 m³ on 1 m² cells, ``spread`` 1:
+    its share is capped at its water depth, so the cell is filled to the surface (1 m³, displacing its
+    whole 1 m³ column) and leaves the lake, and the other 9 m³ settle on the 3 × 3 square as on dry
+    ground, 1 m each. The cell ends level with the square (11 m), where the uncapped share built a
+    tower 10 m tall on it (issue 36: up to 150 m on the library's 20 m cells); the volume is kept."""
+    z = np.full((9, 9), 10.0)
+    z[4, 4] = 9.0
+    m = _model(z)
+    res, _, _, _ = _flood(m, 4, 4, 1.0)  # exactly the pit's room: a one-cell lake at its rim
+    assert res == pools.SPENT
+    k = m.lake_of[4 * 9 + 4]
+    assert k >= 0 and m.area[k] == 1 and m.level[k] == pytest.approx(10.0, abs=1e-12)
+    before = m.z.copy()
+    displaced = pools.settle_in_lake(
+        k, 4 * 9 + 4, 10.0, m.z.reshape(-1), m.lake_of, m.level, m.area, m.mroot, m.broot, 1.0, m.hkey, m.hcell,
+        m.hleft, m.hright, m.hrank, m.hs, m.stack, 9, 1,
+    )  # fmt: skip
+    np.testing.assert_allclose(m.z[3:6, 3:6], 11.0, rtol=1e-12)
+    assert np.count_nonzero(m.z - before) == 9
+    assert abs((m.z - before).sum() - 10.0) < 1e-12 * 10.0
+    assert displaced == pytest.approx(1.0, rel=1e-12)
+    assert m.lake_of[4 * 9 + 4] == pools.NO_LAKE and m.area[k] == 0
+
+
+def test_a_droplet_whose_load_fills_the_lake_it_enters_goes_on():
+    """A droplet with 0.5 m³ of water and 20 m³ of sediment floods into a one-cell lake 1 m deep (``spread``
+    1): 90 % of its load settles, the lake takes 1 m³ up to its surface and is gone, no lake is within 2, 4
+    or 8 cells to take more, and the other 17 m³ settle on the reach as on dry ground (17/9 m each). The
+    flood returns FILLED at the entry with the droplet's water plus the lake's displaced 1 m³ and the kept
+    10 % of the load, for the droplet to go on."""
+    z = np.full((21, 21), 10.0)
+    z[10, 10] = 9.0
+    m = _model(z)
+    assert _flood(m, 10, 10, 1.0)[0] == pools.SPENT  # the one-cell lake, full to its rim
+    before = m.z.copy()
+    res, cell, V, S = _flood(m, 10, 10, 0.5, 20.0, spread=1)
+    assert res == pools.FILLED and cell == 10 * 21 + 10
+    assert V == pytest.approx(1.5, rel=1e-12) and S == pytest.approx(2.0, rel=1e-12)
+    np.testing.assert_allclose(m.z[9:12, 9:12], 10.0 + 17.0 / 9.0, rtol=1e-12)
+    assert np.count_nonzero(m.z - before) == 9 and not (m.lake_depth() > 0).any()
+    assert m.budget[pools.B_DEPOSITED] == pytest.approx(18.0, rel=1e-12)
+
+
+def test_shares_are_capped_cell_by_cell_and_the_deeper_cells_take_the_rest():
+    """Two lake cells in the reach, 0.5 m and 3 m under a level of 10 m: a 2 m³ load (1 m³ each in equal
+    shares) fills the shallow one to the surface (0.5 m³; it leaves the lake) and puts the other 1.5 m³
+    on the deep one, which stays wet. Nothing rises above the water; the volume is kept."""
+    z = np.full((9, 9), 12.0)
+    z[4, 3:7] = [9.5, 7.0, 7.0, 7.0]  # a trough; the flood below fills it to 10 m
+    m = _model(z)
+    res, _, _, _ = _flood(m, 4, 5, 0.5 + 3 * 3.0)
+    assert res == pools.SPENT
+    k = m.lake_of[4 * 9 + 4]
+    assert m.area[k] == 4 and m.level[k] == pytest.approx(10.0, abs=1e-12)
+    before = m.z.copy()
+    displaced = pools.settle_in_lake(
+        k, 3 * 9 + 3, 2.0, m.z.reshape(-1), m.lake_of, m.level, m.area, m.mroot, m.broot, 1.0, m.hkey, m.hcell,
+        m.hleft, m.hright, m.hrank, m.hs, m.stack, 9, 1,
+    )  # fmt: skip
+    rise = m.z - before
+    assert rise[4, 3] == pytest.approx(0.5, rel=1e-12) and m.lake_of[4 * 9 + 3] == pools.NO_LAKE
+    assert rise[4, 4] == pytest.approx(1.5, rel=1e-12) and m.lake_of[4 * 9 + 4] == k
+    assert np.count_nonzero(rise) == 2
+    assert displaced == pytest.approx(2.0, rel=1e-12)
+
+
 def test_soil_creeping_into_a_lake_displaces_its_water_or_fills_the_cell():
     """settle_gains: a lake cell's bed gain from the shore is made through the bookkeeping. In the east basin
     filled 3 m deep (100 m², 300 m³), a 0.5 m gain on one cell displaces 0.5 m³ and the cell stays wet; a 4 m
