@@ -424,6 +424,18 @@ MUTATIONS = (
         "a droplet whose load filled the pool it entered loses a whole spill round, as if it had spilled over a rim",
     ),
     Mutation(
+        "pit-flood-ignores-momentum",
+        "hydrology/droplet_step.py",
+        (
+            (
+                "            if trapped(speed, acc_num / vrel, h1, rim, STALL / (dt * inv_dx)):\n",
+                "            if True:\n",
+            ),
+        ),
+        ("tests/unit/hydrology/test_hydrology_descend.py",),
+        "every droplet reaching a pit floods there, however fast (the rivers end in the plains' hollows)",
+    ),
+    Mutation(
         "dry-load-on-one-cell",
         "hydrology/pools.py",
         (

@@ -157,6 +157,34 @@ def walk_down(c, max_walk, zf, ov, has_ov, lake_of, level, sea_level, nx, ny):
 
 
 @njit(inline="always")
+def rim_height(c, zf, ov, has_ov, lake_of, level, sea_level, nx, ny):
+    """The lowest surface (:func:`surface`; +∞ on nodata) among the 8 neighbours of cell c: the rim a droplet
+    in the pit at c must climb over to leave it."""
+    iy = c // nx
+    ix = c - iy * nx
+    rim = math.inf
+    for j in range(max(iy - 1, 0), min(iy + 2, ny)):
+        for i in range(max(ix - 1, 0), min(ix + 2, nx)):
+            n = j * nx + i
+            if n != c:
+                rim = min(rim, _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level))
+    return rim
+
+
+STALL = 0.01  # cells per time step: a droplet at a pit's bottom moving slower than this has stopped there
+
+
+@njit(inline="always")
+def trapped(speed, g, h, rim, v_stall):
+    """A droplet of speed |v| at height h (m) in a pit whose rim is at ``rim`` cannot leave it: its kinetic
+    energy cannot lift it over the rim, ½|v|² < g·(rim − h), with g = ℓ/(s²·ρ·V/V₀) the acceleration
+    per unit slope of :func:`step` (so ½|v|² + g·z only falls along a path: friction); or it has stopped,
+    |v| < ``v_stall`` (on a pit's flat floor the rim is level with it, and friction slows it forever
+    without reaching 0)."""
+    return 0.5 * speed * speed < g * (rim - h) or speed < v_stall
+
+
+@njit(inline="always")
 def origin(x, y, m, nx):
     """Code of the m×m footprint centred at (x, y): its cell (m = 1), else its first cell
     (floor(x − (m−1)/2 + ½), the same in y) offset by m on a map widened by m on each side."""
@@ -246,12 +274,14 @@ def step(x, y, vx, vy, V, S, speed, z2, zf, ov, has_ov, stream, roots, erod, lak
     if not out and ((stream[cn] > 0.5 and a2 < amin2) or lake_of[cn] >= 0):
         return STOP, x, y, vx, vy, V, S, speed, code, 0.0, 0.0
     speed = math.sqrt(vx * vx + vy * vy)
-    if not out and speed * h < pit:
+    h1, _, _ = sample(z2, ov, has_ov, x, y)
+    if not out and pit > 0.0:
         wc, at_min = walk_down(cn, 2 * m + 1, zf, ov, has_ov, lake_of, level, sea, nx, ny)
         if at_min:
-            return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S, speed, code, 0.0, 0.0
+            rim = rim_height(wc, zf, ov, has_ov, lake_of, level, sea, nx, ny)
+            if trapped(speed, acc_num / vrel, h1, rim, STALL / (dt * inv_dx)):
+                return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S, speed, code, 0.0, 0.0
     # mass transfer at the old position (its footprint's dry cells)
-    h1, _, _ = sample(z2, ov, has_ov, x, y)
     drop = (h0 - h1) * nsub
     ceq = cap * vrel * speed * drop if drop > 0.0 else 0.0
     hold = 1.0 - root * roots[c]

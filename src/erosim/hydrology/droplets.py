@@ -14,9 +14,13 @@ moves more than ``max_step`` cells — at a finer grid it then sees every cell i
 The droplet ends when V < V_min, or leaves the world (map edge, sea, a nodata cell of the DEM: its
 water and sediment leave),
 or stops for HY-2 flood: it enters a lake, or it is in a strong stream (> 0.5) with |a| below
-0.01 ℓ/s², or (``pit_flood``, an erosim addition) it moves less than ℓ/2 per sub-step and a
-steepest-descent walk of at most 2·ℓ/Δx + 1 cells from its cell reaches a local minimum: it
-floods at that minimum (instead of oscillating in the depression until it evaporates).
+0.01 ℓ/s², or (``pit_flood``, an erosim addition) a steepest-descent walk of at most 2·ℓ/Δx + 1
+cells from its cell reaches a local minimum whose rim its kinetic energy cannot lift it over,
+½|v|² < g·(rim − h) with g = ℓ/(s²·ρ·V/V₀) (:func:`erosim.hydrology.droplet_step.trapped`): it
+floods at that minimum (instead of oscillating in the depression until it evaporates). A droplet
+fast enough to cross a pit crosses it: stopping every droplet that reached a local minimum (the
+rule before, a move of less than ℓ/2 a sub-step, held for nearly every sub-step) ended rivers in
+the plains' shallow hollows (issue 36; docs/hydrology.md, "Pits that a droplet can cross").
 Every visited cell's footprint is marked in ``track`` (HY-4). Lake cells are never
 eroded or filled by descent (their water level bookkeeping stays exact, see ``pools``).
 
@@ -38,7 +42,19 @@ import math
 
 from numba import njit
 
-from erosim.hydrology.droplet_step import ENDED, LEFT, STOP, box, constants, lower, origin, step
+from erosim.hydrology.droplet_step import (
+    ENDED,
+    LEFT,
+    STALL,
+    STOP,
+    box,
+    constants,
+    lower,
+    origin,
+    rim_height,
+    step,
+    trapped,
+)
 from erosim.hydrology.loop_kernel import loop_kernel
 from erosim.hydrology.params import (
     P_ACC,
@@ -224,15 +240,17 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
             _settle_budget(B, steps, evap, eroded, deposited)
             return STOP, x, y, vx, vy, V, S
         speed = math.sqrt(vx * vx + vy * vy)
-        if speed * dt < pit:
-            wc, at_min = walk_down(cn, nwalk, zf, lake_of, level, sea, nx, ny)
-            if at_min:
-                _settle_budget(B, steps, evap, eroded, deposited)
-                return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S
         # the terrain at the new position, before the transfer
         i0, j0, fx, fy, z1, zz2, z3, z4 = _corners(z2, x, y)
         top = z1 + fx * (zz2 - z1)
         h1 = top + fy * (z4 + fx * (z3 - z4) - top)
+        if pit > 0.0:
+            wc, at_min = walk_down(cn, nwalk, zf, lake_of, level, sea, nx, ny)
+            if at_min:
+                rim = rim_height(wc, zf, zf[:1], False, lake_of, level, sea, nx, ny)
+                if trapped(speed, kv / dt, h1, rim, STALL / dtx):
+                    _settle_budget(B, steps, evap, eroded, deposited)
+                    return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S
         wy0 = (1.0 - fy) * inv_dx
         wy1 = fy * inv_dx
         wx0 = (1.0 - fx) * inv_dx

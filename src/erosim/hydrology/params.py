@@ -13,11 +13,12 @@ maps to physical units as
 
 Defaults differ from the seed where its values made droplets slow and long-lived on steep
 physical terrain (friction 0.5 /s, evaporation 0.003 /s, sub-steps of at most one cell, and
-``pit_flood``: a droplet that comes to rest in a pit floods there at once instead of oscillating
-until it evaporates; trees: 10 seedlings per cycle, spread 0.03; hillslope creep, which the seed
-does not have: without it droplets leave cell-scale pits on the slopes). The ``simplehydrology-2020``
-preset restores the seed's. The defaults are the library ``hydrology`` scenario's: ``HydrologyParams()``
-is what a scenario that leaves ``[hydrology]`` out runs with (tests/unit/api/test_api.py checks it).
+``pit_flood``: a droplet in a pit that its kinetic energy cannot carry it out of floods there at
+once instead of oscillating until it evaporates; trees: 10 seedlings per cycle, spread 0.03;
+hillslope creep, which the seed does not have: without it droplets leave cell-scale pits on the
+slopes). The ``simplehydrology-2020`` preset restores the seed's. The defaults are the library
+``hydrology`` scenario's: ``HydrologyParams()`` is what a scenario that leaves ``[hydrology]`` out
+runs with (tests/unit/api/test_api.py checks it).
 
 By default (``length_scale`` unset) ℓ is two cells of the terrain: 40 m on the library's 20 m
 generated terrain, 2 m on a 1 m lidar tile, 166 m on an 83 m DEM, so every DEM runs at its own scale
@@ -63,7 +64,9 @@ class HydrologyParams(Section):
         None, unit="m", doc="water below this height leaves the world; none = open map edges only"
     )
     pit_flood: bool = param(
-        True, doc="a slow droplet in a pit (cell lower than its 8 neighbours) floods there; seed: off"
+        True,
+        doc="a droplet in a pit (a cell below its 8 neighbours) that cannot climb its rim, ½v² < g·(rim − h), floods "
+        "there; seed: off",
     )
     max_steps: int = param(20_000, ge=10, unit="1", doc="safety cap on sub-steps per descent")
     batch: int | None = param(
@@ -183,5 +186,5 @@ def kernel_constants(p: HydrologyParams, cell_size: float) -> np.ndarray:
     c[P_MAXSTEPS] = p.max_steps
     c[P_SPILL] = p.spill
     c[P_LAKES] = 1.0 if p.lakes else 0.0
-    c[P_PIT] = 0.5 * max(ell, cell_size) if p.pit_flood else -1.0  # pit test below this move (m)
+    c[P_PIT] = 1.0 if p.pit_flood else -1.0  # > 0: a droplet trapped in a pit floods there
     return c

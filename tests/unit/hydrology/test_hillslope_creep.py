@@ -62,10 +62,10 @@ def test_a_large_coefficient_is_sub_stepped_and_stays_stable():
 
 
 def test_creep_keeps_the_slopes_of_a_hydrology_run_as_smooth_as_they_were():
-    """Without creep the droplets roughen the hillslopes (std of ∇²z off rivers and lakes: 1.28 × the
-    initial terrain's on this map since a lake's load is capped at its water depth, issue 36; 1.39
-    before); with the default creep it stays within the demo's bound (≤ 1.1 × the initial terrain's;
-    0.39 here)."""
+    """Without creep the droplets roughen the hillslopes past the demo's bound (std of ∇²z off rivers and
+    lakes: 1.16 × the initial terrain's on this map since a lake's load is capped at its water depth and
+    droplets cross the pits they can climb out of, issue 36; 1.39 before); with the default creep it
+    stays within it (≤ 1.1 × the initial terrain's; 0.38 here)."""
     from erosim.analysis.terrain_metrics import hillslopes, laplacian_roughness
     from erosim.hydrology.model import HydrologyModel
     from erosim.hydrology.params import HydrologyParams, VegetationParams
@@ -81,7 +81,7 @@ def test_creep_keeps_the_slopes_of_a_hydrology_run_as_smooth_as_they_were():
         ratios[creep] = laplacian_roughness(m.z, 20.0, slopes) / laplacian_roughness(m.z0, 20.0, slopes)
         budget = m.sediment_budget()
         assert budget["terrain_change_rel_error"] < 1e-9  # creep moves terrain, it makes none
-    assert ratios[0.0] > 1.2 and ratios[HydrologyParams().creep] <= 1.1
+    assert ratios[0.0] > 1.1 and ratios[HydrologyParams().creep] <= 1.1
 
 
 def _reference_step(z, erod, lake, c):
