@@ -65,8 +65,8 @@ class HydrologyParams(Section):
     )
     pit_flood: bool = param(
         True,
-        doc="a droplet in a pit (a cell below its 8 neighbours) that cannot climb its rim, ½v² < g·(rim − h), floods "
-        "there; seed: off",
+        doc="a droplet in a pit (a cell below its 8 neighbours) that cannot climb its rim, ½v² < g·(rim − h), or has "
+        "stopped there floods there; seed: off",
     )
     max_steps: int = param(20_000, ge=10, unit="1", doc="safety cap on sub-steps per descent")
     batch: int | None = param(
