@@ -35,6 +35,14 @@ def laplacian_roughness(z: np.ndarray, cell_size: float, where: np.ndarray) -> f
     return float(values.std()) if values.size else float("nan")
 
 
+def _lakes(lake_depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lakes (depth > 0) labelled 8-connected, and each label's cell count (index 0, dry land: 0)."""
+    labels, _ = ndimage.label(lake_depth > 0, structure=EIGHT)
+    sizes = np.bincount(labels.ravel())
+    sizes[0] = 0
+    return labels, sizes
+
+
 def hillslopes(stream: np.ndarray, lake_depth: np.ndarray) -> np.ndarray:
     return (stream < HILLSLOPE_STREAM) & (lake_depth <= 0)
 
@@ -54,9 +62,7 @@ def river_network(stream: np.ndarray, lake_depth: np.ndarray) -> dict:
     for k, sl in enumerate(ndimage.find_objects(labels)):
         spans[k] = max(sl[0].stop - sl[0].start, sl[1].stop - sl[1].start)
     sizes = ndimage.sum_labels(rivers, labels, index=np.arange(1, count + 1))
-    lakes, _ = ndimage.label(lake_depth > 0, structure=EIGHT)
-    lake_sizes = np.bincount(lakes.ravel())
-    lake_sizes[0] = 0
+    lakes, lake_sizes = _lakes(lake_depth)
 
     def reached(lake_cells: np.ndarray) -> float:
         outlet = ndimage.binary_dilation(lake_cells, structure=EIGHT)
@@ -75,10 +81,9 @@ def river_network(stream: np.ndarray, lake_depth: np.ndarray) -> dict:
 
 def lake_counts(lake_depth: np.ndarray) -> dict:
     """Lakes (depth > 0, 8-connected): how many, how many one cell, how many ≥ ``LAKE_CELLS``."""
-    lakes, count = ndimage.label(lake_depth > 0, structure=EIGHT)
-    sizes = np.bincount(lakes.ravel())[1:]
+    sizes = _lakes(lake_depth)[1][1:]
     return {
-        "lakes": int(count),
+        "lakes": int(sizes.size),
         "one_cell_lakes": int((sizes == 1).sum()),
         "large_lakes": int((sizes >= LAKE_CELLS).sum()),
     }
