@@ -22,7 +22,7 @@ test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
 
 test-cuda: $(STAMP)
-	$(BIN)/python -m pytest -q -m cuda
+	$(BIN)/python -m pytest -q -m cuda -n 2 --dist loadfile
 
 test-browser: $(STAMP)
 	$(BIN)/python -m pytest -q -m browser

@@ -185,6 +185,52 @@ def trapped(speed, g, h, rim, v_stall):
 
 
 @njit(inline="always")
+def pit_trap(c, x, y, max_walk, speed, g, h, v_stall, zf, ov, has_ov, lake_of, level, sea_level, nx, ny):
+    """(trapped, cell): whether a droplet at (x, y) over cell c, of speed |v| at height h, is trapped in the
+    pit that :func:`walk_down` from c ends in (:func:`rim_height`, :func:`trapped`), and that pit's cell;
+    the same answer with fewer reads (the walk at every step was a quarter of a step's time). The pit's
+    rim is at most U = max(surface(c), the lowest surface among the other corners of the cell square
+    around (x, y)): a walk that leaves c ends at a pit whose rim is at most the surface of the cell it
+    came from, so at most surface(c); a pit at c has its lowest neighbour for rim, and those corners
+    are neighbours of c. So a droplet that is not stalled and could climb to U is not trapped, told
+    from four cells; else one 3×3 scan at c, and the walk goes on only if the droplet
+    could not climb back to surface(c)."""
+    hc = surface(c, zf, ov, has_ov, lake_of, level, sea_level)
+    if speed >= v_stall:
+        i0 = min(int(min(max(x, 0.0), nx - 1.0)), nx - 2)
+        j0 = min(int(min(max(y, 0.0), ny - 1.0)), ny - 2)
+        k0 = j0 * nx + i0
+        up = math.inf
+        for n in (k0, k0 + 1, k0 + nx, k0 + nx + 1):
+            hn = _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level)
+            up = hn if (n != c and hn < up) else up
+        up = max(up, hc)
+        if 0.5 * speed * speed >= g * (up - h):
+            return False, c
+    ix = c % nx
+    iy = c // nx
+    best = c
+    hb = hc
+    rim = math.inf
+    for j in range(max(iy - 1, 0), min(iy + 2, ny)):
+        for i in range(max(ix - 1, 0), min(ix + 2, nx)):
+            n = j * nx + i
+            hn = _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level)
+            lower_here = hn < hb
+            hb = hn if lower_here else hb
+            best = n if lower_here else best
+            rim = hn if (n != c and hn < rim) else rim
+    if best == c:
+        return trapped(speed, g, h, rim, v_stall), c
+    if not trapped(speed, g, h, hc, v_stall) or lake_of[best] == HALO:
+        return False, best
+    wc, at_min = walk_down(best, max_walk - 1, zf, ov, has_ov, lake_of, level, sea_level, nx, ny)
+    if not at_min:
+        return False, wc
+    return trapped(speed, g, h, rim_height(wc, zf, ov, has_ov, lake_of, level, sea_level, nx, ny), v_stall), wc
+
+
+@njit(inline="always")
 def origin(x, y, m, nx):
     """Code of the m×m footprint centred at (x, y): its cell (m = 1), else its first cell
     (floor(x − (m−1)/2 + ½), the same in y) offset by m on a map widened by m on each side."""
@@ -276,11 +322,10 @@ def step(x, y, vx, vy, V, S, speed, z2, zf, ov, has_ov, stream, roots, erod, lak
     speed = math.sqrt(vx * vx + vy * vy)
     h1, _, _ = sample(z2, ov, has_ov, x, y)
     if not out and pit > 0.0:
-        wc, at_min = walk_down(cn, 2 * m + 1, zf, ov, has_ov, lake_of, level, sea, nx, ny)
-        if at_min:
-            rim = rim_height(wc, zf, ov, has_ov, lake_of, level, sea, nx, ny)
-            if trapped(speed, acc_num / vrel, h1, rim, STALL / (dt * inv_dx)):
-                return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S, speed, code, 0.0, 0.0
+        held, wc = pit_trap(cn, x, y, 2 * m + 1, speed, acc_num / vrel, h1, STALL / (dt * inv_dx), zf, ov, has_ov,
+                            lake_of, level, sea, nx, ny)  # fmt: skip
+        if held:
+            return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S, speed, code, 0.0, 0.0
     # mass transfer at the old position (its footprint's dry cells)
     drop = (h0 - h1) * nsub
     ceq = cap * vrel * speed * drop if drop > 0.0 else 0.0

@@ -7,7 +7,8 @@ on a 16×16 bowl with noise (20 m cells, ℓ = 40 m: 2×2 footprints and sub-ste
 * one droplet per batch: no two droplets are ever in flight together, so the device (live terrain,
   atomic adds) and the CPU (round-start terrain plus the droplet's own overlay) solve the same
   sequence; they differ only in the order of float additions (the CPU reads z + Σ own changes, the
-  device (z − dz₁) − dz₂ …), so heights agree to rounding and the lakes exactly;
+  device (z − dz₁) − dz₂ …), so heights agree to rounding (as amplified by the model itself: measured
+  by the CPU on heights changed by a few ulps) and the lakes exactly;
 * 32 droplets per batch: on the device they see each other's erosion as it happens, on the CPU not,
   so the two agree only statistically: the volume eroded within twice the CPU path's own
   seed-to-seed scatter (sample standard deviation over 6 seeds);
@@ -43,7 +44,7 @@ n = 16
 yy, xx = np.mgrid[0:n, 0:n]
 z = 30.0 * np.hypot(xx - n / 2, yy - n / 2) / n + np.random.default_rng(1).random((n, n)) * 3.0
 
-def run(device, batch, seed=3, cycle_droplets=20000, cycles=3):
+def run(device, batch, seed=3, cycle_droplets=20000, cycles=3, z=z):
     p = HydrologyParams(length_scale=40.0, cycle_droplets=cycle_droplets, batch=batch)
     gpu = DeviceDroplets if device == "cuda" else None
     m = HydrologyModel(Heightmap(z=z, cell_size=20.0), p, VegetationParams(spawn=5.0), seed, gpu=gpu)
@@ -58,8 +59,11 @@ def budgets(m):
 
 out = {}
 cpu, dev = run("cpu", 1), run("cuda", 1)
+# the model's own sensitivity to rounding: the CPU again on heights changed by a few ulps (1e-15 relative)
+nudged = run("cpu", 1, z=z * (1.0 + 1e-15 * np.random.default_rng(7).standard_normal(z.shape)))
 out["one"] = {
     "dz_rel": float(np.abs(cpu.z - dev.z).max() / np.abs(cpu.z - cpu.z0).max()),
+    "nudged_rel": float(np.abs((cpu.z - cpu.z0) - (nudged.z - nudged.z0)).max() / np.abs(cpu.z - cpu.z0).max()),
     "lakes_equal": bool(np.array_equal(cpu.lake_of, dev.lake_of)),
     "steps": [cpu.stats()["descend_steps"], dev.stats()["descend_steps"]],
     "cpu": budgets(cpu), "dev": budgets(dev),
@@ -85,9 +89,14 @@ def simulated():
 
 
 # Relative to the largest height change: the two paths add the same per-cell changes in a different
-# order (float64, ~1e-16 of a ~30 m height per addition, a few hundred additions); 1e-12 leaves
-# room for that and is far below any difference in the model (a changed step moves centimetres).
+# order (float64, ~1e-16 of a ~30 m height per addition, a few hundred additions). A droplet that
+# crosses a near-flat pit floor turns such differences into larger ones (its transfer follows the
+# small drop h0 − h1): the CPU itself, on heights changed by a few ulps, ends up to ~2e-8 of the
+# largest change apart. The device may differ by as much as that measured sensitivity, or by 1e-12
+# where it is smaller; both are far below any difference in the model (a changed step moves
+# centimetres, ~1e-2 of the largest change here).
 ROUNDING = 1e-12
+MODEL_CHANGE = 1e-4  # a tenth of a millimetre in the ~0.4 m largest change: any changed step is more
 CLOSURE = 1e-9  # the project's bar for float64 budget sums (tests/unit/hydrology/test_hydrology_batch.py)
 
 
@@ -97,7 +106,8 @@ def test_device_droplets_one_at_a_time_are_the_cpus_to_rounding(simulated):
     one = simulated["one"]
     assert one["cpu"]["eroded"] > 0 and one["cpu"]["in_lakes"] > 0  # erosion and lakes: not a trivial case
     assert one["steps"][0] == one["steps"][1]
-    assert one["dz_rel"] <= ROUNDING
+    assert one["nudged_rel"] < MODEL_CHANGE  # the sensitivity is rounding's, not a changed step's
+    assert one["dz_rel"] <= max(ROUNDING, one["nudged_rel"])
     assert one["lakes_equal"]
 
 
