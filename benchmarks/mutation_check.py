@@ -428,8 +428,8 @@ MUTATIONS = (
         "hydrology/droplet_step.py",
         (
             (
-                "            if trapped(speed, acc_num / vrel, h1, rim, STALL / (dt * inv_dx)):\n",
-                "            if True:\n",
+                "    return 0.5 * speed * speed < g * (rim - h) or speed < v_stall\n",
+                "    return True\n",
             ),
         ),
         ("tests/unit/hydrology/test_hydrology_descend.py",),

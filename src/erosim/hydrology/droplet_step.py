@@ -196,17 +196,15 @@ def pit_trap(c, x, y, max_walk, speed, g, h, v_stall, zf, ov, has_ov, lake_of, l
     from four cells; else one 3×3 scan at c, and the walk goes on only if the droplet
     could not climb back to surface(c)."""
     hc = surface(c, zf, ov, has_ov, lake_of, level, sea_level)
-    if speed >= v_stall:
-        i0 = min(int(min(max(x, 0.0), nx - 1.0)), nx - 2)
-        j0 = min(int(min(max(y, 0.0), ny - 1.0)), ny - 2)
-        k0 = j0 * nx + i0
-        up = math.inf
-        for n in (k0, k0 + 1, k0 + nx, k0 + nx + 1):
-            hn = _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level)
-            up = hn if (n != c and hn < up) else up
-        up = max(up, hc)
-        if 0.5 * speed * speed >= g * (up - h):
-            return False, c
+    i0 = min(int(min(max(x, 0.0), nx - 1.0)), nx - 2)
+    j0 = min(int(min(max(y, 0.0), ny - 1.0)), ny - 2)
+    k0 = j0 * nx + i0
+    up = math.inf
+    for n in (k0, k0 + 1, k0 + nx, k0 + nx + 1):
+        hn = _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level)
+        up = hn if (n != c and hn < up) else up
+    if not trapped(speed, g, h, max(up, hc), v_stall):
+        return False, c
     ix = c % nx
     iy = c // nx
     best = c
