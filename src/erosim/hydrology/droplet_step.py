@@ -120,57 +120,6 @@ def _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level):
     return math.inf if lk == OUTSIDE else h
 
 
-@njit(inline="always")
-def walk_down(c, max_walk, zf, ov, has_ov, lake_of, level, sea_level, nx, ny):
-    """:func:`erosim.hydrology.pools.walk_down` over the terrain (+ overlay: the pit test sees the
-    droplet's own deposits): steepest-descent D8 walk of the surface; (cell, at a minimum). A walk
-    into a tile's halo ends there, not at a minimum: the pit the droplet may be in lies beyond the
-    tile, so it goes on descending (and leaves there) instead of flooding. Neighbours are compared
-    in row order, the first of equal heights kept; away from the map's edge over a fixed 3×3 stencil."""
-    for _ in range(max_walk):
-        iy = c // nx
-        ix = c - iy * nx
-        best = c
-        hb = surface(c, zf, ov, has_ov, lake_of, level, sea_level)
-        if 0 < ix < nx - 1 and 0 < iy < ny - 1:
-            for dj in range(-1, 2):
-                for di in range(-1, 2):
-                    n = c + dj * nx + di
-                    h = _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level)
-                    lower_here = h < hb
-                    hb = h if lower_here else hb
-                    best = n if lower_here else best
-        else:
-            for j in range(max(iy - 1, 0), min(iy + 2, ny)):
-                for i in range(max(ix - 1, 0), min(ix + 2, nx)):
-                    n = j * nx + i
-                    h = _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level)
-                    if h < hb:
-                        hb = h
-                        best = n
-        if best == c:
-            return c, True
-        c = best
-        if lake_of[c] == HALO:
-            return c, False
-    return c, False
-
-
-@njit(inline="always")
-def rim_height(c, zf, ov, has_ov, lake_of, level, sea_level, nx, ny):
-    """The lowest surface (:func:`surface`; +∞ on nodata) among the 8 neighbours of cell c: the rim a droplet
-    in the pit at c must climb over to leave it."""
-    iy = c // nx
-    ix = c - iy * nx
-    rim = math.inf
-    for j in range(max(iy - 1, 0), min(iy + 2, ny)):
-        for i in range(max(ix - 1, 0), min(ix + 2, nx)):
-            n = j * nx + i
-            if n != c:
-                rim = min(rim, _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level))
-    return rim
-
-
 STALL = 0.01  # cells per time step: a droplet at a pit's bottom moving slower than this has stopped there
 
 
@@ -186,15 +135,22 @@ def trapped(speed, g, h, rim, v_stall):
 
 @njit(inline="always")
 def pit_trap(c, x, y, max_walk, speed, g, h, v_stall, zf, ov, has_ov, lake_of, level, sea_level, nx, ny):
-    """(trapped, cell): whether a droplet at (x, y) over cell c, of speed |v| at height h, is trapped in the
-    pit that :func:`walk_down` from c ends in (:func:`rim_height`, :func:`trapped`), and that pit's cell;
-    the same answer with fewer reads (the walk at every step was a quarter of a step's time). The pit's
-    rim is at most U = max(surface(c), the lowest surface among the other corners of the cell square
-    around (x, y)): a walk that leaves c ends at a pit whose rim is at most the surface of the cell it
-    came from, so at most surface(c); a pit at c has its lowest neighbour for rim, and those corners
-    are neighbours of c. So a droplet that is not stalled and could climb to U is not trapped, told
-    from four cells; else one 3×3 scan at c, and the walk goes on only if the droplet
-    could not climb back to surface(c)."""
+    """(trapped, cell): whether a droplet at (x, y) over cell c, of speed |v| at height h, is trapped
+    (:func:`trapped`) in the pit that a steepest-descent D8 walk of the surface (:func:`surface`, +∞ on
+    nodata; neighbours in row order, the first of equal heights kept) from c ends in within
+    ``max_walk`` moves, with that pit's rim its lowest neighbour; and that pit's cell. A walk that
+    steps into a tile's halo (``HALO``) ends there untrapped: the pit the droplet may be in lies beyond
+    the tile, so it goes on descending and leaves there. The surface includes the overlay where
+    ``has_ov``: the test sees the droplet's own deposits.
+
+    Read only as far as a trap is possible (the walk at every step was a quarter of a sub-step's
+    time). A pit's rim is at most the surface of the cell the walk entered it from; every cell on the
+    walk is lower than the one before. So the rim of any pit the walk can still reach is at most the
+    surface of the cell it just left, and a droplet that could climb that high (and is not stalled)
+    is not trapped: the walk stops there. Before the first scan the bound is max(surface(c), the
+    lowest of the other corners of the cell square around (x, y)): those corners are neighbours of c,
+    so they bound the rim of a pit at c. Told from those four cells in seven sub-steps in ten of a
+    round at 1024²."""
     hc = surface(c, zf, ov, has_ov, lake_of, level, sea_level)
     i0 = min(int(min(max(x, 0.0), nx - 1.0)), nx - 2)
     j0 = min(int(min(max(y, 0.0), ny - 1.0)), ny - 2)
@@ -205,50 +161,57 @@ def pit_trap(c, x, y, max_walk, speed, g, h, v_stall, zf, ov, has_ov, lake_of, l
         up = hn if (n != c and hn < up) else up
     if not trapped(speed, g, h, max(up, hc), v_stall):
         return False, c
-    ix = c % nx
+    prev = math.inf  # surface of the cell the walk came from: any pit further on has its rim at most that
     iy = c // nx
-    best = c
-    hb = hc
-    rim = math.inf
-    for j in range(max(iy - 1, 0), min(iy + 2, ny)):
-        for i in range(max(ix - 1, 0), min(ix + 2, nx)):
-            n = j * nx + i
-            hn = _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level)
-            lower_here = hn < hb
-            hb = hn if lower_here else hb
-            best = n if lower_here else best
-            rim = hn if (n != c and hn < rim) else rim
-    if best == c:
-        return trapped(speed, g, h, rim, v_stall), c
-    if not trapped(speed, g, h, hc, v_stall) or lake_of[best] == HALO:
-        return False, best
-    wc, at_min = walk_down(best, max_walk - 1, zf, ov, has_ov, lake_of, level, sea_level, nx, ny)
-    if not at_min:
-        return False, wc
-    return trapped(speed, g, h, rim_height(wc, zf, ov, has_ov, lake_of, level, sea_level, nx, ny), v_stall), wc
+    ix = c - iy * nx
+    hcur = hc
+    for _ in range(max_walk):
+        if not trapped(speed, g, h, prev, v_stall) or lake_of[c] == HALO:
+            return False, c
+        best = c
+        hb = hcur
+        bi = ix
+        bj = iy
+        rim = math.inf
+        for j in range(max(iy - 1, 0), min(iy + 2, ny)):
+            for i in range(max(ix - 1, 0), min(ix + 2, nx)):
+                n = j * nx + i
+                hn = _walk_height(n, zf, ov, has_ov, lake_of, level, sea_level)
+                lower_here = hn < hb
+                hb = hn if lower_here else hb
+                best = n if lower_here else best
+                bi = i if lower_here else bi
+                bj = j if lower_here else bj
+                rim = hn if (n != c and hn < rim) else rim
+        if best == c:
+            return trapped(speed, g, h, rim, v_stall), c
+        prev = hcur
+        c = best
+        hcur = hb
+        ix = bi
+        iy = bj
+    return False, c
+
+
+CODE_SHIFT = 32  # a footprint's code holds its first row in the high 32 bits and its first column in the low ones
+CODE_MASK = (1 << CODE_SHIFT) - 1
 
 
 @njit(inline="always")
 def origin(x, y, m, nx):
-    """Code of the m×m footprint centred at (x, y): its cell (m = 1), else its first cell
-    (floor(x − (m−1)/2 + ½), the same in y) offset by m on a map widened by m on each side."""
-    if m == 1:
-        return int(y + 0.5) * nx + int(x + 0.5)
+    """Code of the m×m footprint centred at (x, y): its first cell (i, j) = (floor(x − (m−1)/2 + ½), the
+    same in y; for m = 1 the cell holding (x, y)), as (j + m)·2³² + (i + m). A shift and a mask decode it
+    (:func:`box`): a flat index decoded by integer division cost two divisions a sub-step."""
     i0 = int(math.floor(x - 0.5 * (m - 1) + 0.5))
     j0 = int(math.floor(y - 0.5 * (m - 1) + 0.5))
-    return (j0 + m) * (nx + 2 * m) + i0 + m
+    return ((j0 + m) << CODE_SHIFT) + i0 + m
 
 
 @njit(inline="always")
 def box(code, m, nx, ny):
     """Cells (j range, i range) of the footprint ``code`` (:func:`origin`), clipped to the map."""
-    if m == 1:
-        j = code // nx
-        i = code - j * nx
-        return j, j + 1, i, i + 1
-    w = nx + 2 * m
-    j0 = code // w - m
-    i0 = code - (j0 + m) * w - m
+    j0 = (code >> CODE_SHIFT) - m
+    i0 = (code & CODE_MASK) - m
     return max(j0, 0), min(j0 + m, ny), max(i0, 0), min(i0 + m, nx)
 
 

@@ -42,19 +42,7 @@ import math
 
 from numba import njit
 
-from erosim.hydrology.droplet_step import (
-    ENDED,
-    LEFT,
-    STALL,
-    STOP,
-    box,
-    constants,
-    lower,
-    origin,
-    rim_height,
-    step,
-    trapped,
-)
+from erosim.hydrology.droplet_step import ENDED, LEFT, STALL, STOP, box, constants, lower, origin, pit_trap, step
 from erosim.hydrology.loop_kernel import loop_kernel
 from erosim.hydrology.params import (
     P_ACC,
@@ -76,17 +64,7 @@ from erosim.hydrology.params import (
     P_V0,
     P_VMIN,
 )
-from erosim.hydrology.pools import (
-    B_CARRIED,
-    B_DEPOSITED,
-    B_ERODED,
-    B_EVAP,
-    B_LEFT,
-    B_STEPS,
-    NO_LAKE,
-    OUTSIDE,
-    walk_down,
-)
+from erosim.hydrology.pools import B_CARRIED, B_DEPOSITED, B_ERODED, B_EVAP, B_LEFT, B_STEPS, NO_LAKE, OUTSIDE
 
 
 @njit(cache=True, inline="always")
@@ -245,12 +223,11 @@ def descend_cell(x, y, vx, vy, V, S, z2, zf, stream, roots, erod, lake_of, level
         top = z1 + fx * (zz2 - z1)
         h1 = top + fy * (z4 + fx * (z3 - z4) - top)
         if pit > 0.0:
-            wc, at_min = walk_down(cn, nwalk, zf, lake_of, level, sea, nx, ny)
-            if at_min:
-                rim = rim_height(wc, zf, zf[:1], False, lake_of, level, sea, nx, ny)
-                if trapped(speed, kv / dt, h1, rim, STALL / dtx):
-                    _settle_budget(B, steps, evap, eroded, deposited)
-                    return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S
+            held, wc = pit_trap(cn, x, y, nwalk, speed, kv / dt, h1, STALL / dtx, zf, zf[:1], False, lake_of, level,
+                                sea, nx, ny)  # fmt: skip
+            if held:
+                _settle_budget(B, steps, evap, eroded, deposited)
+                return STOP, float(wc % nx), float(wc // nx), vx, vy, V, S
         wy0 = (1.0 - fy) * inv_dx
         wy1 = fy * inv_dx
         wx0 = (1.0 - fx) * inv_dx
