@@ -366,19 +366,29 @@ def voxel_section(path, field: np.ndarray, extent, iso: float, *, labels=("x (m)
     return save_figure(fig, path)
 
 
+LEGEND_CURVES = 8  # profiles_figure: more lines than this get a colour bar of time, not a legend
+
+
 def profiles_figure(path, curves: list[tuple[float, np.ndarray, np.ndarray]], title: str = "",
                     xlabel: str = "x from the upstream toe (m)") -> Path:  # fmt: skip
     """Surface profiles along a flume or a terrain's middle row: ``curves`` of (t, x, z), one line per time,
-    lighter for earlier; ``xlabel`` says where x is measured from."""
+    coloured by time (viridis: dark for early, yellow for late); up to ``LEGEND_CURVES`` lines get a legend,
+    more a colour bar of t (a legend of 30 times took the figure over); ``xlabel`` says where x is measured
+    from."""
     fig, ax = plt.subplots(figsize=(9, 3.6))
     cmap = plt.get_cmap("viridis")
-    n = max(len(curves) - 1, 1)
+    t0, t1 = curves[0][0], curves[-1][0]
+    span = t1 - t0 if t1 > t0 else 1.0
     for i, (t, x, z) in enumerate(curves):
-        ax.plot(x, z, color=cmap(i / n), lw=1.8 if i in (0, len(curves) - 1) else 1.2, label=f"t = {t:.4g} s")
+        ax.plot(x, z, color=cmap((t - t0) / span), lw=1.8 if i in (0, len(curves) - 1) else 1.2, label=f"t = {t:.4g} s")
     ax.set_xlabel(xlabel)
     ax.set_ylabel("surface height z (m)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="upper right")
+    if len(curves) <= LEGEND_CURVES:
+        ax.legend(fontsize=8, loc="upper right")
+    else:
+        bar = plt.cm.ScalarMappable(norm=matplotlib.colors.Normalize(t0, t0 + span), cmap=cmap)
+        fig.colorbar(bar, ax=ax, pad=0.01, label="t (s)")
     if title:
         ax.set_title(title)
     fig.tight_layout()

@@ -107,3 +107,21 @@ def test_map_figures_carry_axes_scale_and_legend(tmp_path):
     assert (img.sum(axis=2) == 0).sum() > 20  # the scale bar's black half
     change = np.linspace(-3, 5, 64 * 96).reshape(64, 96)
     assert change_figure(tmp_path / "c.png", change, 20.0, "change").stat().st_size > 5000
+
+
+def test_profiles_over_many_times_carry_a_colour_bar_of_time_and_few_a_legend(monkeypatch, tmp_path):
+    """A run's profiles every 20 s over 600 s are 31 lines: a legend of 31 times took the figure over, so they
+    get a colour bar of t spanning the run; a handful keep their legend."""
+    from erosim.viz import plots
+
+    figs = []
+    monkeypatch.setattr(plots, "save_figure", lambda fig, path: figs.append(fig) or path)
+    x = np.linspace(0.0, 1.0, 11)
+    many = [(float(t), x, 0.2 - 1e-4 * t * x) for t in range(0, 620, 20)]
+    plots.profiles_figure(tmp_path / "many.png", many, title="many")
+    plots.profiles_figure(tmp_path / "few.png", many[:3], title="few")
+    fig_many, fig_few = figs
+    ax, bar = fig_many.axes
+    assert ax.get_legend() is None and bar.get_ylabel() == "t (s)"
+    assert bar.get_ylim() == pytest.approx((0.0, 600.0))
+    assert len(fig_few.axes) == 1 and len(fig_few.axes[0].get_legend().get_texts()) == 3
