@@ -198,7 +198,7 @@ CODE_MASK = (1 << CODE_SHIFT) - 1
 
 
 @njit(inline="always")
-def origin(x, y, m, nx):
+def origin(x, y, m):
     """Code of the m×m footprint centred at (x, y): its first cell (i, j) = (floor(x − (m−1)/2 + ½), the
     same in y; for m = 1 the cell holding (x, y)), as (j + m)·2³² + (i + m). A shift and a mask decode it
     (:func:`box`): a flat index decoded by integer division cost two divisions a sub-step."""
@@ -242,7 +242,7 @@ def step(x, y, vx, vy, V, S, speed, z2, zf, ov, has_ov, stream, roots, erod, lak
     dt, inv_dx, ca, mf, maxstep, vmin, sea, fric, evp, cap, root, pit, kd, inv_v0, acc_num, amin2 = K
     m = int(mf)
     c = int(y + 0.5) * nx + int(x + 0.5)
-    code = origin(x, y, m, nx)
+    code = origin(x, y, m)
     h0, gx, gy = sample(z2, ov, has_ov, x, y)
     gx *= inv_dx
     gy *= inv_dx

@@ -79,7 +79,7 @@ def _settle_budget(B, steps, evap, eroded, deposited):
 @njit(inline="always")
 def mark(track, nx, ny, x, y, m):
     """track = 1 on the m×m footprint at (x, y) (HY-4: the cells a droplet visited)."""
-    j_lo, j_hi, i_lo, i_hi = box(origin(x, y, m, nx), m, nx, ny)
+    j_lo, j_hi, i_lo, i_hi = box(origin(x, y, m), m, nx, ny)
     for j in range(j_lo, j_hi):
         for i in range(i_lo, i_hi):
             track[j * nx + i] = 1

@@ -101,7 +101,7 @@ def descend_kernel(count, res, bd, z2, zf, stream, roots, erod, lake_of, level, 
     deposited = 0.0
     status = ENDED
     while True:
-        j_lo, j_hi, i_lo, i_hi = _box(_origin(x, y, m, nx), m, nx, ny)
+        j_lo, j_hi, i_lo, i_hi = _box(_origin(x, y, m), m, nx, ny)
         for j in range(j_lo, j_hi):
             for ii in range(i_lo, i_hi):
                 track[j * nx + ii] = 1
