@@ -475,17 +475,23 @@ MUTATIONS = (
     Mutation(
         "fill-no-slope",
         "terrain/priority_flood_barnes2014.py",
-        (("                floor = zf[c] + (rise_diag if dx != 0 and dy != 0 else rise)\n",
-          "                floor = zf[c]\n"),),  # fmt: skip
+        (("    rise = slope * float(cell_size)\n", "    rise = 0.0 * slope * float(cell_size)\n"),),
         ("tests/unit/terrain/test_priority_flood.py",),
         "closed basins filled flat (no ε slope toward the spill point)",
     ),
     Mutation(
         "fill-diagonal-as-straight",
         "terrain/priority_flood_barnes2014.py",
-        (("    _fill(out.reshape(-1), nx, ny, rise, SQRT2 * rise)", "    _fill(out.reshape(-1), nx, ny, rise, rise)"),),
+        (("    kernel(out.reshape(-1), nx, ny, rise, SQRT2 * rise)", "    kernel(out.reshape(-1), nx, ny, rise, rise)"),),
         ("tests/unit/terrain/test_priority_flood.py",),
         "the fill's rise over a diagonal step is Δx·s instead of √2·Δx·s",
+    ),
+    Mutation(
+        "fill-eikonal-one-neighbour",
+        "terrain/priority_flood_barnes2014.py",
+        (("    if b - a < rise:  # false when b is infinite or rise is 0\n", "    if False:\n"),),
+        ("tests/unit/terrain/test_priority_flood.py",),
+        "the eikonal update reduced to the one lower neighbour's height + s·Δx (an octagonal plain)",
     ),
     Mutation(
         "mei-deposition-off",
