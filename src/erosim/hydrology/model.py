@@ -832,11 +832,13 @@ class HydrologyModel:
 
     def erosion(self) -> np.ndarray:
         """Net lowering of the terrain (m, ≥ 0)."""
-        return np.maximum(self.z0 - self.z, 0.0)
+        d = np.subtract(self.z0, self.z)
+        return np.maximum(d, 0.0, out=d)
 
     def deposition(self) -> np.ndarray:
         """Net raising of the terrain (m, ≥ 0)."""
-        return np.maximum(self.z - self.z0, 0.0)
+        d = np.subtract(self.z, self.z0)
+        return np.maximum(d, 0.0, out=d)
 
     def vegetation(self) -> np.ndarray:
         """Root density ρ_r in [0, 1] (zero on lakes and sea): what holds the soil (HY-5)."""

@@ -44,6 +44,7 @@ from erosim.core.errors import InputError
 from erosim.core.heightmap import Heightmap, default_transform
 
 Q16 = 65535
+Q16_CHUNK = 1 << 22  # cells the 16-bit writers quantize at once (32 MB of float64)
 FORMATS = {
     ".tif": "geotiff",
     ".tiff": "geotiff",
@@ -100,6 +101,29 @@ def _check_range(height_range) -> tuple[float, float] | None:
     return lo, hi
 
 
+def _row_blocks(a: np.ndarray):
+    """Slices of ``Q16_CHUNK`` cells' worth of whole rows: what the 16-bit writers quantize at once."""
+    rows = max(1, Q16_CHUNK // max(1, a[0].size)) if a.ndim and a.shape[0] else 1
+    return [slice(r, r + rows) for r in range(0, a.shape[0] if a.ndim else 0, rows)]
+
+
+def _q16(a: np.ndarray, lo: float, hi: float, nan: float | None = None) -> np.ndarray:
+    """q = clip(rint((a − lo)·Q16/(hi − lo)), 0, Q16) as uint16 (NaN → ``nan`` first where given), a block of
+    rows at a time: a 4096² map's float64 temporaries were three full-size copies (0.4 GB)."""
+    a = np.asarray(a)
+    q = np.empty(a.shape, np.uint16)
+    scale = Q16 / (hi - lo)
+    for rows in _row_blocks(a):
+        b = np.array(a[rows], dtype=np.float64)
+        if nan is not None:
+            np.nan_to_num(b, copy=False, nan=nan)
+        b -= lo
+        b *= scale
+        np.rint(b, out=b)
+        q[rows] = np.clip(b, 0, Q16, out=b)
+    return q
+
+
 def _quantise(z: np.ndarray, height_range) -> tuple[np.ndarray, tuple[float, float]]:
     rng = _check_range(height_range)
     if rng is None:
@@ -107,9 +131,7 @@ def _quantise(z: np.ndarray, height_range) -> tuple[np.ndarray, tuple[float, flo
         if hi <= lo:
             hi = lo + 1.0
         rng = (lo, hi)
-    lo, hi = rng
-    q = np.rint((np.asarray(z, dtype=np.float64) - lo) * (Q16 / (hi - lo)))
-    return np.clip(q, 0, Q16).astype(np.uint16), rng
+    return _q16(z, *rng), rng
 
 
 def _dequantise(q: np.ndarray, height_range, full: int = Q16) -> np.ndarray:
@@ -721,14 +743,15 @@ def write_mask_png16(path: str | os.PathLike, array: np.ndarray, vmax: float | N
 
     Returns ``{"path", "format", "shape", "vmax"}``; pixel q stands for q·vmax/65535.
     """
-    a = np.nan_to_num(np.asarray(array, dtype=np.float64), nan=0.0)
-    if vmax is None:
-        vmax = float(a.max()) if a.size and a.max() > 0 else 1.0
+    a = np.asarray(array)
+    if vmax is None:  # the largest value, NaN read as 0 (a block at a time, as the quantizing)
+        top = max((float(np.nan_to_num(a[rows], nan=0.0).max()) for rows in _row_blocks(a)), default=0.0)
+        vmax = top if top > 0 else 1.0
     if not (math.isfinite(vmax) and vmax > 0):
         raise InputError(f"Mask scale vmax={vmax!r} is not valid; it must be a positive number.")
     from PIL import Image, PngImagePlugin
 
-    q = np.clip(np.rint(a * (Q16 / vmax)), 0, Q16).astype(np.uint16)
+    q = _q16(a, 0.0, float(vmax), nan=0.0)
     meta = PngImagePlugin.PngInfo()
     meta.add_text(_PNG_RANGE_KEY, f"0.0 {float(vmax)!r}")
     with atomic_path(path) as tmp:
