@@ -482,7 +482,8 @@ MUTATIONS = (
     Mutation(
         "fill-diagonal-as-straight",
         "terrain/priority_flood_barnes2014.py",
-        (("    kernel(out.reshape(-1), nx, ny, rise, SQRT2 * rise)", "    kernel(out.reshape(-1), nx, ny, rise, rise)"),),
+        (("    kernel(out.reshape(-1), nx, ny, rise, SQRT2 * rise)",
+          "    kernel(out.reshape(-1), nx, ny, rise, rise)"),),  # fmt: skip
         ("tests/unit/terrain/test_priority_flood.py",),
         "the fill's rise over a diagonal step is Δx·s instead of √2·Δx·s",
     ),

@@ -96,7 +96,6 @@ def write_outputs(model, terrain, folder) -> dict:
             "rescale": "z = lo + q·(hi − lo)/65535",
         }
     with folder.picture(folder.figures):
-
         box = extent_of(terrain.transform, model.z.shape, model.cell_size)
         hillshade_figure(folder.figures / "hillshade_before.png", model.z0[s, s], cs, "Terrain before", box)
         hillshade_figure(folder.figures / "hillshade_after.png", model.z[s, s], cs, "Terrain after", box)
