@@ -19,8 +19,8 @@ whatever the cell size. Two raises (``metric``):
   point: slope lines in every direction, and |∇F| = s to first order in Δx/distance.
 * ``"d8"``: Algorithm 3 as published, z_q ← max(z_q, z_c + s·|q − c|) with |q − c| = Δx or √2·Δx. The
   plain is a cone over the 8-neighbour path length: octagonal facets whose slope lines keep to
-  22.5° modulo 45°, which on a large basin lines the droplets' rivers up in parallel (docs/hydrology.md,
-  "A known artefact of the fill at 4096²").
+  22.5° modulo 45°, which on a large plain lines the droplets' rivers up along rows, columns and diagonals
+  (docs/hydrology.md, "The fill's plains fall over the Euclidean distance").
 
 Every raised cell has a 4- or 8-neighbour lower by at least s·Δx/√2 (the eikonal update) or s·Δx (d8),
 so every cell has a strictly descending path to the map's edge (s > 0); cells outside the closed
