@@ -29,7 +29,7 @@ basins are left exactly as they were. Generated noise terrains have many closed 
 have long since filled with sediment or cut through; filling them is the sediment half of that
 history (``terrain.fill_slope``, off by default).
 
-Written as Numba kernels with their own binary heaps (ties broken by cell index, so the result is
+Written as Numba kernels sharing one indexed binary heap (ties broken by cell index, so the result is
 deterministic): scikit-image's morphological reconstruction fills basins flat (s = 0), which leaves
 droplets nowhere to go; scikit-fmm computes distances from a front but not a fill that yields to the
 ground above it; no maintained library installed here fills with a slope in metres.
@@ -49,79 +49,6 @@ METRICS = ("euclidean", "d8")
 @njit(cache=True, inline="always")
 def _less(hk, hc, a, b):
     return hk[a] < hk[b] or (hk[a] == hk[b] and hc[a] < hc[b])
-
-
-@njit(cache=True)
-def _push(hk, hc, n, key, cell):
-    i = n
-    hk[i] = key
-    hc[i] = cell
-    while i > 0:
-        p = (i - 1) >> 1
-        if not _less(hk, hc, i, p):
-            break
-        hk[p], hk[i] = hk[i], hk[p]
-        hc[p], hc[i] = hc[i], hc[p]
-        i = p
-    return n + 1
-
-
-@njit(cache=True)
-def _pop(hk, hc, n):
-    cell = hc[0]
-    n -= 1
-    hk[0] = hk[n]
-    hc[0] = hc[n]
-    i = 0
-    while True:
-        left = 2 * i + 1
-        right = left + 1
-        s = i
-        if left < n and _less(hk, hc, left, s):
-            s = left
-        if right < n and _less(hk, hc, right, s):
-            s = right
-        if s == i:
-            break
-        hk[s], hk[i] = hk[i], hk[s]
-        hc[s], hc[i] = hc[i], hc[s]
-        i = s
-    return cell, n
-
-
-@njit(cache=True)
-def _fill(zf, nx, ny, rise, rise_diag):
-    n = nx * ny
-    seen = np.zeros(n, np.bool_)
-    hk = np.empty(n)
-    hc = np.empty(n, np.int64)
-    m = 0
-    for c in range(n):
-        iy = c // nx
-        ix = c - iy * nx
-        if ix == 0 or iy == 0 or ix == nx - 1 or iy == ny - 1:
-            seen[c] = True
-            m = _push(hk, hc, m, zf[c], c)
-    while m > 0:
-        c, m = _pop(hk, hc, m)
-        iy = c // nx
-        ix = c - iy * nx
-        for dy in range(-1, 2):
-            jy = iy + dy
-            if jy < 0 or jy >= ny:
-                continue
-            for dx in range(-1, 2):
-                jx = ix + dx
-                if jx < 0 or jx >= nx:
-                    continue
-                q = jy * nx + jx
-                if seen[q]:
-                    continue
-                seen[q] = True
-                floor = zf[c] + (rise_diag if dx != 0 and dy != 0 else rise)
-                if zf[q] < floor:
-                    zf[q] = floor
-                m = _push(hk, hc, m, zf[q], q)
 
 
 @njit(cache=True)
@@ -185,6 +112,42 @@ def _take(hk, hc, pos, n):
     return cell, n
 
 
+@njit(cache=True)
+def _queue_edges(zf, nx, ny):
+    """The queue (keys, cells, slots, size) seeded with the map's edge cells at their own heights; a cell's
+    slot is -1 while not queued, -2 once taken out (its height final), else its place in the heap."""
+    n = nx * ny
+    hk = np.empty(n)
+    hc = np.empty(n, np.int64)
+    pos = np.full(n, -1, np.int64)
+    m = 0
+    for c in range(n):
+        iy = c // nx
+        ix = c - iy * nx
+        if ix == 0 or iy == 0 or ix == nx - 1 or iy == ny - 1:
+            m = _offer(hk, hc, pos, m, zf[c], c)
+    return hk, hc, pos, m
+
+
+@njit(cache=True)
+def _fill(zf, nx, ny, rise, rise_diag):
+    """Algorithm 3's raise (``metric="d8"``): each cell is queued once, from the first neighbour taken out."""
+    hk, hc, pos, m = _queue_edges(zf, nx, ny)
+    while m > 0:
+        c, m = _take(hk, hc, pos, m)
+        iy = c // nx
+        ix = c - iy * nx
+        for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+            for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+                q = jy * nx + jx
+                if pos[q] != -1:
+                    continue
+                floor = zf[c] + (rise_diag if jx != ix and jy != iy else rise)
+                if zf[q] < floor:
+                    zf[q] = floor
+                m = _offer(hk, hc, pos, m, zf[q], q)
+
+
 @njit(cache=True, inline="always")
 def _accepted(zf, pos, q):
     return zf[q] if pos[q] == -2 else np.inf
@@ -225,16 +188,7 @@ def _arrival(zf, pos, q, nx, ny, rise, rise_diag):
 
 @njit(cache=True)
 def _fill_eikonal(zf, nx, ny, rise, rise_diag):
-    n = nx * ny
-    hk = np.empty(n)
-    hc = np.empty(n, np.int64)
-    pos = np.full(n, -1, np.int64)  # -1 not queued, -2 accepted (zf final), else the heap slot
-    m = 0
-    for c in range(n):
-        iy = c // nx
-        ix = c - iy * nx
-        if ix == 0 or iy == 0 or ix == nx - 1 or iy == ny - 1:
-            m = _offer(hk, hc, pos, m, zf[c], c)
+    hk, hc, pos, m = _queue_edges(zf, nx, ny)
     while m > 0:
         key = hk[0]
         c, m = _take(hk, hc, pos, m)

@@ -83,7 +83,6 @@ def write_outputs(model, terrain, folder) -> dict:
         if name in ("erosion", "deposition"):
             change += arr[s, s] if name == "deposition" else -arr[s, s]
         del arr
-    info["masks"] = {name: info["masks"][name] for name in MASKS if name in info["masks"]}
     with folder.picture(folder.maps / "height.png"):
         png = hio.write(folder.maps / "height.png", model.z, like=terrain)
         raw = hio.write(folder.maps / "height.r16", model.z, like=terrain)
